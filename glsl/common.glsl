@@ -1,0 +1,100 @@
+// The GPU/host interface: constants, bindings and structs shared with Rust.
+// build.rs turns every `#define NAME <integer>` below into a Rust constant
+// (`rlpt::shared::NAME`); the Rust mirrors of the structs live in
+// src/prepared.rs and a probe kernel checks their layout (tests/gpu_layout.rs).
+#ifndef RLPT_COMMON_GLSL
+#define RLPT_COMMON_GLSL
+
+// Workgroup: x,y index the 64 samples of one pixel, z the pixels of the group.
+#define SAMPLES_X 8
+#define SAMPLES_Y 8
+#define SAMPLES_PER_FRAME 64
+#define PIXELS_PER_GROUP 4
+// Largest subgroup size the reduction handles with shuffles alone; smaller
+// subgroups combine their partial sums through shared memory.
+#define MAX_REDUCE_LANES 64
+
+// Material kinds (src/scene/mod.rs MaterialKind has the same values).
+#define MAT_DIFFUSE 0
+#define MAT_SPECULAR 1
+#define MAT_GLOSSY 2
+#define MAT_DIELECTRIC 3
+#define MAT_EMISSIVE 4
+
+// Light kinds and the "not a light" marker.
+#define LIGHT_SPHERE 0
+#define LIGHT_QUAD 1
+#define NO_LIGHT 4294967295
+
+// RenderParams.flags bits.
+#define FLAG_NEE 1
+#define FLAG_RUSSIAN_ROULETTE 2
+// MIS heuristic: power (beta = 2) when set, balance otherwise.
+#define FLAG_POWER_HEURISTIC 4
+
+// Descriptor bindings of set 0 (pathtrace.comp).
+#define BINDING_PARAMS 0
+#define BINDING_MATERIALS 1
+#define BINDING_SPHERES 2
+#define BINDING_QUADS 3
+#define BINDING_LIGHTS 4
+#define BINDING_ACCUM 5
+
+struct Material {
+    vec4 albedo_roughness;   // xyz albedo, w GGX roughness
+    vec4 emission_ior;       // xyz emitted radiance, w index of refraction
+    uint kind;               // MAT_*
+    uint two_sided;          // emission leaves both sides
+    uint pad0;
+    uint pad1;
+};
+
+struct Sphere {
+    vec4 center_radius;      // xyz center, w radius
+    uint material;
+    uint light;              // index into lights, or NO_LIGHT
+    uint pad0;
+    uint pad1;
+};
+
+struct Quad {
+    vec4 origin;             // xyz origin, w area
+    vec4 edge_u;             // xyz edge_u
+    vec4 edge_v;             // xyz edge_v
+    vec4 normal;             // xyz unit normal (edge_u x edge_v), w plane offset dot(normal, origin)
+    vec4 dual_u;             // xyz: dot(p - origin, dual_u) = s
+    vec4 dual_v;             // xyz: dot(p - origin, dual_v) = t
+    uint material;
+    uint light;              // index into lights, or NO_LIGHT
+    uint pad0;
+    uint pad1;
+};
+
+struct Light {
+    uint kind;               // LIGHT_SPHERE or LIGHT_QUAD
+    uint index;              // into spheres or quads
+    float pmf;               // probability of choosing this light
+    float cdf;               // sum of pmf up to and including this light
+};
+
+struct RenderParams {
+    vec4 cam_position_near;  // xyz eye, w near distance
+    vec4 cam_forward_tan;    // xyz unit forward, w tan(vfov / 2)
+    vec4 cam_right_aspect;   // xyz unit right, w width / height
+    vec4 cam_up;             // xyz unit up (orthogonal to forward)
+    vec4 environment;        // xyz uniform sky radiance
+    uint width;
+    uint height;
+    uint max_bounces;
+    uint rr_depth;           // Russian roulette after this many bounces (FLAG_RUSSIAN_ROULETTE)
+    uint num_spheres;
+    uint num_quads;
+    uint num_lights;
+    uint flags;              // FLAG_*
+    uint seed;
+    uint pad0;
+    uint pad1;
+    uint pad2;
+};
+
+#endif

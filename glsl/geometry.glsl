@@ -1,0 +1,221 @@
+// Intersection, offsets and light sampling: src/math/geometry.rs, same code.
+#ifndef RLPT_GEOMETRY_GLSL
+#define RLPT_GEOMETRY_GLSL
+#include "scene.glsl"
+#include "sampling.glsl"
+
+struct Hit {
+    float t;
+    vec3 p;
+    vec3 n;       // front-side unit normal
+    float eps;    // position error bound
+    uint material;
+    uint light;
+};
+
+float max_abs(vec3 v) { vec3 a = abs(v); return max(a.x, max(a.y, a.z)); }
+
+float hit_epsilon(vec3 p, float scale) { return 1e-5 * (1.0 + max_abs(p)) + 2.5e-7 * scale; }
+
+float sphere_scale(vec4 cr) { return max_abs(cr.xyz) + cr.w; }
+float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) + max_abs(q.edge_v.xyz); }
+
+// Ray Tracing Gems ch. 7; returns the nearest root in (0, t_max) or -1.
+float intersect_sphere(vec3 center, float radius, vec3 o, vec3 d, float t_max) {
+    vec3 f = o - center;
+    float b = -dot(f, d);
+    float l = length(f + b * d);
+    float disc = (radius - l) * (radius + l);
+    if (disc < 0.0) return -1.0;
+    float fl = length(f);
+    float c = (fl - radius) * (fl + radius);
+    float q = b + (b >= 0.0 ? sqrt(disc) : -sqrt(disc));
+    if (q == 0.0) return -1.0;
+    float a = c / q;
+    float t0 = min(a, q);
+    float t1 = max(a, q);
+    if (t0 > 0.0 && t0 < t_max) return t0;
+    if (t1 > 0.0 && t1 < t_max) return t1;
+    return -1.0;
+}
+
+float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
+    float denom = dot(q.normal.xyz, d);
+    if (abs(denom) < 1e-12) return -1.0;
+    float t = (q.normal.w - dot(q.normal.xyz, o)) / denom;
+    if (!(t > 0.0 && t < t_max)) return -1.0;
+    vec3 rel = o + t * d - q.origin.xyz;
+    float s = dot(rel, q.dual_u.xyz);
+    float tt = dot(rel, q.dual_v.xyz);
+    if (s >= 0.0 && s <= 1.0 && tt >= 0.0 && tt <= 1.0) return t;
+    return -1.0;
+}
+
+bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
+    float best = t_max;
+    int found = -1;
+    bool is_sphere = false;
+    for (uint i = 0u; i < params.num_spheres; ++i) {
+        float t = intersect_sphere(spheres[i].center_radius.xyz, spheres[i].center_radius.w, o, d, best);
+        if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
+    }
+    for (uint i = 0u; i < params.num_quads; ++i) {
+        float t = intersect_quad(quads[i], o, d, best);
+        if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
+    }
+    if (found < 0) return false;
+    hit.t = best;
+    hit.p = o + best * d;
+    if (is_sphere) {
+        Sphere s = spheres[found];
+        hit.n = normalize((hit.p - s.center_radius.xyz) / s.center_radius.w);
+        hit.eps = hit_epsilon(hit.p, sphere_scale(s.center_radius));
+        hit.material = s.material;
+        hit.light = s.light;
+    } else {
+        Quad q = quads[found];
+        hit.n = q.normal.xyz;
+        hit.eps = hit_epsilon(hit.p, quad_scale(q));
+        hit.material = q.material;
+        hit.light = q.light;
+    }
+    return true;
+}
+
+bool occluded(vec3 o, vec3 d, float t_max) {
+    for (uint i = 0u; i < params.num_spheres; ++i) {
+        if (intersect_sphere(spheres[i].center_radius.xyz, spheres[i].center_radius.w, o, d, t_max) > 0.0) return true;
+    }
+    for (uint i = 0u; i < params.num_quads; ++i) {
+        if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
+    }
+    return false;
+}
+
+vec3 offset_origin(vec3 p, vec3 n, float eps, vec3 w) {
+    return dot(n, w) >= 0.0 ? p + eps * n : p - eps * n;
+}
+
+vec3 emitted(uint mat, vec3 n, vec3 w) {
+    Material m = materials[mat];
+    return (m.two_sided != 0u || dot(n, w) > 0.0) ? m.emission_ior.xyz : vec3(0.0);
+}
+
+float one_minus_cos_max(float sin2_max) {
+    return sin2_max < 0.00068523 ? 0.5 * sin2_max : 1.0 - sqrt(max(0.0, 1.0 - sin2_max));
+}
+
+struct LightSample {
+    vec3 wi;
+    float dist;
+    vec3 p;
+    vec3 n;
+    float eps;
+    vec3 le;
+    float pdf;
+};
+
+bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
+    uint n_lights = params.num_lights;
+    if (n_lights == 0u) return false;
+    uint li = n_lights - 1u;
+    for (uint i = 0u; i < n_lights; ++i) {
+        if (u_sel < lights[i].cdf) { li = i; break; }
+    }
+    Light light = lights[li];
+    vec3 lp, ln;
+    float eps, pdf_solid;
+    uint mat;
+    if (light.kind == LIGHT_SPHERE) {
+        Sphere s = spheres[light.index];
+        vec3 c = s.center_radius.xyz;
+        float r = s.center_radius.w;
+        vec3 to_c = c - p;
+        float dc2 = dot(to_c, to_c);
+        if (dc2 > r * r * 1.0001) {
+            float dc = sqrt(dc2);
+            float sin_max = r / dc;
+            float sin2_max = sin_max * sin_max;
+            float cos_max = sqrt(max(0.0, 1.0 - sin2_max));
+            float omc = one_minus_cos_max(sin2_max);
+            float sin2_t, cos_t;
+            if (sin2_max < 0.00068523) {
+                sin2_t = sin2_max * u.x;
+                cos_t = sqrt(1.0 - sin2_t);
+            } else {
+                cos_t = (cos_max - 1.0) * u.x + 1.0;
+                sin2_t = 1.0 - cos_t * cos_t;
+            }
+            float cos_alpha = sin2_t / sin_max + cos_t * sqrt(max(0.0, 1.0 - sin2_t / sin2_max));
+            float sin_alpha = sqrt(max(0.0, 1.0 - cos_alpha * cos_alpha));
+            float phi = 2.0 * PI * u.y;
+            mat3 frame = make_frame(to_c / dc);
+            ln = -to_world(frame, vec3(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha));
+            lp = c + r * ln;
+            pdf_solid = 1.0 / (2.0 * PI * omc);
+        } else {
+            ln = uniform_sphere(u);
+            lp = c + r * ln;
+            vec3 d = lp - p;
+            float d2 = dot(d, d);
+            float cos_l = abs(dot(ln, d)) / sqrt(d2);
+            if (cos_l <= 0.0) return false;
+            pdf_solid = d2 / (4.0 * PI * r * r * cos_l);
+        }
+        eps = hit_epsilon(lp, sphere_scale(s.center_radius));
+        mat = s.material;
+    } else {
+        Quad q = quads[light.index];
+        lp = q.origin.xyz + u.x * q.edge_u.xyz + u.y * q.edge_v.xyz;
+        ln = q.normal.xyz;
+        vec3 d = lp - p;
+        float d2 = dot(d, d);
+        float cos_l = abs(dot(ln, d)) / sqrt(d2);
+        if (cos_l <= 0.0) return false;
+        pdf_solid = d2 / (q.origin.w * cos_l);
+        eps = hit_epsilon(lp, quad_scale(q));
+        mat = q.material;
+    }
+    vec3 d = lp - p;
+    float dist = length(d);
+    if (!(dist > 0.0)) return false;
+    ls.wi = d / dist;
+    ls.dist = dist;
+    ls.p = lp;
+    ls.n = ln;
+    ls.eps = eps;
+    ls.le = emitted(mat, ln, -ls.wi);
+    ls.pdf = pdf_solid * light.pmf;
+    return ls.pdf > 0.0 && !isinf(ls.pdf);
+}
+
+// src/math/geometry.rs `light_pdf`: a function of (p, w) alone.
+float light_pdf(uint light_index, vec3 p, vec3 w) {
+    Light l = lights[light_index];
+    float pdf_solid;
+    if (l.kind == LIGHT_SPHERE) {
+        vec4 cr = spheres[l.index].center_radius;
+        float r = cr.w;
+        vec3 f = p - cr.xyz;
+        float dc2 = dot(f, f);
+        if (dc2 > r * r * 1.0001) {
+            pdf_solid = 1.0 / (2.0 * PI * one_minus_cos_max(r * r / dc2));
+        } else {
+            float b = -dot(f, w);
+            float l2 = length(f + b * w);
+            float t = b + sqrt(max(0.0, (r - l2) * (r + l2)));
+            if (!(t > 0.0)) return 0.0;
+            vec3 n = (p + t * w - cr.xyz) / r;
+            pdf_solid = t * t / (4.0 * PI * r * r * abs(dot(n, w)));
+        }
+    } else {
+        Quad q = quads[l.index];
+        float cos_l = dot(q.normal.xyz, w);
+        float t = (q.normal.w - dot(q.normal.xyz, p)) / cos_l;
+        if (!(t > 0.0)) return 0.0;
+        pdf_solid = t * t / (q.origin.w * abs(cos_l));
+    }
+    return pdf_solid * l.pmf;
+}
+
+#endif

@@ -1,0 +1,29 @@
+#version 460
+// Test kernel: reads element 1 of each scene array and the render parameters
+// field by field, in GLSL declaration order, so tests/gpu_layout.rs can check
+// that the Rust mirrors in src/prepared.rs have the same layout.
+#include "scene.glsl"
+
+layout(local_size_x = 1) in;
+layout(std430, set = 0, binding = 5) writeonly buffer Out { uint words[]; };
+
+uint n = 0u;
+void put(uint v) { words[n++] = v; }
+void putf(float v) { put(floatBitsToUint(v)); }
+void put4(vec4 v) { putf(v.x); putf(v.y); putf(v.z); putf(v.w); }
+
+void main() {
+    Material m = materials[1];
+    put4(m.albedo_roughness); put4(m.emission_ior); put(m.kind); put(m.two_sided);
+    Sphere s = spheres[1];
+    put4(s.center_radius); put(s.material); put(s.light);
+    Quad q = quads[1];
+    put4(q.origin); put4(q.edge_u); put4(q.edge_v); put4(q.normal); put4(q.dual_u); put4(q.dual_v);
+    put(q.material); put(q.light);
+    Light l = lights[1];
+    put(l.kind); put(l.index); putf(l.pmf); putf(l.cdf);
+    put4(params.cam_position_near); put4(params.cam_forward_tan); put4(params.cam_right_aspect);
+    put4(params.cam_up); put4(params.environment);
+    put(params.width); put(params.height); put(params.max_bounces); put(params.rr_depth);
+    put(params.num_spheres); put(params.num_quads); put(params.num_lights); put(params.flags); put(params.seed);
+}

@@ -1,0 +1,33 @@
+// Random numbers: src/math/rng.rs, same code.
+#ifndef RLPT_RNG_GLSL
+#define RLPT_RNG_GLSL
+
+uint pcg_hash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+uint rng_init(uint seed, uint pixel, uint frame, uint sample_index) {
+    uint h = pcg_hash(seed ^ 0x9e3779b9u);
+    h = pcg_hash(h ^ pixel);
+    h = pcg_hash(h ^ (frame * 0x85ebca6bu));
+    return pcg_hash(h ^ (sample_index * 0xc2b2ae35u));
+}
+
+uint rng_next_u32(inout uint state) {
+    state = state * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+float rng_next(inout uint state) {
+    return float(rng_next_u32(state) >> 8u) * (1.0 / 16777216.0);
+}
+
+vec2 rng_next_2d(inout uint state) {
+    float a = rng_next(state);
+    return vec2(a, rng_next(state));
+}
+
+#endif

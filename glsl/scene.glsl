@@ -1,0 +1,12 @@
+// Scene buffers of set 0, shared by the kernels that trace rays.
+#ifndef RLPT_SCENE_GLSL
+#define RLPT_SCENE_GLSL
+#include "common.glsl"
+
+layout(std140, set = 0, binding = BINDING_PARAMS) uniform ParamsBlock { RenderParams params; };
+layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = BINDING_SPHERES) readonly buffer Spheres { Sphere spheres[]; };
+layout(std430, set = 0, binding = BINDING_QUADS) readonly buffer Quads { Quad quads[]; };
+layout(std430, set = 0, binding = BINDING_LIGHTS) readonly buffer Lights { Light lights[]; };
+
+#endif

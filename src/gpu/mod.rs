@@ -1,0 +1,28 @@
+//! The one home of `unsafe` Vulkan: a [`Context`] owning instance, device,
+//! queue and allocator; RAII [`Buffer`]s; compute [`Pipeline`]s; timestamp
+//! [`Timer`]s. Everything else in the crate is safe code on top of these.
+
+mod buffer;
+mod context;
+mod pipeline;
+mod timer;
+
+pub use buffer::{Buffer, BufferUsage};
+pub use context::{list_devices, Context, ContextOptions, DeviceInfo, GpuError};
+pub use pipeline::{Binding, Pipeline};
+pub use timer::Timer;
+
+pub use ash::vk;
+
+mod spirv {
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}
+
+/// The SPIR-V of `glsl/NAME.comp`, compiled by build.rs.
+pub fn shader(name: &str) -> &'static [u8] {
+    spirv::SHADERS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
+        .unwrap_or_else(|| panic!("no shader glsl/{name}.comp was compiled"))
+}

@@ -1,0 +1,193 @@
+use super::buffer::Buffer;
+use super::context::{Context, GpuError, Result};
+use ash::vk;
+use std::sync::Arc;
+
+/// The kind of a descriptor binding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    Uniform,
+    Storage,
+}
+
+/// A compute pipeline with one descriptor set (set 0, bindings 0..n in the
+/// order given) and an optional push-constant block.
+pub struct Pipeline {
+    ctx: Arc<Context>,
+    pub name: String,
+    pub layout: vk::PipelineLayout,
+    pub raw: vk::Pipeline,
+    set_layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    pub set: vk::DescriptorSet,
+    bindings: Vec<Binding>,
+    push_size: u32,
+}
+
+impl Pipeline {
+    pub fn new(ctx: &Arc<Context>, name: &str, spirv: &[u8], bindings: &[Binding], push_size: u32) -> Result<Pipeline> {
+        let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).expect("build.rs wrote valid SPIR-V");
+        let dev = &ctx.device;
+        let ty = |b: &Binding| match b {
+            Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+            Binding::Storage => vk::DescriptorType::STORAGE_BUFFER,
+        };
+        let layout_bindings: Vec<_> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(ty(b))
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        // SAFETY (this block): plain object creation on a live device; every object made
+        // here is destroyed in Drop, or below if a later step fails.
+        unsafe {
+            let set_layout = dev
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                    None,
+                )
+                .map_err(|e| GpuError::vk("vkCreateDescriptorSetLayout", e))?;
+            let set_layouts = [set_layout];
+            let ranges =
+                [vk::PushConstantRange { stage_flags: vk::ShaderStageFlags::COMPUTE, offset: 0, size: push_size }];
+            let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+            if push_size > 0 {
+                layout_info = layout_info.push_constant_ranges(&ranges);
+            }
+            let layout = match dev.create_pipeline_layout(&layout_info, None) {
+                Ok(l) => l,
+                Err(e) => {
+                    dev.destroy_descriptor_set_layout(set_layout, None);
+                    return Err(GpuError::vk("vkCreatePipelineLayout", e));
+                }
+            };
+            let module = match dev.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) {
+                Ok(m) => m,
+                Err(e) => {
+                    dev.destroy_pipeline_layout(layout, None);
+                    dev.destroy_descriptor_set_layout(set_layout, None);
+                    return Err(GpuError::vk("vkCreateShaderModule", e));
+                }
+            };
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main");
+            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+            let pipeline = dev.create_compute_pipelines(vk::PipelineCache::null(), &info, None);
+            dev.destroy_shader_module(module, None);
+            let raw = match pipeline {
+                Ok(p) => p[0],
+                Err((_, e)) => {
+                    dev.destroy_pipeline_layout(layout, None);
+                    dev.destroy_descriptor_set_layout(set_layout, None);
+                    return Err(GpuError::vk("vkCreateComputePipelines", e));
+                }
+            };
+            let mut sizes = Vec::new();
+            for kind in [Binding::Uniform, Binding::Storage] {
+                let n = bindings.iter().filter(|b| **b == kind).count() as u32;
+                if n > 0 {
+                    sizes.push(vk::DescriptorPoolSize { ty: ty(&kind), descriptor_count: n });
+                }
+            }
+            let pool = match dev
+                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+            {
+                Ok(p) => p,
+                Err(e) => {
+                    dev.destroy_pipeline(raw, None);
+                    dev.destroy_pipeline_layout(layout, None);
+                    dev.destroy_descriptor_set_layout(set_layout, None);
+                    return Err(GpuError::vk("vkCreateDescriptorPool", e));
+                }
+            };
+            let set = match dev.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts),
+            ) {
+                Ok(s) => s[0],
+                Err(e) => {
+                    dev.destroy_descriptor_pool(pool, None);
+                    dev.destroy_pipeline(raw, None);
+                    dev.destroy_pipeline_layout(layout, None);
+                    dev.destroy_descriptor_set_layout(set_layout, None);
+                    return Err(GpuError::vk("vkAllocateDescriptorSets", e));
+                }
+            };
+            ctx.set_name(raw, name);
+            ctx.set_name(layout, &format!("{name} layout"));
+            ctx.set_name(set, &format!("{name} descriptors"));
+            Ok(Pipeline {
+                ctx: ctx.clone(),
+                name: name.to_string(),
+                layout,
+                raw,
+                set_layout,
+                pool,
+                set,
+                bindings: bindings.to_vec(),
+                push_size,
+            })
+        }
+    }
+
+    /// Points every binding at its buffer (`buffers[i]` for binding i). Call while the set is not in use.
+    pub fn bind(&self, buffers: &[&Buffer]) {
+        assert_eq!(buffers.len(), self.bindings.len(), "{}: one buffer per binding", self.name);
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .collect();
+        let writes: Vec<_> = self
+            .bindings
+            .iter()
+            .zip(&infos)
+            .enumerate()
+            .map(|(i, (kind, info))| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(match kind {
+                        Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+                        Binding::Storage => vk::DescriptorType::STORAGE_BUFFER,
+                    })
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: the set and buffers are alive; the caller ensures the set is not in use by the GPU.
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// Records a dispatch of `groups` workgroups with `push` as push constants.
+    pub fn cmd_dispatch(&self, cmd: vk::CommandBuffer, groups: [u32; 3], push: &[u8]) {
+        assert_eq!(push.len() as u32, self.push_size, "{}: push-constant size", self.name);
+        let dev = &self.ctx.device;
+        // SAFETY: `cmd` is recording; the pipeline, layout and set are alive and the set is bound to live buffers.
+        unsafe {
+            dev.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.raw);
+            dev.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+            if !push.is_empty() {
+                dev.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            }
+            dev.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+    }
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        let dev = &self.ctx.device;
+        // SAFETY: the GPU has finished with the pipeline (work is waited for before drops).
+        unsafe {
+            dev.destroy_descriptor_pool(self.pool, None);
+            dev.destroy_pipeline(self.raw, None);
+            dev.destroy_pipeline_layout(self.layout, None);
+            dev.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

@@ -1,0 +1,306 @@
+//! Ray intersection, surface offsets and light sampling on a [`PreparedScene`];
+//! `glsl/geometry.glsl` is the same code.
+
+use super::Vec3;
+use crate::prepared::{GpuQuad, PreparedScene};
+use crate::shared;
+use std::f32::consts::PI;
+
+/// A surface hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub p: Vec3,
+    /// Unit geometric normal on the front side (outward for spheres, edge_u x edge_v for quads).
+    pub n: Vec3,
+    /// Bound on the position error of `p`: origins of new rays move this far off the surface.
+    pub eps: f32,
+    pub material: u32,
+    pub light: u32,
+}
+
+fn xyz(v: [f32; 4]) -> Vec3 {
+    Vec3::new(v[0], v[1], v[2])
+}
+
+fn max_abs(v: Vec3) -> f32 {
+    v.abs().max_element()
+}
+
+/// Position error bound of a hit at `p` on a primitive whose defining numbers
+/// are as large as `scale` (sphere: |center| + radius; quad: |origin| + edges).
+/// f32 rounds to 2^-24 relative; the factors leave a margin over the few
+/// roundings of each intersection routine.
+pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
+    1e-5 * (1.0 + max_abs(p)) + 2.5e-7 * scale
+}
+
+/// Ray-sphere intersection that stays accurate in f32 for radii up to 1e5
+/// (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray
+/// Tracing Gems, ch. 7): the discriminant comes from the perpendicular distance
+/// to the centre, differences of squares are factored, and the near root is
+/// taken from the stable quadratic formula. `d` must be unit length.
+pub fn intersect_sphere(center: Vec3, radius: f32, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
+    let f = o - center;
+    let b = -f.dot(d);
+    let l = (f + b * d).length();
+    let disc = (radius - l) * (radius + l);
+    if disc < 0.0 {
+        return None;
+    }
+    let fl = f.length();
+    let c = (fl - radius) * (fl + radius);
+    let q = b + disc.sqrt().copysign(b);
+    if q == 0.0 {
+        return None;
+    }
+    let (t0, t1) = {
+        let a = c / q;
+        if a < q {
+            (a, q)
+        } else {
+            (q, a)
+        }
+    };
+    if t0 > 0.0 && t0 < t_max {
+        Some(t0)
+    } else if t1 > 0.0 && t1 < t_max {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+pub fn intersect_quad(q: &GpuQuad, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
+    let n = xyz(q.normal);
+    let denom = n.dot(d);
+    if denom.abs() < 1e-12 {
+        return None;
+    }
+    let t = (q.normal[3] - n.dot(o)) / denom;
+    if !(t > 0.0 && t < t_max) {
+        return None;
+    }
+    let rel = o + t * d - xyz(q.origin);
+    let s = rel.dot(xyz(q.dual_u));
+    let tt = rel.dot(xyz(q.dual_v));
+    if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&tt) {
+        Some(t)
+    } else {
+        None
+    }
+}
+
+fn sphere_scale(cr: [f32; 4]) -> f32 {
+    max_abs(xyz(cr)) + cr[3]
+}
+
+fn quad_scale(q: &GpuQuad) -> f32 {
+    max_abs(xyz(q.origin)) + max_abs(xyz(q.edge_u)) + max_abs(xyz(q.edge_v))
+}
+
+/// Nearest hit along the unit direction `d` closer than `t_max`.
+pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
+    let mut best = t_max;
+    let mut found: Option<(bool, usize)> = None;
+    for (i, s) in scene.spheres.iter().enumerate() {
+        if let Some(t) = intersect_sphere(xyz(s.center_radius), s.center_radius[3], o, d, best) {
+            best = t;
+            found = Some((true, i));
+        }
+    }
+    for (i, q) in scene.quads.iter().enumerate() {
+        if let Some(t) = intersect_quad(q, o, d, best) {
+            best = t;
+            found = Some((false, i));
+        }
+    }
+    let (is_sphere, i) = found?;
+    let p = o + best * d;
+    Some(if is_sphere {
+        let s = &scene.spheres[i];
+        let n = ((p - xyz(s.center_radius)) / s.center_radius[3]).normalize();
+        Hit { t: best, p, n, eps: hit_epsilon(p, sphere_scale(s.center_radius)), material: s.material, light: s.light }
+    } else {
+        let q = &scene.quads[i];
+        Hit { t: best, p, n: xyz(q.normal), eps: hit_epsilon(p, quad_scale(q)), material: q.material, light: q.light }
+    })
+}
+
+/// True if anything blocks the segment from `o` along unit `d` up to `t_max`.
+pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> bool {
+    scene.spheres.iter().any(|s| intersect_sphere(xyz(s.center_radius), s.center_radius[3], o, d, t_max).is_some())
+        || scene.quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
+}
+
+/// Moves `p` off its surface (normal `n`, error bound `eps`) to the side `w` points to.
+pub fn offset_origin(p: Vec3, n: Vec3, eps: f32, w: Vec3) -> Vec3 {
+    if n.dot(w) >= 0.0 {
+        p + eps * n
+    } else {
+        p - eps * n
+    }
+}
+
+/// A point sampled on a light, seen from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point to the light point.
+    pub wi: Vec3,
+    pub dist: f32,
+    pub p: Vec3,
+    pub n: Vec3,
+    pub eps: f32,
+    /// Emitted radiance towards the shading point (zero if it sees the back of a one-sided light).
+    pub le: Vec3,
+    /// Solid-angle density at the shading point, including the choice of the light.
+    pub pdf: f32,
+}
+
+/// Probability of the sphere-cone sampling scheme covering the light, as
+/// `1 - cos(theta_max)`, computed without cancellation for small cones.
+fn one_minus_cos_max(sin2_max: f32) -> f32 {
+    if sin2_max < 0.000_685_23 {
+        // sin^2(1.5 degrees): the series keeps precision for distant lights (pbrt-v4).
+        0.5 * sin2_max
+    } else {
+        1.0 - (1.0 - sin2_max).max(0.0).sqrt()
+    }
+}
+
+/// Emitted radiance of material `mat` leaving a surface with front normal `n` towards `w`.
+pub fn emitted(scene: &PreparedScene, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
+    let m = &scene.materials[mat as usize];
+    let e = xyz(m.emission_ior);
+    if m.two_sided != 0 || n.dot(w) > 0.0 {
+        e
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// Chooses a light by power with `u_sel` and samples a point on it with `u`:
+/// spheres seen from outside by the cone of directions they subtend, spheres
+/// from inside and quads uniformly by area.
+pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
+    let n_lights = scene.lights.len();
+    if n_lights == 0 {
+        return None;
+    }
+    let mut li = n_lights - 1;
+    for (i, l) in scene.lights.iter().enumerate() {
+        if u_sel < l.cdf {
+            li = i;
+            break;
+        }
+    }
+    let light = &scene.lights[li];
+    let (lp, ln, eps, mat, pdf_solid) = if light.kind == shared::LIGHT_SPHERE {
+        let s = &scene.spheres[light.index as usize];
+        let c = xyz(s.center_radius);
+        let r = s.center_radius[3];
+        let to_c = c - p;
+        let dc2 = to_c.length_squared();
+        if dc2 > r * r * 1.0001 {
+            // Outside: uniform in the cone (pbrt-v4 Sphere::Sample).
+            let dc = dc2.sqrt();
+            let sin_max = r / dc;
+            let sin2_max = sin_max * sin_max;
+            let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+            let omc = one_minus_cos_max(sin2_max);
+            let (sin2_t, cos_t) = if sin2_max < 0.000_685_23 {
+                let s2 = sin2_max * u[0];
+                (s2, (1.0 - s2).sqrt())
+            } else {
+                let ct = (cos_max - 1.0) * u[0] + 1.0;
+                (1.0 - ct * ct, ct)
+            };
+            let cos_alpha = sin2_t / sin_max + cos_t * (1.0 - sin2_t / sin2_max).max(0.0).sqrt();
+            let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+            let phi = 2.0 * PI * u[1];
+            let frame = super::Frame::from_normal(to_c / dc);
+            let w = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
+            let n = -frame.to_world(w);
+            let lp = c + r * n;
+            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, 1.0 / (2.0 * PI * omc))
+        } else {
+            // Inside (or on) the sphere: uniform by area.
+            let n = super::sampling::uniform_sphere(u);
+            let lp = c + r * n;
+            let d = lp - p;
+            let d2 = d.length_squared();
+            let cos_l = n.dot(d).abs() / d2.sqrt();
+            if cos_l <= 0.0 {
+                return None;
+            }
+            let area = 4.0 * PI * r * r;
+            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, d2 / (area * cos_l))
+        }
+    } else {
+        let q = &scene.quads[light.index as usize];
+        let lp = xyz(q.origin) + u[0] * xyz(q.edge_u) + u[1] * xyz(q.edge_v);
+        let n = xyz(q.normal);
+        let d = lp - p;
+        let d2 = d.length_squared();
+        let cos_l = n.dot(d).abs() / d2.sqrt();
+        if cos_l <= 0.0 {
+            return None;
+        }
+        (lp, n, hit_epsilon(lp, quad_scale(q)), q.material, d2 / (q.origin[3] * cos_l))
+    };
+    let d = lp - p;
+    let dist = d.length();
+    if !(dist > 0.0) {
+        return None;
+    }
+    let wi = d / dist;
+    let le = emitted(scene, mat, ln, -wi);
+    let pdf = pdf_solid * light.pmf;
+    if !(pdf > 0.0 && pdf.is_finite()) {
+        return None;
+    }
+    Some(LightSample { wi, dist, p: lp, n: ln, eps, le, pdf })
+}
+
+/// The density with which `sample_light`, called at `p`, picks the direction `w`
+/// towards light `light` (including the choice of the light): the light-sampling
+/// pdf in the MIS weight of a BSDF-sampled ray that hit that light. It is a
+/// function of (p, w) alone, like the BSDF pdf it is weighed against, so both
+/// strategies see the same pair of densities for the same path; where `w` meets
+/// the light is found again analytically from `p` (not from the offset origin
+/// the ray was traced from). Zero where `w` misses the light.
+pub fn light_pdf(scene: &PreparedScene, light: u32, p: Vec3, w: Vec3) -> f32 {
+    let l = &scene.lights[light as usize];
+    let pdf_solid = if l.kind == shared::LIGHT_SPHERE {
+        let s = &scene.spheres[l.index as usize];
+        let c = xyz(s.center_radius);
+        let r = s.center_radius[3];
+        let f = p - c;
+        let dc2 = f.length_squared();
+        if dc2 > r * r * 1.0001 {
+            let sin2_max = r * r / dc2;
+            1.0 / (2.0 * PI * one_minus_cos_max(sin2_max))
+        } else {
+            // From inside (or on) the sphere: the far root, which is the one point w reaches.
+            let b = -f.dot(w);
+            let l2 = (f + b * w).length();
+            let disc = ((r - l2) * (r + l2)).max(0.0);
+            let t = b + disc.sqrt();
+            if !(t > 0.0) {
+                return 0.0;
+            }
+            let n = (p + t * w - c) / r;
+            t * t / (4.0 * PI * r * r * n.dot(w).abs())
+        }
+    } else {
+        let q = &scene.quads[l.index as usize];
+        let n = xyz(q.normal);
+        let cos = n.dot(w);
+        let t = (q.normal[3] - n.dot(p)) / cos;
+        if !(t > 0.0) {
+            return 0.0;
+        }
+        t * t / (q.origin[3] * cos.abs())
+    };
+    pdf_solid * l.pmf
+}

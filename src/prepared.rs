@@ -1,0 +1,252 @@
+//! The scene flattened into the arrays both renderers trace: the `#[repr(C)]`
+//! mirrors of the structs in `glsl/common.glsl` (std430 layout; sizes asserted
+//! here, field offsets checked on the device by `tests/gpu_layout.rs`).
+//! The GPU renderer uploads them; the CPU renderer reads the same values, so
+//! precomputed normals, light probabilities and camera vectors agree exactly.
+
+use crate::math::Vec3;
+use crate::scene::Scene;
+use crate::shared;
+use bytemuck::{Pod, Zeroable};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMaterial {
+    pub albedo_roughness: [f32; 4],
+    pub emission_ior: [f32; 4],
+    pub kind: u32,
+    pub two_sided: u32,
+    pub pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuSphere {
+    pub center_radius: [f32; 4],
+    pub material: u32,
+    pub light: u32,
+    pub pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuQuad {
+    pub origin: [f32; 4],
+    pub edge_u: [f32; 4],
+    pub edge_v: [f32; 4],
+    pub normal: [f32; 4],
+    pub dual_u: [f32; 4],
+    pub dual_v: [f32; 4],
+    pub material: u32,
+    pub light: u32,
+    pub pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLight {
+    pub kind: u32,
+    pub index: u32,
+    pub pmf: f32,
+    pub cdf: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RenderParams {
+    pub cam_position_near: [f32; 4],
+    pub cam_forward_tan: [f32; 4],
+    pub cam_right_aspect: [f32; 4],
+    pub cam_up: [f32; 4],
+    pub environment: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub max_bounces: u32,
+    pub rr_depth: u32,
+    pub num_spheres: u32,
+    pub num_quads: u32,
+    pub num_lights: u32,
+    pub flags: u32,
+    pub seed: u32,
+    pub pad: [u32; 3],
+}
+
+/// One pixel of the accumulation buffer: the sum of all radiance samples, and
+/// Welford's running sum of squared deviations of the per-frame 64-sample means
+/// (for variance estimates; it stays accurate in f32 where sum-of-squares minus
+/// square-of-sum cancels).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct AccumPixel {
+    pub sum: [f32; 4],
+    pub m2_frame_mean: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
+const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
+const _: () = assert!(std::mem::size_of::<RenderParams>() == 128);
+const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
+
+/// How to render: the scene's `[render]` table with command-line overrides.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel asked for; renders take `frames()` frames of 64.
+    pub spp: u32,
+    pub max_bounces: u32,
+    pub russian_roulette_depth: Option<u32>,
+    pub seed: u32,
+    /// Next-event estimation (light sampling combined with BSDF sampling by MIS).
+    pub nee: bool,
+    /// Power heuristic (true) or balance heuristic for MIS.
+    pub power_heuristic: bool,
+}
+
+impl RenderOptions {
+    /// The scene's own settings, seed 0, NEE on with the power heuristic.
+    pub fn from_scene(scene: &Scene) -> RenderOptions {
+        let r = &scene.render;
+        RenderOptions {
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            russian_roulette_depth: r.russian_roulette_depth,
+            seed: 0,
+            nee: true,
+            power_heuristic: true,
+        }
+    }
+
+    /// Frames of 64 samples per pixel needed for at least `spp` samples.
+    pub fn frames(&self) -> u32 {
+        self.spp.div_ceil(shared::SAMPLES_PER_FRAME).max(1)
+    }
+}
+
+/// Scene arrays plus render parameters, ready to upload or trace.
+#[derive(Clone, Debug)]
+pub struct PreparedScene {
+    pub params: RenderParams,
+    pub materials: Vec<GpuMaterial>,
+    pub spheres: Vec<GpuSphere>,
+    pub quads: Vec<GpuQuad>,
+    pub lights: Vec<GpuLight>,
+}
+
+fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+impl PreparedScene {
+    pub fn new(scene: &Scene, opts: &RenderOptions) -> PreparedScene {
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                albedo_roughness: v4(m.albedo, m.roughness),
+                emission_ior: v4(m.emission, m.ior),
+                kind: m.kind as u32,
+                two_sided: m.two_sided as u32,
+                pad: [0; 2],
+            })
+            .collect();
+        let emits = |mat: u32| scene.materials[mat as usize].emission.max_element() > 0.0;
+        // Lights are chosen in proportion to emitted power: area x mean emission (x2 if two-sided).
+        let power = |mat: u32, area: f32| {
+            let m = &scene.materials[mat as usize];
+            area * (m.emission.x + m.emission.y + m.emission.z) / 3.0 * if m.two_sided { 2.0 } else { 1.0 }
+        };
+        let mut lights = Vec::new();
+        let mut powers = Vec::new();
+        let spheres = scene
+            .spheres
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let mut light = shared::NO_LIGHT;
+                if emits(s.material) {
+                    light = lights.len() as u32;
+                    lights.push(GpuLight { kind: shared::LIGHT_SPHERE, index: i as u32, pmf: 0.0, cdf: 0.0 });
+                    powers.push(power(s.material, 4.0 * std::f32::consts::PI * s.radius * s.radius));
+                }
+                GpuSphere { center_radius: v4(s.center, s.radius), material: s.material, light, pad: [0; 2] }
+            })
+            .collect();
+        let quads = scene
+            .quads
+            .iter()
+            .enumerate()
+            .map(|(i, q)| {
+                let n = q.edge_u.cross(q.edge_v);
+                let area = n.length();
+                let w = n / n.length_squared();
+                let normal = n / area;
+                let mut light = shared::NO_LIGHT;
+                if emits(q.material) {
+                    light = lights.len() as u32;
+                    lights.push(GpuLight { kind: shared::LIGHT_QUAD, index: i as u32, pmf: 0.0, cdf: 0.0 });
+                    powers.push(power(q.material, area));
+                }
+                GpuQuad {
+                    origin: v4(q.origin, area),
+                    edge_u: v4(q.edge_u, 0.0),
+                    edge_v: v4(q.edge_v, 0.0),
+                    normal: v4(normal, normal.dot(q.origin)),
+                    dual_u: v4(q.edge_v.cross(w), 0.0),
+                    dual_v: v4(w.cross(q.edge_u), 0.0),
+                    material: q.material,
+                    light,
+                    pad: [0; 2],
+                }
+            })
+            .collect();
+        let total: f64 = powers.iter().map(|&p| p as f64).sum();
+        let mut cdf = 0.0f64;
+        for (l, p) in lights.iter_mut().zip(&powers) {
+            let pmf = *p as f64 / total;
+            cdf += pmf;
+            l.pmf = pmf as f32;
+            l.cdf = cdf as f32;
+        }
+        if let Some(last) = lights.last_mut() {
+            last.cdf = 1.0;
+        }
+
+        let cam = &scene.camera;
+        let right = cam.forward.cross(cam.up).normalize();
+        let up = right.cross(cam.forward).normalize();
+        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+        let mut flags = 0;
+        if opts.nee {
+            flags |= shared::FLAG_NEE;
+        }
+        if opts.russian_roulette_depth.is_some() {
+            flags |= shared::FLAG_RUSSIAN_ROULETTE;
+        }
+        if opts.power_heuristic {
+            flags |= shared::FLAG_POWER_HEURISTIC;
+        }
+        let params = RenderParams {
+            cam_position_near: v4(cam.position, cam.near),
+            cam_forward_tan: v4(cam.forward, tan_half),
+            cam_right_aspect: v4(right, opts.width as f32 / opts.height as f32),
+            cam_up: v4(up, 0.0),
+            environment: v4(scene.environment, 0.0),
+            width: opts.width,
+            height: opts.height,
+            max_bounces: opts.max_bounces,
+            rr_depth: opts.russian_roulette_depth.unwrap_or(u32::MAX),
+            num_spheres: scene.spheres.len() as u32,
+            num_quads: scene.quads.len() as u32,
+            num_lights: lights.len() as u32,
+            flags,
+            seed: opts.seed,
+            pad: [0; 3],
+        };
+        PreparedScene { params, materials, spheres, quads, lights }
+    }
+}

@@ -1,0 +1,821 @@
+//! Reading and validating scene files (`SCENE_FORMAT.md`).
+//!
+//! The TOML text is parsed into a span-carrying tree ([`toml::de::DeTable`]) and
+//! walked by hand, so every refusal can name the file, the 1-based line and
+//! column of the offending key or value, and what was expected there.
+//!
+//! Numbers are checked as `f64` (finite, in range) and then converted to `f32`,
+//! which must be finite too.
+
+use std::fmt::Display;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use toml::de::{DeTable, DeValue};
+use toml::Spanned;
+
+use super::{Camera, Material, MaterialKind, Quad, RenderSettings, Scene, Sphere};
+
+/// Why a scene was refused. The `Display` text is the whole message: the file,
+/// where in it (`line:column`, 1-based, when known), and what was expected.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read (missing, unreadable, not UTF-8).
+    #[error("{}: cannot read the scene file: {error}", path.display())]
+    Io { path: PathBuf, error: std::io::Error },
+    /// The text is not valid TOML.
+    #[error("{file}:{line}:{column}: not valid TOML: {message}")]
+    Syntax { file: String, line: usize, column: usize, message: String },
+    /// Valid TOML that is not a valid scene.
+    #[error("{}: {message}", location(file, *position))]
+    Invalid {
+        file: String,
+        /// 1-based line and column of the offending key or value, when known.
+        position: Option<(usize, usize)>,
+        message: String,
+    },
+}
+
+impl SceneError {
+    /// The 1-based `(line, column)` the error points at, if any.
+    pub fn position(&self) -> Option<(usize, usize)> {
+        match self {
+            SceneError::Io { .. } => None,
+            SceneError::Syntax { line, column, .. } => Some((*line, *column)),
+            SceneError::Invalid { position, .. } => *position,
+        }
+    }
+}
+
+fn location(file: &str, position: Option<(usize, usize)>) -> String {
+    match position {
+        Some((line, column)) => format!("{file}:{line}:{column}"),
+        None => file.to_string(),
+    }
+}
+
+/// Reads and validates the scene file at `path`.
+pub(super) fn load_file(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io { path: path.to_path_buf(), error })?;
+    let mut scene = parse_named(&text, &path.display().to_string())?;
+    scene.source = path.to_path_buf();
+    Ok(scene)
+}
+
+/// Parses and validates scene text; `name` stands for the file in messages.
+pub(super) fn parse_str(text: &str, name: &str) -> Result<Scene, SceneError> {
+    parse_named(text, name)
+}
+
+// ---------------------------------------------------------------------------
+// Limits.
+
+/// Largest accepted image width or height, in pixels.
+const MAX_IMAGE_SIDE: i64 = 16384;
+/// Largest accepted `max_bounces`.
+const MAX_BOUNCES: i64 = 1024;
+/// Two directions whose angle has a sine below this count as parallel
+/// (camera `up` against the view direction, quad edges against each other).
+const PARALLEL_SINE: f64 = 1e-6;
+
+const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "material", "sphere", "quad"];
+const CAMERA_KEYS: &[&str] = &["position", "look_at", "direction", "up", "vfov", "near"];
+const RENDER_KEYS: &[&str] = &["width", "height", "spp", "max_bounces", "russian_roulette_depth"];
+const ENVIRONMENT_KEYS: &[&str] = &["radiance"];
+const SPHERE_KEYS: &[&str] = &["center", "radius", "material"];
+const QUAD_KEYS: &[&str] = &["origin", "edge_u", "edge_v", "material"];
+const MATERIAL_TYPES: &[&str] = &["diffuse", "specular", "glossy", "dielectric", "emissive"];
+
+fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
+    match kind {
+        MaterialKind::Diffuse | MaterialKind::Specular => &["name", "type", "albedo", "emission", "two_sided"],
+        MaterialKind::Glossy => &["name", "type", "albedo", "roughness", "emission", "two_sided"],
+        MaterialKind::Dielectric => &["name", "type", "ior", "albedo", "emission", "two_sided"],
+        MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
+    }
+}
+
+fn type_name(kind: MaterialKind) -> &'static str {
+    match kind {
+        MaterialKind::Diffuse => "diffuse",
+        MaterialKind::Specular => "specular",
+        MaterialKind::Glossy => "glossy",
+        MaterialKind::Dielectric => "dielectric",
+        MaterialKind::Emissive => "emissive",
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Source text: byte offsets to line:column, messages.
+
+type Value<'i> = Spanned<DeValue<'i>>;
+
+struct Source<'a> {
+    file: &'a str,
+    text: &'a str,
+    /// Byte offset of the start of each line.
+    line_starts: Vec<usize>,
+}
+
+impl<'a> Source<'a> {
+    fn new(file: &'a str, text: &'a str) -> Self {
+        let mut line_starts = vec![0];
+        line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        Self { file, text, line_starts }
+    }
+
+    /// 1-based line and column (in characters) of a byte offset.
+    fn line_col(&self, offset: usize) -> (usize, usize) {
+        let mut offset = offset.min(self.text.len());
+        while !self.text.is_char_boundary(offset) {
+            offset -= 1;
+        }
+        let line = self.line_starts.partition_point(|&start| start <= offset) - 1;
+        let column = self.text[self.line_starts[line]..offset].chars().count() + 1;
+        (line + 1, column)
+    }
+
+    fn error(&self, span: Option<Range<usize>>, message: String) -> SceneError {
+        SceneError::Invalid { file: self.file.to_string(), position: span.map(|s| self.line_col(s.start)), message }
+    }
+
+    /// The source text of a span, on one line and shortened, for messages.
+    fn snippet(&self, span: Range<usize>) -> String {
+        let raw = self.text.get(span).unwrap_or("").trim();
+        let first = raw.lines().next().unwrap_or("");
+        let mut out: String = first.chars().take(40).collect();
+        if out.len() < raw.len() {
+            out.push_str("...");
+        }
+        out
+    }
+
+    /// "string \"abc\"", "float 64.5", "an array of 2 values", ...
+    fn describe(&self, value: &Value<'_>) -> String {
+        let text = self.snippet(value.span());
+        match value.get_ref() {
+            DeValue::String(_) => format!("string {text}"),
+            DeValue::Integer(_) => format!("integer {text}"),
+            DeValue::Float(_) => format!("float {text}"),
+            DeValue::Boolean(b) => format!("boolean {b}"),
+            DeValue::Datetime(d) => format!("datetime {d}"),
+            DeValue::Array(a) => match a.len() {
+                1 => "an array of 1 value".to_string(),
+                n => format!("an array of {n} values"),
+            },
+            DeValue::Table(_) => "a table".to_string(),
+        }
+    }
+}
+
+/// The entries of a table in the order they appear in the text.
+fn entries_in_order<'a, 'i>(table: &'a DeTable<'i>) -> Vec<(&'a Spanned<std::borrow::Cow<'i, str>>, &'a Value<'i>)> {
+    let mut entries: Vec<_> = table.iter().collect();
+    entries.sort_by_key(|(key, _)| key.span().start);
+    entries
+}
+
+// ---------------------------------------------------------------------------
+// One table of the scene, with its label for messages ("[camera]",
+// "[[material]] \"glass\"", "[[sphere]] #2").
+
+struct Table<'s, 'a, 'i> {
+    src: &'s Source<'a>,
+    label: String,
+    table: &'s DeTable<'i>,
+    /// The header (or key) that opened the table, if it has one.
+    span: Option<Range<usize>>,
+}
+
+impl<'s, 'i> Table<'s, '_, 'i> {
+    fn error_at(&self, span: Range<usize>, message: impl Display) -> SceneError {
+        self.src.error(Some(span), format!("{}: {message}", self.label))
+    }
+
+    fn error_here(&self, message: impl Display) -> SceneError {
+        self.src.error(self.span.clone(), format!("{}: {message}", self.label))
+    }
+
+    /// Refuses the first key (in text order) that is not in `allowed`.
+    fn check_keys(&self, allowed: &[&str], context: &str) -> Result<(), SceneError> {
+        for (key, _) in entries_in_order(self.table) {
+            if !allowed.contains(&key.get_ref().as_ref()) {
+                return Err(self.error_at(
+                    key.span(),
+                    format!("unknown key `{}`{context}; expected one of {}", key.get_ref(), allowed.join(", ")),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn get(&self, key: &str) -> Option<&'s Value<'i>> {
+        self.table.get(key)
+    }
+
+    fn required(&self, key: &str, hint: &str) -> Result<&'s Value<'i>, SceneError> {
+        self.get(key).ok_or_else(|| self.error_here(format!("missing key `{key}` ({hint})")))
+    }
+
+    /// A finite number (integer or float) that fits a finite `f32`;
+    /// `what` names the value ("key `radius`", "key `albedo` component 2").
+    fn number_at(&self, value: &Value<'_>, what: &str, expected: &str) -> Result<f64, SceneError> {
+        let text = self.src.snippet(value.span());
+        let x = match value.get_ref() {
+            DeValue::Integer(i) => match i64::from_str_radix(i.as_str(), i.radix()) {
+                Ok(i) => i as f64,
+                Err(_) => {
+                    return Err(self.error_at(
+                        value.span(),
+                        format!("{what} must be {expected}, found {text}, which is out of range"),
+                    ))
+                }
+            },
+            DeValue::Float(f) => {
+                let s = f.as_str();
+                let lower = s.to_ascii_lowercase();
+                let parsed = if lower.contains("nan") || lower.contains("inf") { None } else { s.parse::<f64>().ok() };
+                match parsed {
+                    Some(x) if x.is_finite() => x,
+                    _ => {
+                        return Err(self.error_at(
+                            value.span(),
+                            format!("{what} must be a finite number ({expected}), found {text}"),
+                        ))
+                    }
+                }
+            }
+            _ => {
+                return Err(self
+                    .error_at(value.span(), format!("{what} must be {expected}, found {}", self.src.describe(value))))
+            }
+        };
+        if !(x as f32).is_finite() {
+            return Err(self.error_at(
+                value.span(),
+                format!("{what} must be {expected} and fit a 32-bit float (magnitude below 3.4e38), found {text}"),
+            ));
+        }
+        Ok(x)
+    }
+
+    /// A number checked against a range; `expected` describes the range.
+    fn ranged(
+        &self,
+        key: &str,
+        value: &Value<'_>,
+        ok: impl Fn(f64) -> bool,
+        expected: &str,
+    ) -> Result<f32, SceneError> {
+        let x = self.number_at(value, &format!("key `{key}`"), expected)?;
+        if !ok(x) {
+            return Err(self.error_at(
+                value.span(),
+                format!("key `{key}` must be {expected}, found {}", self.src.snippet(value.span())),
+            ));
+        }
+        Ok(x as f32)
+    }
+
+    /// An array of exactly three finite numbers, each passing `ok` (described by
+    /// `expected_component`, e.g. "in [0, 1]").
+    fn vec3(
+        &self,
+        key: &str,
+        value: &Value<'_>,
+        ok: impl Fn(f64) -> bool,
+        expected_component: &str,
+    ) -> Result<[f64; 3], SceneError> {
+        let shape = "an array of 3 numbers [x, y, z]";
+        let array = match value.get_ref() {
+            DeValue::Array(a) if a.len() == 3 => a,
+            _ => {
+                return Err(self.error_at(
+                    value.span(),
+                    format!("key `{key}` must be {shape}, found {}", self.src.describe(value)),
+                ))
+            }
+        };
+        let mut out = [0.0; 3];
+        for (i, element) in array.iter().enumerate() {
+            let what = format!("key `{key}` component {}", i + 1);
+            let expected = if expected_component.is_empty() {
+                "a number".to_string()
+            } else {
+                format!("a number {expected_component}")
+            };
+            let x = self.number_at(element, &what, &expected)?;
+            if !ok(x) {
+                return Err(self.error_at(
+                    element.span(),
+                    format!(
+                        "key `{key}` must have every component {expected_component}, found {} (component {})",
+                        self.src.snippet(element.span()),
+                        i + 1
+                    ),
+                ));
+            }
+            out[i] = x;
+        }
+        Ok(out)
+    }
+
+    /// Any finite vector.
+    fn point(&self, key: &str, value: &Value<'_>) -> Result<[f64; 3], SceneError> {
+        self.vec3(key, value, |_| true, "")
+    }
+
+    /// An integer in `min..=max`; floats are refused.
+    fn integer(&self, key: &str, value: &Value<'_>, min: i64, max: i64, meaning: &str) -> Result<u32, SceneError> {
+        let expected = if max == i64::from(u32::MAX) {
+            format!("an integer >= {min} ({meaning})")
+        } else {
+            format!("an integer from {min} to {max} ({meaning})")
+        };
+        let text = self.src.snippet(value.span());
+        let n = match value.get_ref() {
+            DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix()).ok(),
+            _ => {
+                return Err(self.error_at(
+                    value.span(),
+                    format!("key `{key}` must be {expected}, found {}", self.src.describe(value)),
+                ))
+            }
+        };
+        match n {
+            Some(n) if (min..=max).contains(&n) => Ok(n as u32),
+            _ => Err(self.error_at(value.span(), format!("key `{key}` must be {expected}, found {text}"))),
+        }
+    }
+
+    fn string(&self, key: &str, value: &'s Value<'i>, expected: &str) -> Result<&'s str, SceneError> {
+        match value.get_ref() {
+            DeValue::String(s) => Ok(s.as_ref()),
+            _ => Err(self
+                .error_at(value.span(), format!("key `{key}` must be {expected}, found {}", self.src.describe(value)))),
+        }
+    }
+
+    fn boolean(&self, key: &str, value: &Value<'_>) -> Result<bool, SceneError> {
+        match value.get_ref() {
+            DeValue::Boolean(b) => Ok(*b),
+            _ => Err(self.error_at(
+                value.span(),
+                format!("key `{key}` must be true or false, found {}", self.src.describe(value)),
+            )),
+        }
+    }
+}
+
+fn to_vec3(v: [f64; 3]) -> Vec3 {
+    Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn length(a: [f64; 3]) -> f64 {
+    // Scaled so that neither huge nor tiny components overflow or underflow.
+    let m = a[0].abs().max(a[1].abs()).max(a[2].abs());
+    if m == 0.0 || !m.is_finite() {
+        return m;
+    }
+    let s = [a[0] / m, a[1] / m, a[2] / m];
+    m * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
+}
+
+/// Sine of the angle between two non-zero vectors.
+fn sine_between(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (la, lb) = (length(a), length(b));
+    let ua = [a[0] / la, a[1] / la, a[2] / la];
+    let ub = [b[0] / lb, b[1] / lb, b[2] / lb];
+    length(cross(ua, ub))
+}
+
+fn format_vec(v: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", v[0], v[1], v[2])
+}
+
+// ---------------------------------------------------------------------------
+// The scene.
+
+fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
+    let src = Source::new(name, text);
+    let root = DeTable::parse(text).map_err(|e| {
+        let (line, column) = src.line_col(e.span().map_or(0, |s| s.start));
+        SceneError::Syntax { file: name.to_string(), line, column, message: e.message().trim().to_string() }
+    })?;
+    let root = root.get_ref();
+
+    // Unknown top-level keys and tables.
+    for (key, value) in entries_in_order(root) {
+        if !TOP_LEVEL.contains(&key.get_ref().as_ref()) {
+            let what = match value.get_ref() {
+                DeValue::Table(_) => format!("unknown table `[{}]`", key.get_ref()),
+                DeValue::Array(a) if a.iter().all(|e| e.get_ref().is_table()) && !a.is_empty() => {
+                    format!("unknown table `[[{}]]`", key.get_ref())
+                }
+                _ => format!("unknown top-level key `{}`", key.get_ref()),
+            };
+            return Err(src.error(
+                Some(key.span()),
+                format!(
+                    "{what}; expected the tables [camera], [render], [environment], \
+                     [[material]], [[sphere]] and [[quad]]"
+                ),
+            ));
+        }
+    }
+
+    let camera = match root.get("camera") {
+        None => {
+            return Err(src
+                .error(None, "missing table [camera] (it needs position, look_at or direction, and vfov)".to_string()))
+        }
+        Some(v) => parse_camera(&single_table(&src, "camera", v)?)?,
+    };
+    let render = match root.get("render") {
+        None => RenderSettings::default(),
+        Some(v) => parse_render(&single_table(&src, "render", v)?)?,
+    };
+    let environment = match root.get("environment") {
+        None => Vec3::ZERO,
+        Some(v) => parse_environment(&single_table(&src, "environment", v)?)?,
+    };
+
+    // Materials first, so geometry may name materials declared after it.
+    let mut materials: Vec<Material> = Vec::new();
+    let mut name_lines: Vec<usize> = Vec::new();
+    for table in table_array(&src, "material", root.get("material"))? {
+        let (material, name_span) = parse_material(&table, &materials, &name_lines)?;
+        name_lines.push(src.line_col(name_span.start).0);
+        materials.push(material);
+    }
+    if materials.is_empty() {
+        return Err(src.error(None, "the scene defines no material; add at least one [[material]] table".to_string()));
+    }
+
+    let mut spheres = Vec::new();
+    for table in table_array(&src, "sphere", root.get("sphere"))? {
+        spheres.push(parse_sphere(&table, &materials)?);
+    }
+    let mut quads = Vec::new();
+    for table in table_array(&src, "quad", root.get("quad"))? {
+        quads.push(parse_quad(&table, &materials)?);
+    }
+    if spheres.is_empty() && quads.is_empty() {
+        return Err(
+            src.error(None, "the scene has no geometry; add at least one [[sphere]] or [[quad]] table".to_string())
+        );
+    }
+
+    Ok(Scene { source: PathBuf::from("<string>"), camera, render, environment, materials, spheres, quads })
+}
+
+/// `[name]`: one table (a header table or an inline table), not an array of tables.
+fn single_table<'s, 'a, 'i>(
+    src: &'s Source<'a>,
+    name: &str,
+    value: &'s Value<'i>,
+) -> Result<Table<'s, 'a, 'i>, SceneError> {
+    match value.get_ref() {
+        DeValue::Table(table) => {
+            Ok(Table { src, label: format!("[{name}]"), table, span: Some(value.span()).filter(|s| !s.is_empty()) })
+        }
+        _ => Err(src.error(
+            Some(value.span()),
+            format!(
+                "`{name}` must be a single table written [{name}], found {}",
+                if value.get_ref().is_array() {
+                    "an array (written [[...]] or `= [...]`)".to_string()
+                } else {
+                    src.describe(value)
+                }
+            ),
+        )),
+    }
+}
+
+/// `[[name]]`: an array of tables (possibly absent or empty).
+fn table_array<'s, 'a, 'i>(
+    src: &'s Source<'a>,
+    name: &str,
+    value: Option<&'s Value<'i>>,
+) -> Result<Vec<Table<'s, 'a, 'i>>, SceneError> {
+    let Some(value) = value else {
+        return Ok(Vec::new());
+    };
+    let DeValue::Array(array) = value.get_ref() else {
+        return Err(src.error(
+            Some(value.span()),
+            format!(
+                "`{name}` must be an array of tables, each written [[{name}]], found {}",
+                if value.get_ref().is_table() {
+                    format!("a single table (write [[{name}]], not [{name}])")
+                } else {
+                    src.describe(value)
+                }
+            ),
+        ));
+    };
+    let mut tables = Vec::new();
+    for (i, element) in array.iter().enumerate() {
+        let DeValue::Table(table) = element.get_ref() else {
+            return Err(src.error(
+                Some(element.span()),
+                format!("[[{name}]] #{}: must be a table, found {}", i + 1, src.describe(element)),
+            ));
+        };
+        tables.push(Table {
+            src,
+            label: format!("[[{name}]] #{}", i + 1),
+            table,
+            span: Some(element.span()).filter(|s| !s.is_empty()),
+        });
+    }
+    Ok(tables)
+}
+
+fn parse_camera(t: &Table<'_, '_, '_>) -> Result<Camera, SceneError> {
+    t.check_keys(CAMERA_KEYS, "")?;
+    let position = t.point("position", t.required("position", "the eye point, an array [x, y, z]")?)?;
+
+    let look_at = t.get("look_at");
+    let direction = t.get("direction");
+    let (forward, forward_span) = match (look_at, direction) {
+        (Some(a), Some(b)) => {
+            let second = if a.span().start > b.span().start { a } else { b };
+            return Err(t.error_at(second.span(), "give exactly one of `look_at` and `direction`, not both"));
+        }
+        (None, None) => {
+            return Err(t.error_here(
+                "missing key `look_at` or `direction` (exactly one is required: \
+                 the point looked at, or the view direction)",
+            ))
+        }
+        (Some(v), None) => {
+            let target = t.point("look_at", v)?;
+            let d = sub(target, position);
+            if length(d) == 0.0 {
+                return Err(t.error_at(
+                    v.span(),
+                    format!("key `look_at` must differ from `position` {}, found the same point", format_vec(position)),
+                ));
+            }
+            (d, v.span())
+        }
+        (None, Some(v)) => {
+            let d = t.point("direction", v)?;
+            if length(d) == 0.0 {
+                return Err(t.error_at(v.span(), "key `direction` must be a non-zero vector, found [0, 0, 0]"));
+            }
+            (d, v.span())
+        }
+    };
+    let len = length(forward);
+    let forward_unit = [forward[0] / len, forward[1] / len, forward[2] / len];
+
+    let up = match t.get("up") {
+        None => [0.0, 1.0, 0.0],
+        Some(v) => {
+            let up = t.point("up", v)?;
+            if length(up) == 0.0 {
+                return Err(
+                    t.error_at(v.span(), "key `up` must be a non-zero vector (default [0, 1, 0]), found [0, 0, 0]")
+                );
+            }
+            up
+        }
+    };
+    if sine_between(forward_unit, up) < PARALLEL_SINE {
+        let (span, which) = match t.get("up") {
+            Some(v) => (v.span(), format!("`up` {}", t.src.snippet(v.span()))),
+            None => (forward_span, "the default `up` [0, 1, 0]".to_string()),
+        };
+        return Err(t.error_at(
+            span,
+            format!(
+                "the view direction {} is parallel to {which}, which leaves the camera's \
+                 orientation undefined; give an `up` that is not parallel to the view direction",
+                format_vec(forward_unit),
+            ),
+        ));
+    }
+
+    let vfov = t.ranged(
+        "vfov",
+        t.required("vfov", "vertical field of view in degrees, 0 < vfov < 180")?,
+        |x| x > 0.0 && x < 180.0,
+        "a number of degrees with 0 < vfov < 180",
+    )?;
+    let near = match t.get("near") {
+        None => 0.0,
+        Some(v) => t.ranged("near", v, |x| x >= 0.0, "a number >= 0")?,
+    };
+
+    Ok(Camera {
+        position: to_vec3(position),
+        forward: to_vec3(forward_unit).normalize(),
+        up: to_vec3(up),
+        vfov_deg: vfov,
+        near,
+    })
+}
+
+fn parse_render(t: &Table<'_, '_, '_>) -> Result<RenderSettings, SceneError> {
+    t.check_keys(RENDER_KEYS, "")?;
+    let mut r = RenderSettings::default();
+    let max_u32 = i64::from(u32::MAX);
+    if let Some(v) = t.get("width") {
+        r.width = t.integer("width", v, 1, MAX_IMAGE_SIDE, "image width in pixels")?;
+    }
+    if let Some(v) = t.get("height") {
+        r.height = t.integer("height", v, 1, MAX_IMAGE_SIDE, "image height in pixels")?;
+    }
+    if let Some(v) = t.get("spp") {
+        r.spp = t.integer("spp", v, 1, max_u32, "samples per pixel")?;
+    }
+    if let Some(v) = t.get("max_bounces") {
+        r.max_bounces = t.integer("max_bounces", v, 0, MAX_BOUNCES, "scattering events per path")?;
+    }
+    if let Some(v) = t.get("russian_roulette_depth") {
+        r.russian_roulette_depth = Some(t.integer(
+            "russian_roulette_depth",
+            v,
+            0,
+            max_u32,
+            "bounces before Russian roulette may end a path; leave it out to turn it off",
+        )?);
+    }
+    Ok(r)
+}
+
+fn parse_environment(t: &Table<'_, '_, '_>) -> Result<Vec3, SceneError> {
+    t.check_keys(ENVIRONMENT_KEYS, "")?;
+    match t.get("radiance") {
+        None => Ok(Vec3::ZERO),
+        Some(v) => Ok(to_vec3(t.vec3("radiance", v, |x| x >= 0.0, ">= 0")?)),
+    }
+}
+
+/// Returns the material and the span of its name (for duplicate messages).
+fn parse_material(
+    t: &Table<'_, '_, '_>,
+    defined: &[Material],
+    defined_lines: &[usize],
+) -> Result<(Material, Range<usize>), SceneError> {
+    let name_value = t.required("name", "a unique, non-empty string naming the material")?;
+    let name = t.string("name", name_value, "a non-empty string")?;
+    if name.is_empty() {
+        return Err(t.error_at(name_value.span(), "key `name` must be a non-empty string, found \"\""));
+    }
+    if let Some(i) = defined.iter().position(|m| m.name == name) {
+        return Err(t.error_at(
+            name_value.span(),
+            format!(
+                "duplicate material name \"{name}\" (already defined on line {}); \
+                 material names must be unique",
+                defined_lines[i]
+            ),
+        ));
+    }
+    let t = Table { src: t.src, label: format!("[[material]] \"{name}\""), table: t.table, span: t.span.clone() };
+
+    let types = MATERIAL_TYPES.join(", ");
+    let type_value = t.required("type", &format!("one of {types}"))?;
+    let kind = match t.string("type", type_value, &format!("one of {types}"))? {
+        "diffuse" => MaterialKind::Diffuse,
+        "specular" => MaterialKind::Specular,
+        "glossy" => MaterialKind::Glossy,
+        "dielectric" => MaterialKind::Dielectric,
+        "emissive" => MaterialKind::Emissive,
+        other => {
+            return Err(t.error_at(type_value.span(), format!("key `type` must be one of {types}, found \"{other}\"")))
+        }
+    };
+    let ty = type_name(kind);
+    t.check_keys(material_keys(kind), &format!(" for a material of type \"{ty}\""))?;
+
+    let albedo = |hint: &str| -> Result<Vec3, SceneError> {
+        let v = t.required("albedo", hint)?;
+        Ok(to_vec3(t.vec3("albedo", v, |x| (0.0..=1.0).contains(&x), "in [0, 1]")?))
+    };
+    let emission = match t.get("emission") {
+        None => None,
+        Some(v) => Some(to_vec3(t.vec3("emission", v, |x| x >= 0.0, ">= 0")?)),
+    };
+    let mut material = Material {
+        name: name.to_string(),
+        kind,
+        albedo: Vec3::ZERO,
+        roughness: 1.0,
+        ior: 1.0,
+        emission: emission.unwrap_or(Vec3::ZERO),
+        two_sided: match t.get("two_sided") {
+            None => false,
+            Some(v) => t.boolean("two_sided", v)?,
+        },
+    };
+    match kind {
+        MaterialKind::Diffuse => {
+            material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
+        }
+        MaterialKind::Specular => {
+            material.albedo = albedo("mirror reflectance [r, g, b], components in [0, 1]")?;
+        }
+        MaterialKind::Glossy => {
+            material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
+            material.roughness = t.ranged(
+                "roughness",
+                t.required("roughness", "GGX roughness, a number in (0, 1]")?,
+                |x| x > 0.0 && x <= 1.0,
+                "a number in (0, 1] (0 < roughness <= 1)",
+            )?;
+        }
+        MaterialKind::Dielectric => {
+            material.ior = t.ranged(
+                "ior",
+                t.required("ior", "index of refraction, a number >= 1")?,
+                |x| x >= 1.0,
+                "a number >= 1",
+            )?;
+            material.albedo = match t.get("albedo") {
+                None => Vec3::ONE,
+                Some(v) => to_vec3(t.vec3("albedo", v, |x| (0.0..=1.0).contains(&x), "in [0, 1]")?),
+            };
+        }
+        MaterialKind::Emissive => {
+            if emission.is_none() {
+                return Err(t.error_here("missing key `emission` (emitted radiance [r, g, b], components >= 0)"));
+            }
+        }
+    }
+    Ok((material, name_value.span()))
+}
+
+fn material_index(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<u32, SceneError> {
+    let v = t.required("material", "the name of a [[material]]")?;
+    let name = t.string("material", v, "the name of a [[material]]")?;
+    match materials.iter().position(|m| m.name == name) {
+        Some(i) => Ok(i as u32),
+        None => {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            Err(t.error_at(v.span(), format!("material \"{name}\" is not defined (defined: {})", names.join(", "))))
+        }
+    }
+}
+
+fn parse_sphere(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<Sphere, SceneError> {
+    t.check_keys(SPHERE_KEYS, "")?;
+    let center = t.point("center", t.required("center", "an array [x, y, z]")?)?;
+    let radius_value = t.required("radius", "a number > 0")?;
+    let radius = t.ranged("radius", radius_value, |x| x > 0.0, "a number > 0")?;
+    if !(radius * radius).is_finite() || radius * radius == 0.0 {
+        return Err(t.error_at(
+            radius_value.span(),
+            format!(
+                "key `radius` must be a number > 0 whose square fits a 32-bit float \
+                 (about 1e-19 to 1e19), found {}",
+                t.src.snippet(radius_value.span())
+            ),
+        ));
+    }
+    let material = material_index(t, materials)?;
+    Ok(Sphere { center: to_vec3(center), radius, material })
+}
+
+fn parse_quad(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<Quad, SceneError> {
+    t.check_keys(QUAD_KEYS, "")?;
+    let origin = t.point("origin", t.required("origin", "a corner, an array [x, y, z]")?)?;
+    let mut edges = [[0.0; 3]; 2];
+    for (i, key) in ["edge_u", "edge_v"].into_iter().enumerate() {
+        let v = t.required(key, "an edge vector [x, y, z] from `origin`")?;
+        edges[i] = t.point(key, v)?;
+        if length(edges[i]) == 0.0 {
+            return Err(t.error_at(v.span(), format!("key `{key}` must be a non-zero vector, found [0, 0, 0]")));
+        }
+    }
+    let [u, v] = edges;
+    let (u32_, v32) = (to_vec3(u), to_vec3(v));
+    let area32 = u32_.cross(v32).length();
+    if sine_between(u, v) < PARALLEL_SINE || !area32.is_finite() || area32 == 0.0 {
+        let span = t.get("edge_v").map_or(0..0, |v| v.span());
+        return Err(t.error_at(
+            span,
+            format!(
+                "the quad is degenerate: `edge_u` {} and `edge_v` {} are parallel or \
+                 their area does not fit a 32-bit float; give two non-parallel edges",
+                format_vec(u),
+                format_vec(v)
+            ),
+        ));
+    }
+    let material = material_index(t, materials)?;
+    Ok(Quad { origin: to_vec3(origin), edge_u: u32_, edge_v: v32, material })
+}

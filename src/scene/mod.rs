@@ -1,0 +1,115 @@
+//! Scenes: the TOML format of `SCENE_FORMAT.md`, its validation, and the
+//! in-memory [`Scene`] both renderers read.
+//!
+//! Everything here is validated: a `Scene` that exists is renderable
+//! (finite numbers, values in range, material indices in bounds).
+
+mod load;
+
+use glam::Vec3;
+use std::path::PathBuf;
+
+pub use load::SceneError;
+
+/// Pinhole camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye point.
+    pub position: Vec3,
+    /// Unit view direction (from `direction`, or `look_at - position`).
+    pub forward: Vec3,
+    /// The `up` hint as written (default +y); not necessarily orthogonal to `forward`.
+    pub up: Vec3,
+    /// Vertical field of view in degrees, 0 < vfov < 180.
+    pub vfov_deg: f32,
+    /// Primary rays start this far from the eye along the ray (spherical near clip).
+    pub near: f32,
+}
+
+/// The `[render]` table, defaults filled in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub max_bounces: u32,
+    /// Bounce count after which Russian roulette may end a path; `None` = off.
+    pub russian_roulette_depth: Option<u32>,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self { width: 640, height: 480, spp: 64, max_bounces: 8, russian_roulette_depth: None }
+    }
+}
+
+/// Material types; the discriminants are the values the GPU sees (`glsl/common.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum MaterialKind {
+    Diffuse = 0,
+    Specular = 1,
+    Glossy = 2,
+    Dielectric = 3,
+    Emissive = 4,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub kind: MaterialKind,
+    /// Reflectance in [0,1]^3 (diffuse, specular, glossy, dielectric; zero for emissive).
+    pub albedo: Vec3,
+    /// GGX roughness in (0,1] for glossy (alpha = roughness^2); 1 otherwise.
+    pub roughness: f32,
+    /// Index of refraction >= 1 for dielectric; 1 otherwise.
+    pub ior: f32,
+    /// Emitted radiance, components >= 0 and finite.
+    pub emission: Vec3,
+    /// Emission leaves both sides (default: the front side only).
+    pub two_sided: bool,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+}
+
+/// The parallelogram `origin + s*edge_u + t*edge_v`, s,t in [0,1];
+/// front side = direction of `edge_u x edge_v`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Quad {
+    pub origin: Vec3,
+    pub edge_u: Vec3,
+    pub edge_v: Vec3,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Where the scene was loaded from (for messages); `<string>` when parsed from text.
+    pub source: PathBuf,
+    pub camera: Camera,
+    pub render: RenderSettings,
+    /// Uniform environment radiance (default black).
+    pub environment: Vec3,
+    pub materials: Vec<Material>,
+    pub spheres: Vec<Sphere>,
+    pub quads: Vec<Quad>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file.
+    pub fn load(path: impl AsRef<std::path::Path>) -> Result<Scene, SceneError> {
+        load::load_file(path.as_ref())
+    }
+
+    /// Parses and validates scene text; `name` is used in error messages in place of a path.
+    pub fn parse(text: &str, name: &str) -> Result<Scene, SceneError> {
+        load::parse_str(text, name)
+    }
+}

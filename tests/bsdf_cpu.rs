@@ -1,0 +1,156 @@
+//! Sampling tests of the Rust BSDFs and light sampler: chi-square of every
+//! continuous `sample`/`pdf` pair, and exact checks of the delta lobes.
+
+use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
+use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, fresnel_dielectric, Bsdf};
+use rlpt::math::rng::Rng;
+use rlpt::math::Vec3;
+use rlpt::scene::MaterialKind;
+
+fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+}
+
+fn continuous_cases() -> Vec<(Bsdf, Vec3)> {
+    let glossy = |r: f32| Bsdf { kind: MaterialKind::Glossy, albedo: Vec3::new(0.9, 0.6, 0.5), alpha: r * r, ior: 1.0 };
+    let diffuse = Bsdf { kind: MaterialKind::Diffuse, albedo: Vec3::new(0.7, 0.5, 0.3), alpha: 1.0, ior: 1.0 };
+    vec![
+        (diffuse, dir(0.0, 0.0)),
+        (diffuse, dir(60.0, 30.0)),
+        (glossy(0.2), dir(20.0, 10.0)),
+        (glossy(0.3), dir(75.0, 200.0)),
+        (glossy(0.5), dir(45.0, 90.0)),
+        (glossy(0.8), dir(5.0, 0.0)),
+        (glossy(1.0), dir(85.0, 300.0)),
+    ]
+}
+
+#[test]
+fn continuous_bsdfs_sample_their_pdf() {
+    let cases = continuous_cases();
+    let significance = sidak(0.01, cases.len());
+    for (i, (b, wo)) in cases.iter().enumerate() {
+        let mut rng = Rng::new(1, i as u32, 0, 0);
+        let samples: Vec<Option<[f64; 3]>> = (0..1_000_000)
+            .map(|_| {
+                let uc = rng.next_f32();
+                let u = rng.next_2d();
+                bsdf_sample(b, *wo, uc, u).map(|s| [s.wi.x as f64, s.wi.y as f64, s.wi.z as f64])
+            })
+            .collect();
+        let (b2, w) = (*b, *wo);
+        let pdf = move |d: [f64; 3]| bsdf_pdf(&b2, w, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
+        let r = chi2_sphere(&samples, pdf, &Chi2Options::default());
+        assert!(r.passed(significance), "{b:?} wo={wo:?}: {r:?}");
+    }
+}
+
+#[test]
+fn sample_weight_is_f_cos_over_pdf() {
+    for (i, (b, wo)) in continuous_cases().iter().enumerate() {
+        let mut rng = Rng::new(2, i as u32, 0, 0);
+        for _ in 0..10_000 {
+            let Some(s) = bsdf_sample(b, *wo, rng.next_f32(), rng.next_2d()) else { continue };
+            let f = bsdf_eval(b, *wo, s.wi);
+            let pdf = bsdf_pdf(b, *wo, s.wi);
+            assert!((pdf - s.pdf).abs() <= 1e-3 * pdf.max(1e-3), "{b:?}: pdf {} vs sampled {}", pdf, s.pdf);
+            let expect = f * s.wi.z / pdf;
+            assert!(
+                (expect - s.weight).abs().max_element() <= 2e-3 * expect.max_element().max(1.0),
+                "{b:?}: weight {:?} vs {:?}",
+                s.weight,
+                expect
+            );
+        }
+    }
+}
+
+#[test]
+fn reflectance_never_exceeds_albedo() {
+    // Energy: the directional albedo (mean of the sample weights) is at most the albedo.
+    for (i, (b, wo)) in continuous_cases().iter().enumerate() {
+        let mut rng = Rng::new(3, i as u32, 0, 0);
+        let n = 200_000;
+        let mut sum = glam::DVec3::ZERO;
+        for _ in 0..n {
+            if let Some(s) = bsdf_sample(b, *wo, rng.next_f32(), rng.next_2d()) {
+                sum += s.weight.as_dvec3();
+            }
+        }
+        let albedo = sum / n as f64;
+        assert!(albedo.x <= b.albedo.x as f64 * 1.005, "{b:?} wo={wo:?}: directional albedo {albedo:?}");
+        if b.kind == MaterialKind::Diffuse {
+            assert!(
+                (albedo - b.albedo.as_dvec3()).abs().max_element() < 1e-9,
+                "Lambertian importance sampling is exact: {albedo:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn mirror_reflects_exactly() {
+    let b = Bsdf { kind: MaterialKind::Specular, albedo: Vec3::splat(0.8), alpha: 1.0, ior: 1.0 };
+    let wo = dir(40.0, 70.0);
+    let s = bsdf_sample(&b, wo, 0.3, [0.2, 0.9]).unwrap();
+    assert!(s.delta);
+    assert!((s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+    assert_eq!(s.weight, Vec3::splat(0.8));
+    assert_eq!(bsdf_eval(&b, wo, s.wi), Vec3::ZERO, "delta lobes cannot be evaluated");
+    assert_eq!(bsdf_pdf(&b, wo, s.wi), 0.0);
+}
+
+#[test]
+fn fresnel_has_known_values() {
+    // Normal incidence: ((n-1)/(n+1))^2 = 0.04 for n = 1.5.
+    assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+    assert!((fresnel_dielectric(-1.0, 1.5) - 0.04).abs() < 1e-6);
+    // Grazing: total reflection.
+    assert!((fresnel_dielectric(1e-6, 1.5) - 1.0).abs() < 1e-3);
+    // Inside glass beyond the critical angle asin(1/1.5) = 41.8 degrees: total internal reflection.
+    assert_eq!(fresnel_dielectric(-(45f32.to_radians().cos()), 1.5), 1.0);
+    // Brewster's angle atan(1.5): the parallel part vanishes, R = r_perp^2 / 2.
+    let tb = 1.5f32.atan();
+    let (ci, ct) = (tb.cos(), (std::f32::consts::FRAC_PI_2 - tb).cos());
+    let r_perp = (ci - 1.5 * ct) / (ci + 1.5 * ct);
+    assert!((fresnel_dielectric(ci, 1.5) - 0.5 * r_perp * r_perp).abs() < 1e-5);
+}
+
+#[test]
+fn dielectric_chooses_lobes_by_fresnel_and_obeys_snell() {
+    let b = Bsdf { kind: MaterialKind::Dielectric, albedo: Vec3::ONE, alpha: 1.0, ior: 1.5 };
+    for (theta, outside) in [(30.0f32, true), (70.0, true), (20.0, false), (60.0, false)] {
+        let mut wo = dir(theta, 25.0);
+        if !outside {
+            wo.z = -wo.z;
+        }
+        let f = fresnel_dielectric(wo.z, 1.5);
+        let n = 200_000;
+        let mut rng = Rng::new(4, theta as u32, 0, 0);
+        let mut reflected = 0;
+        for _ in 0..n {
+            let s = bsdf_sample(&b, wo, rng.next_f32(), rng.next_2d()).expect("a smooth dielectric never absorbs");
+            assert!(s.delta);
+            if s.wi.z * wo.z > 0.0 {
+                reflected += 1;
+                assert!((s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-5);
+            } else {
+                // Snell: eta_i sin_i = eta_t sin_t, and the refracted ray lies in the plane of incidence.
+                let (eta_i, eta_t) = if outside { (1.0, 1.5) } else { (1.5, 1.0) };
+                let sin_i = (1.0 - wo.z * wo.z).sqrt();
+                let sin_t = (1.0 - s.wi.z * s.wi.z).sqrt();
+                assert!((eta_i * sin_i - eta_t * sin_t).abs() < 1e-4);
+                assert!((s.wi.x * wo.y - s.wi.y * wo.x).abs() < 1e-5);
+                assert!(
+                    (s.weight - Vec3::splat((eta_i / eta_t) * (eta_i / eta_t))).length() < 1e-5,
+                    "radiance scaling 1/eta^2"
+                );
+            }
+        }
+        // Binomial: reflected fraction within 5 sigma of F.
+        let p = reflected as f64 / n as f64;
+        let sigma = (f as f64 * (1.0 - f as f64) / n as f64).sqrt().max(1e-9);
+        assert!((p - f as f64).abs() < 5.0 * sigma + 1e-12, "theta {theta}: reflected {p} vs Fresnel {f}");
+    }
+}

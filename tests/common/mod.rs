@@ -1,0 +1,131 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use rlpt::film::Film;
+use rlpt::gpu::{Context, ContextOptions};
+use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::render::GpuRenderer;
+use rlpt::scene::Scene;
+use std::sync::Arc;
+
+/// A GPU context with the Khronos validation layer on (tests fail if it is missing).
+pub fn gpu() -> Arc<Context> {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    Context::new(&ContextOptions { gpu: None, validation: true })
+        .expect("a Vulkan device (lavapipe: apt install mesa-vulkan-drivers) and the validation layer")
+}
+
+/// Asserts the validation layer said nothing on `ctx` so far.
+pub fn assert_no_validation_messages(ctx: &Context) {
+    assert!(ctx.validation_enabled());
+    assert_eq!(ctx.validation_messages(), 0, "the validation layer reported problems (see stderr)");
+}
+
+pub fn scene(name: &str) -> Scene {
+    Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("shipped scene loads")
+}
+
+/// Render options for a test: the scene's settings at a small size.
+pub fn options(scene: &Scene, width: u32, height: u32, spp: u32) -> RenderOptions {
+    let mut o = RenderOptions::from_scene(scene);
+    o.width = width;
+    o.height = height;
+    o.spp = spp;
+    o
+}
+
+pub fn render_gpu(ctx: &Arc<Context>, scene: &Scene, opts: &RenderOptions) -> Film {
+    let prepared = PreparedScene::new(scene, opts);
+    let mut r = GpuRenderer::new(ctx, &prepared).expect("renderer");
+    r.render_frames(opts.frames()).expect("render");
+    let film = r.film().expect("readback");
+    assert_no_validation_messages(ctx);
+    film
+}
+
+pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Film {
+    let prepared = PreparedScene::new(scene, opts);
+    let mut film = Film::new(opts.width, opts.height);
+    rlpt::cpu::render(&prepared, &mut film, opts.frames(), |_| {});
+    film
+}
+
+/// Mean and variance of the mean of channel-averaged radiance over the pixels
+/// for which `select(x, y)` holds, from the film's per-pixel variance estimates,
+/// with the f32 rounding bound ([`rounding_bound`]) added as a deviation.
+pub fn region_stats(film: &Film, select: impl Fn(u32, u32) -> bool) -> (f64, f64, usize) {
+    let mean = film.mean();
+    let var = film.variance_of_mean().expect("at least two frames");
+    let (mut s, mut v, mut r, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    for y in 0..film.height {
+        for x in 0..film.width {
+            if select(x, y) {
+                let i = (y * film.width + x) as usize;
+                let m = mean.pixels[i];
+                let q = var.pixels[i];
+                s += (m[0] + m[1] + m[2]) as f64 / 3.0;
+                // Channels of one pixel are correlated: bound the variance of their average by the average deviation squared.
+                let sd = (q[0].sqrt() + q[1].sqrt() + q[2].sqrt()) as f64 / 3.0;
+                v += sd * sd;
+                r += rounding_bound(film, (m[0] + m[1] + m[2]) / 3.0);
+                n += 1;
+            }
+        }
+    }
+    assert!(n > 0, "empty region");
+    let n_f = n as f64;
+    (s / n_f, v / (n_f * n_f) + (r / n_f) * (r / n_f), n)
+}
+
+/// Bound on the f32 rounding error of a pixel mean of `film`: a recursive sum of n
+/// non-negative terms is off by at most (n - 1) u times their sum, u = 2^-24
+/// (Higham, "Accuracy and Stability of Numerical Algorithms", 4.2). The 64
+/// samples of a frame are summed first (at most 63 additions on the CPU, 6
+/// levels on the GPU), then F frames. Where the estimator has (almost) no
+/// variance, as in the closed furnace, this is the only difference two correct
+/// renderers can show.
+pub fn rounding_bound(film: &Film, mean: f32) -> f64 {
+    let u = f32::EPSILON as f64 / 2.0;
+    (63.0 + film.frames as f64) * u * mean.abs() as f64
+}
+
+/// Compares two films block by block (blocks of `block` x `block` pixels, each
+/// channel): every difference of block means must lie within `k` standard
+/// deviations, the deviation estimated from both films' per-pixel variances,
+/// plus their f32 rounding bounds ([`rounding_bound`]). Returns the largest |z| seen.
+pub fn assert_films_agree(a: &Film, b: &Film, block: u32, k: f64, what: &str) -> f64 {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let (ma, mb) = (a.mean(), b.mean());
+    let (va, vb) = (a.variance_of_mean().unwrap(), b.variance_of_mean().unwrap());
+    let mut worst = 0.0f64;
+    for by in (0..a.height).step_by(block as usize) {
+        for bx in (0..a.width).step_by(block as usize) {
+            for c in 0..3 {
+                let (mut d, mut v, mut r, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+                for y in by..(by + block).min(a.height) {
+                    for x in bx..(bx + block).min(a.width) {
+                        let i = (y * a.width + x) as usize;
+                        d += ma.pixels[i][c] as f64 - mb.pixels[i][c] as f64;
+                        v += va.pixels[i][c] as f64 + vb.pixels[i][c] as f64;
+                        r += rounding_bound(a, ma.pixels[i][c]) + rounding_bound(b, mb.pixels[i][c]);
+                        n += 1.0;
+                    }
+                }
+                let (d, v) = (d / n, v / (n * n) + (r / n) * (r / n));
+                if v == 0.0 {
+                    assert!(d.abs() < 1e-6, "{what}: block ({bx},{by}) channel {c} differs by {d} with no noise");
+                    continue;
+                }
+                let z = d / v.sqrt();
+                worst = worst.max(z.abs());
+                assert!(
+                    z.abs() < k,
+                    "{what}: block at ({bx},{by}) channel {c} differs by {d:.5} = {z:.2} sigma (limit {k})"
+                );
+            }
+        }
+    }
+    worst
+}

@@ -1,0 +1,301 @@
+//! Probe kernels: the subgroup reduction, the GPU/host struct layout, and the
+//! GLSL BSDFs against their Rust twins (and a chi-square test of the GLSL sampler).
+
+mod common;
+
+use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
+use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
+use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
+use rlpt::math::rng::Rng;
+use rlpt::math::Vec3;
+use rlpt::prepared::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
+use rlpt::scene::MaterialKind;
+use rlpt::shared;
+
+fn readback(ctx: &std::sync::Arc<rlpt::gpu::Context>, src: &Buffer) -> Vec<u8> {
+    let rb = Buffer::new(ctx, "probe readback", src.size, BufferUsage::Readback).unwrap();
+    ctx.run_commands("probe readback", |cmd| {
+        ctx.barrier(cmd);
+        src.cmd_copy_to(cmd, &rb);
+    })
+    .unwrap();
+    rb.read().to_vec()
+}
+
+#[test]
+fn reduction_sums_64_samples_exactly_on_this_subgroup_size() {
+    let ctx = common::gpu();
+    let groups = 37u32;
+    let group_size = shared::SAMPLES_PER_FRAME * shared::PIXELS_PER_GROUP;
+    // Small integers and halves: every partial sum is exact in f32, whatever the order.
+    let values: Vec<[f32; 4]> = (0..groups * group_size)
+        .map(|i| {
+            let h = rlpt::math::rng::pcg_hash(i);
+            [(h % 1000) as f32, ((h >> 10) % 512) as f32 * 0.5, -(((h >> 20) % 100) as f32), 0.0]
+        })
+        .collect();
+    let input = Buffer::with_data(&ctx, "reduce inputs", bytemuck::cast_slice(&values), false).unwrap();
+    let pixels = (groups * shared::PIXELS_PER_GROUP) as u64;
+    let sums = Buffer::new(&ctx, "reduce sums", pixels * 16, BufferUsage::Storage).unwrap();
+    let info = Buffer::new(&ctx, "reduce info", 16, BufferUsage::Storage).unwrap();
+    let p = Pipeline::new(&ctx, "probe_reduce", shader("probe_reduce"), &[Binding::Storage; 3], 0).unwrap();
+    p.bind(&[&input, &sums, &info]);
+    ctx.run_commands("probe reduce", |cmd| {
+        info.cmd_clear(cmd);
+        ctx.barrier(cmd);
+        p.cmd_dispatch(cmd, [groups, 1, 1], &[]);
+    })
+    .unwrap();
+    let got: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &sums));
+    let info: Vec<u32> = bytemuck::pod_collect_to_vec(&readback(&ctx, &info));
+    assert_eq!(info[0], ctx.info.subgroup_size, "kernel and device agree on the subgroup size");
+    assert_eq!(info[1], 0, "subgroups are runs of consecutive invocation indices");
+    for (px, s) in got.iter().enumerate() {
+        let mut want = [0.0f32; 3];
+        for v in &values[px * 64..px * 64 + 64] {
+            for c in 0..3 {
+                want[c] += v[c];
+            }
+        }
+        assert_eq!(&s[..3], &want[..], "pixel {px} (subgroup size {})", ctx.info.subgroup_size);
+    }
+    common::assert_no_validation_messages(&ctx);
+}
+
+#[test]
+fn struct_layout_matches_the_rust_mirrors() {
+    let ctx = common::gpu();
+    // Distinct values in every field of element 1 of each array.
+    let mut k = 0.0f32;
+    let mut next = || {
+        k += 1.0;
+        k
+    };
+    let mut v4 = || [next(), next(), next(), next()];
+    let mat = GpuMaterial { albedo_roughness: v4(), emission_ior: v4(), kind: 101, two_sided: 102, pad: [0; 2] };
+    let sph = GpuSphere { center_radius: v4(), material: 201, light: 202, pad: [0; 2] };
+    let quad = GpuQuad {
+        origin: v4(),
+        edge_u: v4(),
+        edge_v: v4(),
+        normal: v4(),
+        dual_u: v4(),
+        dual_v: v4(),
+        material: 301,
+        light: 302,
+        pad: [0; 2],
+    };
+    let light = GpuLight { kind: 401, index: 402, pmf: 0.25, cdf: 0.75 };
+    let params = RenderParams {
+        cam_position_near: v4(),
+        cam_forward_tan: v4(),
+        cam_right_aspect: v4(),
+        cam_up: v4(),
+        environment: v4(),
+        width: 501,
+        height: 502,
+        max_bounces: 503,
+        rr_depth: 504,
+        num_spheres: 505,
+        num_quads: 506,
+        num_lights: 507,
+        flags: 508,
+        seed: 509,
+        pad: [0; 3],
+    };
+    let bufs = [
+        Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),
+        Buffer::with_data(&ctx, "materials", bytemuck::cast_slice(&[GpuMaterial::default(), mat]), false).unwrap(),
+        Buffer::with_data(&ctx, "spheres", bytemuck::cast_slice(&[GpuSphere::default(), sph]), false).unwrap(),
+        Buffer::with_data(&ctx, "quads", bytemuck::cast_slice(&[GpuQuad::default(), quad]), false).unwrap(),
+        Buffer::with_data(&ctx, "lights", bytemuck::cast_slice(&[GpuLight::default(), light]), false).unwrap(),
+    ];
+    let out = Buffer::new(&ctx, "layout out", 4 * 128, BufferUsage::Storage).unwrap();
+    let p = Pipeline::new(
+        &ctx,
+        "probe_layout",
+        shader("probe_layout"),
+        &[Binding::Uniform, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage],
+        0,
+    )
+    .unwrap();
+    p.bind(&[&bufs[0], &bufs[1], &bufs[2], &bufs[3], &bufs[4], &out]);
+    ctx.run_commands("probe layout", |cmd| p.cmd_dispatch(cmd, [1, 1, 1], &[])).unwrap();
+    let got: Vec<u32> = bytemuck::pod_collect_to_vec(&readback(&ctx, &out));
+
+    let f = |v: [f32; 4]| v.map(f32::to_bits).to_vec();
+    let mut want = Vec::new();
+    want.extend(f(mat.albedo_roughness));
+    want.extend(f(mat.emission_ior));
+    want.extend([mat.kind, mat.two_sided]);
+    want.extend(f(sph.center_radius));
+    want.extend([sph.material, sph.light]);
+    for v in [quad.origin, quad.edge_u, quad.edge_v, quad.normal, quad.dual_u, quad.dual_v] {
+        want.extend(f(v));
+    }
+    want.extend([quad.material, quad.light]);
+    want.extend([light.kind, light.index, light.pmf.to_bits(), light.cdf.to_bits()]);
+    for v in
+        [params.cam_position_near, params.cam_forward_tan, params.cam_right_aspect, params.cam_up, params.environment]
+    {
+        want.extend(f(v));
+    }
+    want.extend([
+        params.width,
+        params.height,
+        params.max_bounces,
+        params.rr_depth,
+        params.num_spheres,
+        params.num_quads,
+        params.num_lights,
+        params.flags,
+        params.seed,
+    ]);
+    assert_eq!(&got[..want.len()], &want[..]);
+    common::assert_no_validation_messages(&ctx);
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct BsdfPush {
+    albedo: [f32; 4],
+    wo: [f32; 4],
+    kind: u32,
+    mode: u32,
+    alpha: f32,
+    ior: f32,
+    count: u32,
+    pad: [u32; 3],
+}
+
+/// Runs probe_bsdf.comp in `mode` on `inputs`; returns two vec4 per input.
+fn run_bsdf_probe(
+    ctx: &std::sync::Arc<rlpt::gpu::Context>,
+    b: &Bsdf,
+    wo: Vec3,
+    mode: u32,
+    inputs: &[[f32; 4]],
+) -> Vec<[f32; 4]> {
+    let input = Buffer::with_data(ctx, "bsdf inputs", bytemuck::cast_slice(inputs), false).unwrap();
+    let output = Buffer::new(ctx, "bsdf outputs", inputs.len() as u64 * 32, BufferUsage::Storage).unwrap();
+    let p = Pipeline::new(ctx, "probe_bsdf", shader("probe_bsdf"), &[Binding::Storage; 2], 64).unwrap();
+    p.bind(&[&input, &output]);
+    let push = BsdfPush {
+        albedo: [b.albedo.x, b.albedo.y, b.albedo.z, 0.0],
+        wo: [wo.x, wo.y, wo.z, 0.0],
+        kind: b.kind as u32,
+        mode,
+        alpha: b.alpha,
+        ior: b.ior,
+        count: inputs.len() as u32,
+        pad: [0; 3],
+    };
+    ctx.run_commands("probe bsdf", |cmd| {
+        p.cmd_dispatch(cmd, [(inputs.len() as u32).div_ceil(64), 1, 1], bytemuck::bytes_of(&push))
+    })
+    .unwrap();
+    bytemuck::pod_collect_to_vec(&readback(ctx, &output))
+}
+
+fn test_bsdfs() -> Vec<(Bsdf, Vec3)> {
+    let wo = |theta_deg: f32| {
+        let t = theta_deg.to_radians();
+        Vec3::new(t.sin() * 0.6, t.sin() * 0.8, t.cos())
+    };
+    let glossy = |r: f32| Bsdf { kind: MaterialKind::Glossy, albedo: Vec3::new(0.9, 0.6, 0.5), alpha: r * r, ior: 1.0 };
+    vec![
+        (Bsdf { kind: MaterialKind::Diffuse, albedo: Vec3::new(0.7, 0.5, 0.3), alpha: 1.0, ior: 1.0 }, wo(30.0)),
+        (glossy(0.3), wo(10.0)),
+        (glossy(0.3), wo(70.0)),
+        (glossy(0.6), wo(45.0)),
+        (glossy(1.0), wo(80.0)),
+    ]
+}
+
+#[test]
+fn glsl_bsdfs_match_rust_and_sample_their_pdf() {
+    let ctx = common::gpu();
+    let n = 400_000usize;
+    let cases = test_bsdfs();
+    let alpha = sidak(0.01, cases.len());
+    for (b, wo) in &cases {
+        let mut rng = Rng::new(7, b.kind as u32, (b.alpha * 1000.0) as u32, (wo.z * 1000.0) as u32);
+        let inputs: Vec<[f32; 4]> = (0..n).map(|_| [rng.next_f32(), rng.next_f32(), rng.next_f32(), 0.0]).collect();
+        let out = run_bsdf_probe(&ctx, b, *wo, 0, &inputs);
+        let mut samples = Vec::with_capacity(n);
+        let mut mismatches = 0;
+        for (i, x) in inputs.iter().enumerate() {
+            let (g_dir, g_w) = (out[2 * i], out[2 * i + 1]);
+            let cpu = bsdf_sample(b, *wo, x[0], [x[1], x[2]]);
+            assert_eq!(cpu.is_some(), g_dir[3] == 1.0, "{b:?}: GPU and CPU disagree on success for input {x:?}");
+            if let Some(s) = cpu {
+                let gw = Vec3::new(g_dir[0], g_dir[1], g_dir[2]);
+                if (gw - s.wi).length() > 1e-3 || (g_w[3] - s.pdf).abs() > 1e-3 * s.pdf.max(1.0) {
+                    mismatches += 1;
+                }
+                samples.push(Some([gw.x as f64, gw.y as f64, gw.z as f64]));
+            } else {
+                samples.push(None);
+            }
+        }
+        // A handful of grazing samples may round differently in the two implementations.
+        assert!(mismatches <= n / 10_000, "{b:?}: {mismatches} GLSL samples differ from the Rust ones");
+        let b2 = *b;
+        let w = *wo;
+        let pdf = move |d: [f64; 3]| bsdf_pdf(&b2, w, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
+        let r = chi2_sphere(&samples, pdf, &Chi2Options::default());
+        assert!(r.passed(alpha), "GLSL sampler of {b:?} wo={wo:?} fails chi-square: {r:?}");
+
+        // eval and pdf agree pointwise.
+        let dirs: Vec<[f32; 4]> = (0..4096)
+            .map(|_| {
+                let d = rlpt::math::sampling::uniform_sphere(rng.next_2d());
+                [d.x, d.y, d.z, 0.0]
+            })
+            .collect();
+        let ev = run_bsdf_probe(&ctx, b, *wo, 1, &dirs);
+        for (i, d) in dirs.iter().enumerate() {
+            let wi = Vec3::new(d[0], d[1], d[2]);
+            let f = bsdf_eval(b, *wo, wi);
+            let p = bsdf_pdf(b, *wo, wi);
+            let g = ev[2 * i];
+            let tol = |x: f32| 1e-4 * x.abs().max(1.0);
+            assert!(
+                (g[0] - f.x).abs() <= tol(f.x) && (g[3] - p).abs() <= tol(p),
+                "{b:?} at {wi:?}: GPU f={g:?}, CPU f={f:?} pdf={p}"
+            );
+        }
+    }
+    common::assert_no_validation_messages(&ctx);
+}
+
+#[test]
+fn glsl_dielectric_and_mirror_match_rust() {
+    let ctx = common::gpu();
+    let cases = [
+        (
+            Bsdf { kind: MaterialKind::Dielectric, albedo: Vec3::ONE, alpha: 1.0, ior: 1.5 },
+            Vec3::new(0.3, 0.4, 0.866).normalize(),
+        ),
+        (Bsdf { kind: MaterialKind::Dielectric, albedo: Vec3::ONE, alpha: 1.0, ior: 1.5 }, Vec3::new(0.6, 0.0, -0.8)),
+        (
+            Bsdf { kind: MaterialKind::Specular, albedo: Vec3::splat(0.9), alpha: 1.0, ior: 1.0 },
+            Vec3::new(0.6, 0.0, 0.8),
+        ),
+    ];
+    for (b, wo) in cases {
+        let inputs: Vec<[f32; 4]> = (0..1000).map(|i| [i as f32 / 1000.0, 0.5, 0.5, 0.0]).collect();
+        let out = run_bsdf_probe(&ctx, &b, wo, 0, &inputs);
+        for (i, x) in inputs.iter().enumerate() {
+            let cpu = bsdf_sample(&b, wo, x[0], [x[1], x[2]]);
+            let g = out[2 * i];
+            assert_eq!(cpu.is_some(), g[3] == 1.0);
+            if let Some(s) = cpu {
+                assert!((Vec3::new(g[0], g[1], g[2]) - s.wi).length() < 1e-5, "{b:?}: direction");
+                let gw = out[2 * i + 1];
+                assert!((Vec3::new(gw[0], gw[1], gw[2]) - s.weight).length() < 1e-5, "{b:?}: weight");
+            }
+        }
+    }
+    common::assert_no_validation_messages(&ctx);
+}

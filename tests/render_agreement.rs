@@ -1,0 +1,132 @@
+//! Statistical tests of whole renders, on the GPU (lavapipe in CI) and the CPU:
+//! analytic furnaces, NEE on versus off, and GPU versus CPU on every shipped scene.
+//! Tolerances are k standard deviations of the estimate, the deviation measured
+//! from the renders' own per-pixel variance (spread of the 64-sample frame means).
+
+mod common;
+
+use common::*;
+use rlpt::cpu::camera_ray;
+use rlpt::film::Film;
+use rlpt::math::geometry::intersect_sphere;
+use rlpt::math::Vec3;
+use rlpt::prepared::PreparedScene;
+
+/// 5 sigma: with a few hundred comparisons per test the chance of a false alarm stays below 1e-3.
+const K: f64 = 5.0;
+
+fn check_furnace_open(film: &Film, prepared: &PreparedScene, what: &str) {
+    // Pixels whose whole footprint sees the ball, and pixels whose whole footprint misses it.
+    let hits = |x: u32, y: u32| {
+        [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]
+            .iter()
+            .filter(|u| {
+                let (o, d) = camera_ray(&prepared.params, x, y, **u);
+                intersect_sphere(Vec3::ZERO, 1.0, o, d, f32::INFINITY).is_some()
+            })
+            .count()
+    };
+    let (ball, ball_var, n_ball) = region_stats(film, |x, y| hits(x, y) == 4);
+    let (sky, sky_var, n_sky) = region_stats(film, |x, y| hits(x, y) == 0);
+    assert!(n_ball > 100 && n_sky > 100);
+    // Every path hits the convex ball once and escapes, so each sample is exactly
+    // albedo x sky: the only deviation left is f32 rounding.
+    let z_ball = (ball - 0.5) / ball_var.sqrt();
+    assert!(z_ball.abs() < K, "{what}: ball {ball:.7}, expected 0.5 ({z_ball:.2} sigma)");
+    // The sky is seen directly: exactly 1 with no noise at all.
+    assert!((sky - 1.0).abs() < 1e-6 && sky_var.sqrt() < 1e-5, "{what}: background {sky}, expected exactly 1");
+}
+
+#[test]
+fn furnace_open_gpu_and_cpu() {
+    let scene = scene("furnace-open.toml");
+    let opts = options(&scene, 48, 48, 512);
+    let prepared = PreparedScene::new(&scene, &opts);
+    let ctx = gpu();
+    check_furnace_open(&render_gpu(&ctx, &scene, &opts), &prepared, "GPU");
+    check_furnace_open(&render_cpu(&scene, &opts), &prepared, "CPU");
+}
+
+#[test]
+fn furnace_open_without_nee_gpu() {
+    let scene = scene("furnace-open.toml");
+    let mut opts = options(&scene, 48, 48, 512);
+    opts.nee = false;
+    let prepared = PreparedScene::new(&scene, &opts);
+    check_furnace_open(&render_gpu(&gpu(), &scene, &opts), &prepared, "GPU, NEE off");
+}
+
+fn check_furnace_closed(film: &Film, what: &str) {
+    // Without NEE every path gathers 0.5 (1 + 1/2 + 1/4 + ...) exactly: the deviation
+    // is then f32 rounding alone (region_stats includes its bound).
+    let (mean, var, _) = region_stats(film, |_, _| true);
+    let z = (mean - 1.0) / var.sqrt();
+    assert!(z.abs() < K, "{what}: radiance {mean:.5}, expected 1.0 ({z:.2} sigma)");
+}
+
+#[test]
+fn furnace_closed_gpu_and_cpu() {
+    let scene = scene("furnace-closed.toml");
+    let mut opts = options(&scene, 24, 24, 512);
+    let ctx = gpu();
+    check_furnace_closed(&render_gpu(&ctx, &scene, &opts), "GPU, NEE on");
+    check_furnace_closed(&render_cpu(&scene, &opts), "CPU, NEE on");
+    opts.nee = false;
+    check_furnace_closed(&render_gpu(&ctx, &scene, &opts), "GPU, NEE off");
+    check_furnace_closed(&render_cpu(&scene, &opts), "CPU, NEE off");
+}
+
+#[test]
+fn nee_on_and_off_agree() {
+    let ctx = gpu();
+    for name in ["seed-exp1.toml", "seed-exp2.toml"] {
+        let scene = scene(name);
+        let mut opts = options(&scene, 36, 24, 1024);
+        let on = render_gpu(&ctx, &scene, &opts);
+        opts.nee = false;
+        opts.seed = 1;
+        let off = render_gpu(&ctx, &scene, &opts);
+        assert_films_agree(&on, &off, 6, K, &format!("{name}: NEE on vs off"));
+        // Balance heuristic too.
+        opts.nee = true;
+        opts.power_heuristic = false;
+        opts.seed = 2;
+        let balance = render_gpu(&ctx, &scene, &opts);
+        assert_films_agree(&on, &balance, 6, K, &format!("{name}: power vs balance heuristic"));
+    }
+}
+
+#[test]
+fn gpu_and_cpu_agree_on_every_shipped_scene() {
+    let ctx = gpu();
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut names: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    names.sort();
+    assert!(names.len() >= 7);
+    for name in names {
+        let scene = scene(&name);
+        let mut opts = options(&scene, 32, 24, 512);
+        let g = render_gpu(&ctx, &scene, &opts);
+        opts.seed = 99;
+        let c = render_cpu(&scene, &opts);
+        let z = assert_films_agree(&g, &c, 4, K, &format!("{name}: GPU vs CPU"));
+        eprintln!("{name}: worst block differs by {z:.2} sigma");
+    }
+}
+
+#[test]
+fn same_seed_same_image_on_one_device() {
+    let ctx = gpu();
+    let scene = scene("seed-exp2.toml");
+    let opts = options(&scene, 24, 16, 128);
+    let a = render_gpu(&ctx, &scene, &opts);
+    let b = render_gpu(&ctx, &scene, &opts);
+    assert_eq!(a.pixels, b.pixels, "GPU renders with one seed are identical");
+    let c = render_cpu(&scene, &opts);
+    let d = render_cpu(&scene, &opts);
+    assert_eq!(c.pixels, d.pixels, "CPU renders with one seed are identical");
+    let mut other = opts.clone();
+    other.seed = 5;
+    assert_ne!(render_gpu(&ctx, &scene, &other).pixels, a.pixels, "another seed gives another image");
+}

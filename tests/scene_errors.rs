@@ -1,0 +1,772 @@
+//! Every kind of refusal of the scene loader: each message must name the file,
+//! point at the offending key or value (`line:column`, 1-based) and say what
+//! was expected.
+//!
+//! The scenes are assembled from fixed pieces so that the bad line's number is
+//! known by construction:
+//! - `with_camera(c)`: `c` starts on line 1;
+//! - `with_render(r)`: `r` starts on line 1;
+//! - `with_material(m)`: the camera takes lines 1-4, `m` starts on line 5;
+//! - `with_geometry(g)`: camera lines 1-4, material lines 5-8, `g` starts on line 9.
+
+use rlpt::scene::{Scene, SceneError};
+
+const CAMERA: &str = "\
+[camera]
+position = [0, 0, 5]
+look_at = [0, 0, 0]
+vfov = 45
+";
+
+const MATERIAL: &str = "\
+[[material]]
+name = \"white\"
+type = \"diffuse\"
+albedo = [0.5, 0.5, 0.5]
+";
+
+const SPHERE: &str = "\
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = \"white\"
+";
+
+fn with_camera(camera: &str) -> String {
+    format!("{camera}{MATERIAL}{SPHERE}")
+}
+
+fn with_render(render: &str) -> String {
+    format!("{render}{CAMERA}{MATERIAL}{SPHERE}")
+}
+
+fn with_material(material: &str) -> String {
+    format!("{CAMERA}{material}{SPHERE}")
+}
+
+fn with_geometry(geometry: &str) -> String {
+    format!("{CAMERA}{MATERIAL}{geometry}")
+}
+
+/// Parses `text` as `bad.toml`, which must be refused; returns the message.
+fn refuse(text: &str) -> String {
+    match Scene::parse(text, "bad.toml") {
+        Ok(scene) => panic!("scene accepted, expected a refusal:\n{text}\n{scene:?}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// The message must start with `bad.toml:{at}: ` (or `bad.toml: ` when `at` is
+/// empty) and contain every phrase.
+#[track_caller]
+fn expect(text: &str, at: &str, phrases: &[&str]) {
+    let message = refuse(text);
+    let prefix = if at.is_empty() { "bad.toml: ".to_string() } else { format!("bad.toml:{at}: ") };
+    assert!(message.starts_with(&prefix), "message {message:?} does not start with {prefix:?}; scene:\n{text}");
+    for phrase in phrases {
+        assert!(message.contains(phrase), "message {message:?} lacks {phrase:?}; scene:\n{text}");
+    }
+}
+
+#[test]
+fn the_base_pieces_are_valid() {
+    for text in [with_camera(CAMERA), with_render("[render]\n"), with_material(MATERIAL), with_geometry(SPHERE)] {
+        Scene::parse(&text, "good.toml").unwrap();
+    }
+}
+
+// ---------------------------------------------------------------------------
+// TOML syntax.
+
+#[test]
+fn toml_syntax_error() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5\nlook_at = [0, 0, 0]\nvfov = 45\n");
+    expect(&text, "3:1", &["not valid TOML", "comma"]);
+    assert!(matches!(Scene::parse(&text, "bad.toml"), Err(SceneError::Syntax { line: 3, column: 1, .. })));
+}
+
+#[test]
+fn toml_unquoted_string() {
+    let text = with_material("[[material]]\nname = white\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(&text, "6:8", &["not valid TOML", "quoted"]);
+}
+
+#[test]
+fn toml_duplicate_key() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = 45\nvfov = 50\n");
+    expect(&text, "5:1", &["not valid TOML", "duplicate key"]);
+}
+
+// ---------------------------------------------------------------------------
+// Unknown keys and tables.
+
+#[test]
+fn unknown_key_in_camera() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 45\n");
+    expect(
+        &text,
+        "4:1",
+        &["[camera]: unknown key `fov`", "expected one of position, look_at, direction, up, vfov, near"],
+    );
+}
+
+#[test]
+fn unknown_key_in_render() {
+    let text = with_render("[render]\nwidth = 64\nsamples = 16\n");
+    expect(&text, "3:1", &["[render]: unknown key `samples`", "expected one of width, height, spp"]);
+}
+
+#[test]
+fn unknown_key_in_environment() {
+    let text = with_render("[environment]\ncolor = [1, 1, 1]\n");
+    expect(&text, "2:1", &["[environment]: unknown key `color`", "expected one of radiance"]);
+}
+
+#[test]
+fn unknown_key_in_material() {
+    let text =
+        with_material("[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\ncolour = 1\n");
+    expect(
+        &text,
+        "9:1",
+        &["[[material]] \"white\": unknown key `colour`", "expected one of name, type, albedo, emission, two_sided"],
+    );
+}
+
+#[test]
+fn roughness_is_unknown_for_diffuse() {
+    let text = with_material(
+        "[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\nroughness = 0.5\n",
+    );
+    expect(&text, "9:1", &["unknown key `roughness` for a material of type \"diffuse\""]);
+}
+
+#[test]
+fn ior_is_unknown_for_glossy() {
+    let text = with_material(
+        "[[material]]\nname = \"white\"\ntype = \"glossy\"\nalbedo = [0.5, 0.5, 0.5]\nroughness = 0.5\nior = 1.5\n",
+    );
+    expect(
+        &text,
+        "10:1",
+        &[
+            "unknown key `ior` for a material of type \"glossy\"",
+            "expected one of name, type, albedo, roughness, emission, two_sided",
+        ],
+    );
+}
+
+#[test]
+fn albedo_is_unknown_for_emissive() {
+    let text = with_material(
+        "[[material]]\nname = \"white\"\ntype = \"emissive\"\nalbedo = [0.5, 0.5, 0.5]\nemission = [1, 1, 1]\n",
+    );
+    expect(
+        &text,
+        "8:1",
+        &[
+            "unknown key `albedo` for a material of type \"emissive\"",
+            "expected one of name, type, emission, two_sided",
+        ],
+    );
+}
+
+#[test]
+fn roughness_is_unknown_for_specular_and_dielectric() {
+    let text = with_material(
+        "[[material]]\nname = \"white\"\ntype = \"specular\"\nalbedo = [0.5, 0.5, 0.5]\nroughness = 0.1\n",
+    );
+    expect(&text, "9:1", &["unknown key `roughness` for a material of type \"specular\""]);
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"dielectric\"\nior = 1.5\nroughness = 0.1\n");
+    expect(&text, "9:1", &["unknown key `roughness` for a material of type \"dielectric\""]);
+}
+
+#[test]
+fn unknown_key_in_sphere() {
+    let text = with_geometry("[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"white\"\nradious = 2\n");
+    expect(&text, "13:1", &["[[sphere]] #1: unknown key `radious`", "expected one of center, radius, material"]);
+}
+
+#[test]
+fn unknown_key_in_quad() {
+    let text = with_geometry(
+        "[[quad]]\norigin = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\nedge_w = [0, 0, 1]\nmaterial = \"white\"\n",
+    );
+    expect(&text, "13:1", &["[[quad]] #1: unknown key `edge_w`", "expected one of origin, edge_u, edge_v, material"]);
+}
+
+#[test]
+fn unknown_top_level_table() {
+    let text = format!("{}[lights]\nintensity = 3\n", with_geometry(SPHERE));
+    expect(&text, "13:2", &["unknown table `[lights]`", "[camera]", "[[material]]", "[[sphere]]", "[[quad]]"]);
+}
+
+#[test]
+fn unknown_top_level_array_of_tables() {
+    let text = format!("{}[[light]]\nintensity = 3\n", with_geometry(SPHERE));
+    expect(&text, "13:3", &["unknown table `[[light]]`"]);
+}
+
+#[test]
+fn unknown_top_level_key() {
+    let text = format!("version = 2\n{}", with_geometry(SPHERE));
+    expect(&text, "1:1", &["unknown top-level key `version`"]);
+}
+
+// ---------------------------------------------------------------------------
+// Missing tables and keys.
+
+#[test]
+fn missing_camera() {
+    let text = format!("{MATERIAL}{SPHERE}");
+    expect(&text, "", &["missing table [camera]", "vfov"]);
+}
+
+#[test]
+fn missing_camera_position() {
+    let text = with_camera("[camera]\nlook_at = [0, 0, 0]\nvfov = 45\n");
+    expect(&text, "1:1", &["[camera]: missing key `position`"]);
+}
+
+#[test]
+fn missing_camera_vfov() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n");
+    expect(&text, "1:1", &["[camera]: missing key `vfov` (vertical field of view in degrees, 0 < vfov < 180)"]);
+}
+
+#[test]
+fn missing_material_name_and_type() {
+    let text = with_material("[[material]]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(&text, "5:1", &["[[material]] #1: missing key `name`"]);
+    let text = with_material("[[material]]\nname = \"white\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(
+        &text,
+        "5:1",
+        &["[[material]] \"white\": missing key `type`", "diffuse, specular, glossy, dielectric, emissive"],
+    );
+}
+
+#[test]
+fn missing_albedo_of_diffuse() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"diffuse\"\n");
+    expect(&text, "5:1", &["[[material]] \"white\": missing key `albedo`", "[0, 1]"]);
+}
+
+#[test]
+fn missing_albedo_of_specular() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"specular\"\n");
+    expect(&text, "5:1", &["[[material]] \"white\": missing key `albedo`"]);
+}
+
+#[test]
+fn missing_albedo_of_glossy() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"glossy\"\nroughness = 0.5\n");
+    expect(&text, "5:1", &["[[material]] \"white\": missing key `albedo`"]);
+}
+
+#[test]
+fn missing_roughness_of_glossy() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"glossy\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(&text, "5:1", &["[[material]] \"white\": missing key `roughness`", "(0, 1]"]);
+}
+
+#[test]
+fn missing_ior_of_dielectric() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"dielectric\"\n");
+    expect(&text, "5:1", &["[[material]] \"white\": missing key `ior`", ">= 1"]);
+}
+
+#[test]
+fn missing_emission_of_emissive() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"emissive\"\n");
+    expect(&text, "5:1", &["[[material]] \"white\": missing key `emission`"]);
+}
+
+#[test]
+fn missing_sphere_radius() {
+    let text = with_geometry("[[sphere]]\ncenter = [0, 0, 0]\nmaterial = \"white\"\n");
+    expect(&text, "9:1", &["[[sphere]] #1: missing key `radius`", "> 0"]);
+}
+
+#[test]
+fn missing_sphere_material() {
+    let text = with_geometry("[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n");
+    expect(&text, "9:1", &["[[sphere]] #1: missing key `material`"]);
+}
+
+#[test]
+fn missing_quad_edge() {
+    let text = with_geometry("[[quad]]\norigin = [0, 0, 0]\nedge_u = [1, 0, 0]\nmaterial = \"white\"\n");
+    expect(&text, "9:1", &["[[quad]] #1: missing key `edge_v`"]);
+}
+
+#[test]
+fn second_sphere_is_numbered() {
+    let text = with_geometry(&format!("{SPHERE}[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\n"));
+    expect(&text, "13:1", &["[[sphere]] #2: missing key `material`"]);
+}
+
+// ---------------------------------------------------------------------------
+// Wrong types.
+
+#[test]
+fn string_for_number() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = \"wide\"\n");
+    expect(&text, "4:8", &["[camera]: key `vfov` must be a number", "found string \"wide\""]);
+}
+
+#[test]
+fn float_for_integer() {
+    let text = with_render("[render]\nwidth = 64.5\n");
+    expect(&text, "2:9", &["[render]: key `width` must be an integer", "found float 64.5"]);
+}
+
+#[test]
+fn float_with_zero_fraction_for_integer() {
+    let text = with_render("[render]\nspp = 16.0\n");
+    expect(&text, "2:7", &["key `spp` must be an integer", "found float 16.0"]);
+}
+
+#[test]
+fn vector_of_two() {
+    let text = with_camera("[camera]\nposition = [0, 5]\nlook_at = [0, 0, 0]\nvfov = 45\n");
+    expect(&text, "2:12", &["[camera]: key `position` must be an array of 3 numbers", "found an array of 2 values"]);
+}
+
+#[test]
+fn vector_of_four() {
+    let text = with_geometry("[[sphere]]\ncenter = [0, 0, 0, 1]\nradius = 1\nmaterial = \"white\"\n");
+    expect(&text, "10:10", &["key `center` must be an array of 3 numbers", "4 values"]);
+}
+
+#[test]
+fn number_for_vector() {
+    let text = with_geometry("[[sphere]]\ncenter = 0\nradius = 1\nmaterial = \"white\"\n");
+    expect(&text, "10:10", &["key `center` must be an array of 3 numbers", "integer 0"]);
+}
+
+#[test]
+fn string_in_vector() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, \"half\", 0.5]\n");
+    expect(&text, "8:16", &["key `albedo` component 2 must be a number", "string \"half\""]);
+}
+
+#[test]
+fn number_for_material_name() {
+    let text = with_geometry("[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = 3\n");
+    expect(&text, "12:12", &["key `material` must be the name of a [[material]]", "integer 3"]);
+}
+
+#[test]
+fn number_for_bool() {
+    let text =
+        with_material("[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\ntwo_sided = 1\n");
+    expect(&text, "9:13", &["key `two_sided` must be true or false", "integer 1"]);
+}
+
+#[test]
+fn unknown_material_type() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"metal\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(
+        &text,
+        "7:8",
+        &["key `type` must be one of diffuse, specular, glossy, dielectric, emissive", "found \"metal\""],
+    );
+}
+
+#[test]
+fn empty_material_name() {
+    let text = with_material("[[material]]\nname = \"\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(&text, "6:8", &["key `name` must be a non-empty string"]);
+}
+
+#[test]
+fn camera_written_as_array_of_tables() {
+    let text = with_camera("[[camera]]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = 45\n");
+    expect(&text, "1:1", &["`camera` must be a single table written [camera]"]);
+}
+
+#[test]
+fn material_written_as_single_table() {
+    let text = with_material("[material]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n");
+    expect(&text, "5:1", &["`material` must be an array of tables", "write [[material]], not [material]"]);
+}
+
+// ---------------------------------------------------------------------------
+// Values out of range.
+
+fn camera_with_vfov(vfov: &str) -> String {
+    with_camera(&format!("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = {vfov}\n"))
+}
+
+#[test]
+fn vfov_zero() {
+    expect(&camera_with_vfov("0"), "4:8", &["key `vfov` must be", "0 < vfov < 180", "found 0"]);
+}
+
+#[test]
+fn vfov_180() {
+    expect(&camera_with_vfov("180.0"), "4:8", &["0 < vfov < 180", "found 180.0"]);
+}
+
+#[test]
+fn vfov_negative() {
+    expect(&camera_with_vfov("-10"), "4:8", &["0 < vfov < 180", "found -10"]);
+}
+
+#[test]
+fn near_negative() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = 45\nnear = -1.0\n");
+    expect(&text, "5:8", &["key `near` must be a number >= 0", "found -1.0"]);
+}
+
+fn sphere_with_radius(radius: &str) -> String {
+    with_geometry(&format!("[[sphere]]\ncenter = [0, 0, 0]\nradius = {radius}\nmaterial = \"white\"\n"))
+}
+
+#[test]
+fn radius_zero() {
+    expect(&sphere_with_radius("0"), "11:10", &["[[sphere]] #1: key `radius` must be a number > 0", "found 0"]);
+}
+
+#[test]
+fn radius_negative() {
+    expect(&sphere_with_radius("-2.5"), "11:10", &["key `radius` must be a number > 0", "found -2.5"]);
+}
+
+fn glossy_with_roughness(roughness: &str) -> String {
+    with_material(&format!(
+        "[[material]]\nname = \"white\"\ntype = \"glossy\"\nalbedo = [0.5, 0.5, 0.5]\nroughness = {roughness}\n"
+    ))
+}
+
+#[test]
+fn roughness_zero() {
+    expect(
+        &glossy_with_roughness("0.0"),
+        "9:13",
+        &["[[material]] \"white\": key `roughness` must be a number in (0, 1]", "found 0.0"],
+    );
+}
+
+#[test]
+fn roughness_above_one() {
+    expect(&glossy_with_roughness("1.5"), "9:13", &["key `roughness` must be a number in (0, 1]", "found 1.5"]);
+}
+
+#[test]
+fn roughness_one_is_accepted() {
+    let text = glossy_with_roughness("1");
+    let scene = Scene::parse(&text, "good.toml").unwrap();
+    assert_eq!(scene.materials[0].roughness, 1.0);
+}
+
+#[test]
+fn ior_below_one() {
+    let text = with_material("[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nior = 0.9\n");
+    let text = text.replace("\"white\"", "\"glass\"");
+    expect(&text, "8:7", &["[[material]] \"glass\": key `ior` must be a number >= 1", "found 0.9"]);
+}
+
+fn diffuse_with_albedo(albedo: &str) -> String {
+    with_material(&format!("[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = {albedo}\n"))
+}
+
+#[test]
+fn albedo_above_one() {
+    expect(
+        &diffuse_with_albedo("[0.5, 1.2, 0.5]"),
+        "8:16",
+        &["key `albedo` must have every component in [0, 1]", "found 1.2 (component 2)"],
+    );
+}
+
+#[test]
+fn albedo_negative() {
+    expect(
+        &diffuse_with_albedo("[-0.1, 0.5, 0.5]"),
+        "8:11",
+        &["key `albedo` must have every component in [0, 1]", "found -0.1 (component 1)"],
+    );
+}
+
+#[test]
+fn dielectric_albedo_above_one() {
+    let text =
+        with_material("[[material]]\nname = \"white\"\ntype = \"dielectric\"\nior = 1.5\nalbedo = [1, 1, 1.01]\n");
+    expect(&text, "9:17", &["key `albedo` must have every component in [0, 1]"]);
+}
+
+#[test]
+fn emission_negative() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"emissive\"\nemission = [1, -1, 1]\n");
+    expect(&text, "8:16", &["key `emission` must have every component >= 0", "found -1 (component 2)"]);
+}
+
+#[test]
+fn emission_negative_on_diffuse() {
+    let text = with_material(
+        "[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\nemission = [0, 0, -0.5]\n",
+    );
+    expect(&text, "9:19", &["key `emission` must have every component >= 0"]);
+}
+
+#[test]
+fn environment_radiance_negative() {
+    let text = with_render("[environment]\nradiance = [-1, 0, 0]\n");
+    expect(&text, "2:13", &["[environment]: key `radiance` must have every component >= 0"]);
+}
+
+#[test]
+fn width_zero() {
+    expect(
+        &with_render("[render]\nwidth = 0\n"),
+        "2:9",
+        &["[render]: key `width` must be an integer from 1 to 16384", "found 0"],
+    );
+}
+
+#[test]
+fn height_absurd() {
+    expect(
+        &with_render("[render]\nheight = 16385\n"),
+        "2:10",
+        &["key `height` must be an integer from 1 to 16384", "found 16385"],
+    );
+}
+
+#[test]
+fn spp_zero() {
+    expect(&with_render("[render]\nspp = 0\n"), "2:7", &["key `spp` must be an integer >= 1"]);
+}
+
+#[test]
+fn max_bounces_absurd() {
+    expect(
+        &with_render("[render]\nmax_bounces = 1025\n"),
+        "2:15",
+        &["key `max_bounces` must be an integer from 0 to 1024"],
+    );
+}
+
+#[test]
+fn russian_roulette_depth_negative() {
+    expect(
+        &with_render("[render]\nrussian_roulette_depth = -1\n"),
+        "2:26",
+        &["key `russian_roulette_depth` must be an integer >= 0", "found -1"],
+    );
+}
+
+#[test]
+fn integer_too_large_for_i64() {
+    expect(
+        &with_render("[render]\nspp = 99999999999999999999\n"),
+        "2:7",
+        &["key `spp` must be an integer >= 1", "found 99999999999999999999"],
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Non-finite numbers.
+
+#[test]
+fn infinite_vfov() {
+    expect(&camera_with_vfov("inf"), "4:8", &["key `vfov` must be a finite number", "found inf"]);
+}
+
+#[test]
+fn nan_radius() {
+    expect(&sphere_with_radius("nan"), "11:10", &["key `radius` must be a finite number", "found nan"]);
+}
+
+#[test]
+fn negative_infinity_in_vector() {
+    let text = with_geometry("[[sphere]]\ncenter = [0, -inf, 0]\nradius = 1\nmaterial = \"white\"\n");
+    expect(&text, "10:14", &["key `center` component 2 must be a finite number", "found -inf"]);
+}
+
+#[test]
+fn nan_in_emission() {
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"emissive\"\nemission = [+nan, 1, 1]\n");
+    expect(&text, "8:13", &["key `emission` component 1 must be a finite number", "found +nan"]);
+}
+
+#[test]
+fn float_overflowing_f64() {
+    expect(&sphere_with_radius("1e400"), "11:10", &["key `radius` must be a finite number", "found 1e400"]);
+}
+
+#[test]
+fn float_overflowing_f32() {
+    let text = with_geometry("[[sphere]]\ncenter = [1e39, 0, 0]\nradius = 1\nmaterial = \"white\"\n");
+    expect(&text, "10:11", &["key `center` component 1", "32-bit float", "found 1e39"]);
+}
+
+#[test]
+fn radius_whose_square_overflows_f32() {
+    expect(&sphere_with_radius("1e20"), "11:10", &["key `radius`", "32-bit float", "found 1e20"]);
+}
+
+// ---------------------------------------------------------------------------
+// Material names.
+
+#[test]
+fn undefined_material() {
+    let text = format!(
+        "{CAMERA}{MATERIAL}[[material]]\nname = \"lamp\"\ntype = \"emissive\"\nemission = [1, 1, 1]\n\
+         {SPHERE}[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"chrome\"\n"
+    );
+    expect(&text, "20:12", &["[[sphere]] #2: material \"chrome\" is not defined (defined: white, lamp)"]);
+}
+
+#[test]
+fn undefined_material_in_quad() {
+    let text =
+        with_geometry("[[quad]]\norigin = [0, 0, 0]\nedge_u = [1, 0, 0]\nedge_v = [0, 1, 0]\nmaterial = \"White\"\n");
+    expect(&text, "13:12", &["[[quad]] #1: material \"White\" is not defined (defined: white)"]);
+}
+
+#[test]
+fn duplicate_material_name() {
+    let text =
+        format!("{CAMERA}{MATERIAL}[[material]]\nname = \"white\"\ntype = \"specular\"\nalbedo = [1, 1, 1]\n{SPHERE}");
+    expect(&text, "10:8", &["duplicate material name \"white\"", "already defined on line 6", "must be unique"]);
+}
+
+// ---------------------------------------------------------------------------
+// Camera geometry.
+
+#[test]
+fn both_look_at_and_direction() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\ndirection = [0, 0, -1]\nvfov = 45\n");
+    expect(&text, "4:13", &["[camera]: give exactly one of `look_at` and `direction`, not both"]);
+}
+
+#[test]
+fn neither_look_at_nor_direction() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nvfov = 45\n");
+    expect(&text, "1:1", &["[camera]: missing key `look_at` or `direction`", "exactly one"]);
+}
+
+#[test]
+fn look_at_equal_to_position() {
+    let text = with_camera("[camera]\nposition = [1, 2, 3]\nlook_at = [1.0, 2.0, 3.0]\nvfov = 45\n");
+    expect(&text, "3:11", &["key `look_at` must differ from `position`"]);
+}
+
+#[test]
+fn zero_direction() {
+    let text = with_camera("[camera]\nposition = [1, 2, 3]\ndirection = [0, 0, 0]\nvfov = 45\n");
+    expect(&text, "3:13", &["key `direction` must be a non-zero vector"]);
+}
+
+#[test]
+fn up_parallel_to_view() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 0, 2]\nvfov = 45\n");
+    expect(&text, "4:6", &["is parallel to `up` [0, 0, 2]", "give an `up` that is not parallel to the view direction"]);
+}
+
+#[test]
+fn default_up_parallel_to_view() {
+    let text = with_camera("[camera]\nposition = [0, 5, 0]\ndirection = [0, -3, 0]\nvfov = 45\n");
+    expect(&text, "3:13", &["parallel to the default `up` [0, 1, 0]", "give an `up`"]);
+}
+
+#[test]
+fn zero_up() {
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 0, 0]\nvfov = 45\n");
+    expect(&text, "4:6", &["key `up` must be a non-zero vector"]);
+}
+
+// ---------------------------------------------------------------------------
+// Quads.
+
+#[test]
+fn degenerate_quad_parallel_edges() {
+    let text = with_geometry(
+        "[[quad]]\norigin = [0, 0, 0]\nedge_u = [1, 2, 3]\nedge_v = [-2, -4, -6]\nmaterial = \"white\"\n",
+    );
+    expect(&text, "12:10", &["[[quad]] #1: the quad is degenerate", "give two non-parallel edges"]);
+}
+
+#[test]
+fn degenerate_quad_zero_edge() {
+    let text =
+        with_geometry("[[quad]]\norigin = [0, 0, 0]\nedge_u = [0, 0, 0]\nedge_v = [0, 1, 0]\nmaterial = \"white\"\n");
+    expect(&text, "11:10", &["key `edge_u` must be a non-zero vector"]);
+}
+
+// ---------------------------------------------------------------------------
+// Whole-scene checks.
+
+#[test]
+fn no_geometry() {
+    let text = format!("{CAMERA}{MATERIAL}");
+    expect(&text, "", &["the scene has no geometry", "[[sphere]] or [[quad]]"]);
+}
+
+#[test]
+fn no_material() {
+    let text = format!("{CAMERA}{SPHERE}");
+    expect(&text, "", &["the scene defines no material", "[[material]]"]);
+}
+
+#[test]
+fn empty_file() {
+    expect("", "", &["missing table [camera]"]);
+}
+
+// ---------------------------------------------------------------------------
+// Positions.
+
+#[test]
+fn columns_count_characters_not_bytes() {
+    // Inline tables are TOML too; the bad value `2` is the 58th character of
+    // line 1 but its 60th byte, because of the two-byte letters before it.
+    // (A top-level key must come before the first table header.)
+    let text = format!("material = [{{ name = \"wéiß\", type = \"diffuse\", albedo = [2, 0, 0] }}]\n{CAMERA}{SPHERE}")
+        .replace("material = \"white\"", "material = \"wéiß\"");
+    let line1 = text.lines().next().unwrap();
+    let column = line1.chars().position(|c| c == '2').unwrap() + 1;
+    assert_eq!(column, 58);
+    assert_eq!(line1.find('2'), Some(59));
+    expect(&text, "1:58", &["[[material]] \"wéiß\": key `albedo`", "in [0, 1]"]);
+}
+
+#[test]
+fn windows_line_endings() {
+    let text = camera_with_vfov("0").replace('\n', "\r\n");
+    expect(&text, "4:8", &["0 < vfov < 180"]);
+}
+
+// ---------------------------------------------------------------------------
+// Files.
+
+#[test]
+fn errors_from_files_name_the_path() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("scene_errors");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bad.toml");
+    std::fs::write(&path, camera_with_vfov("200")).unwrap();
+    let message = Scene::load(&path).unwrap_err().to_string();
+    assert!(message.starts_with(&format!("{}:4:8: ", path.display())), "{message}");
+    assert!(message.contains("0 < vfov < 180"), "{message}");
+}
+
+#[test]
+fn missing_file_names_the_path() {
+    let path = std::path::Path::new("scenes/does-not-exist.toml");
+    let error = Scene::load(path).unwrap_err();
+    assert!(matches!(error, SceneError::Io { .. }));
+    let message = error.to_string();
+    assert!(message.starts_with("scenes/does-not-exist.toml: cannot read the scene file"), "{message}");
+}
+
+#[test]
+fn position_accessor() {
+    let error = Scene::parse(&camera_with_vfov("0"), "bad.toml").unwrap_err();
+    assert_eq!(error.position(), Some((4, 8)));
+    let error = Scene::parse(&format!("{CAMERA}{MATERIAL}"), "bad.toml").unwrap_err();
+    assert_eq!(error.position(), None);
+}
