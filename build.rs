@@ -20,13 +20,31 @@ fn main() {
 
     write_constants(&glsl_dir.join("common.glsl"), &out_dir.join("shared_constants.rs"));
 
+    // Extra builds of a source with preprocessor definitions: (source stem, output name, defines).
+    const VARIANTS: &[(&str, &str, &[&str])] = &[
+        ("pathtrace", "pathtrace_guided", &["RLPT_GUIDING"]),
+        ("pathtrace", "pathtrace_guided_partitioned", &["RLPT_GUIDING", "RLPT_PARTITIONED"]),
+        ("probe_atomics", "probe_atomics_partitioned", &["RLPT_PARTITIONED"]),
+    ];
     let compiler = shaderc::Compiler::new().expect("shaderc compiler");
     let mut index =
         String::from("/// SPIR-V of every `glsl/*.comp`, by file stem.\npub const SHADERS: &[(&str, &[u8])] = &[\n");
+    let mut jobs: Vec<(PathBuf, String, &[&str])> = Vec::new();
     for path in entries.iter().filter(|p| p.extension().is_some_and(|e| e == "comp")) {
         let stem = path.file_stem().unwrap().to_str().unwrap().to_owned();
+        for (src, name, defines) in VARIANTS {
+            if *src == stem {
+                jobs.push((path.clone(), name.to_string(), defines));
+            }
+        }
+        jobs.push((path.clone(), stem, &[]));
+    }
+    for (path, stem, defines) in &jobs {
         let source = std::fs::read_to_string(path).expect("shader source is readable");
         let mut options = shaderc::CompileOptions::new().expect("shaderc options");
+        for d in defines.iter() {
+            options.add_macro_definition(d, Some("1"));
+        }
         options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
         options.set_target_spirv(shaderc::SpirvVersion::V1_5);
         options.set_optimization_level(shaderc::OptimizationLevel::Performance);

@@ -39,6 +39,19 @@
 #define BINDING_QUADS 3
 #define BINDING_LIGHTS 4
 #define BINDING_ACCUM 5
+// Learned guiding (pathtrace.comp): the table, this frame's sums, the sampling CDFs.
+#define BINDING_Q 6
+#define BINDING_FRAME_SUMS 7
+#define BINDING_FRAME_COUNTS 8
+#define BINDING_CDF 9
+// Per-frame counters (pathtrace.comp): [0] paths that carried zero radiance, [1] path segments.
+#define BINDING_COUNTERS 10
+#define COUNTER_ZERO_PATHS 0
+#define COUNTER_SEGMENTS 1
+#define NUM_COUNTERS 4
+// learn.comp
+#define LEARN_GROUP 256
+#define NO_KEY 4294967295
 
 struct Material {
     vec4 albedo_roughness;   // xyz albedo, w GGX roughness
@@ -92,6 +105,16 @@ struct RenderParams {
     uint num_lights;
     uint flags;              // FLAG_*
     uint seed;
+    uint guide_bins;         // rows * cols; 0 = guiding off
+    uint guide_rows;
+    uint guide_cols;
+    vec4 guide_min;          // xyz grid minimum, w guided-sampling fraction
+    vec4 guide_inv_cell;     // xyz cells per unit length, w solid angle of a bin
+    uint guide_res_x;
+    uint guide_res_y;
+    uint guide_res_z;
+    uint guide_cells;
+    float guide_floor;       // exploration floor of the guided distribution
     uint pad0;
     uint pad1;
     uint pad2;

@@ -3,11 +3,15 @@
 // per invocation. Workgroup (8, 8, PIXELS_PER_GROUP): x,y are the samples of
 // one pixel, z the pixels; the group covers PIXELS_PER_GROUP pixels of a row.
 // src/cpu/mod.rs (`trace_path`, `render`) is the same algorithm on the CPU.
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #include "common.glsl"
 #include "rng.glsl"
 #include "bsdf.glsl"
 #include "geometry.glsl"
 #include "reduce.glsl"
+#ifdef RLPT_GUIDING
+#include "guide.glsl"
+#endif
 
 layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z = PIXELS_PER_GROUP) in;
 
@@ -17,16 +21,20 @@ struct AccumPixel {
 };
 layout(std430, set = 0, binding = BINDING_ACCUM) buffer Accum { AccumPixel accum[]; };
 
-// frame: frames accumulated so far (also decorrelates the random numbers).
-layout(push_constant) uniform Push { uint frame; } push;
+layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
+
+// frame: frames traced so far (decorrelates the random numbers);
+// accum_frames: frames in the accumulation buffer (restarts keep learning going).
+layout(push_constant) uniform Push { uint frame; uint accum_frames; } push;
 
 // src/film.rs `accumulate`.
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
-    vec3 mean_old = push.frame == 0u ? vec3(0.0) : accum[pixel].sum.xyz / (per_frame * float(push.frame));
+    uint n = push.accum_frames;
+    vec3 mean_old = n == 0u ? vec3(0.0) : accum[pixel].sum.xyz / (per_frame * float(n));
     vec3 m = sum / per_frame;
     vec3 delta = m - mean_old;
-    vec3 mean_new = mean_old + delta / float(push.frame + 1u);
+    vec3 mean_new = mean_old + delta / float(n + 1u);
     accum[pixel].sum.xyz += sum;
     accum[pixel].m2_frame_mean.xyz += delta * (m - mean_new);
 }
@@ -50,7 +58,14 @@ void camera_ray(uint x, uint y, vec2 u, out vec3 o, out vec3 d) {
     o = params.cam_position_near.xyz + params.cam_position_near.w * d;
 }
 
-vec3 trace_path(vec3 o, vec3 d, inout uint rng) {
+#ifdef RLPT_GUIDING
+#define GUIDED 1
+#else
+#define GUIDED 0
+#endif
+
+// src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
+vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
     bool nee = (params.flags & FLAG_NEE) != 0u && params.num_lights > 0u;
     bool power = (params.flags & FLAG_POWER_HEURISTIC) != 0u;
     bool rr = (params.flags & FLAG_RUSSIAN_ROULETTE) != 0u;
@@ -59,10 +74,15 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng) {
     float prev_pdf = 0.0;
     bool prev_delta = true;
     vec3 prev_p = o;
+    uint prev_key = NO_KEY;
     uint depth = 0u;
     for (;;) {
+        segments += 1u;
         Hit hit;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
+#if GUIDED
+            if (prev_key != NO_KEY) record_target(prev_key, mean3(params.environment.xyz));
+#endif
             radiance += beta * params.environment.xyz;
             break;
         }
@@ -76,16 +96,30 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng) {
             radiance += beta * le * w;
         }
         Bsdf bsdf = material_bsdf(hit.material);
-        if (bsdf.kind == MAT_EMISSIVE || depth >= params.max_bounces) break;
         vec3 n = (bsdf.kind == MAT_DIELECTRIC || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
         mat3 frame = make_frame(n);
         vec3 wo_local = to_local(frame, wo);
 
-        if (nee) {
-            float u_sel = rng_next(rng);
-            vec2 u_light = rng_next_2d(rng);
+#if GUIDED
+        uint row = cell_index(hit.p) * params.guide_bins;
+#endif
+        if (bsdf.kind == MAT_EMISSIVE) {
+#if GUIDED
+            if (prev_key != NO_KEY) record_target(prev_key, mean3(le));
+#endif
+            break;
+        }
+        float g_frac = 0.0;
+#if GUIDED
+        if (!bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
+#endif
+        bool last = depth >= params.max_bounces;
+
+        float u_sel = rng_next(rng);
+        vec2 u_light = rng_next_2d(rng);
+        if (nee && !last && !bsdf_is_delta(bsdf)) {
             LightSample ls;
-            if (!bsdf_is_delta(bsdf) && sample_light(hit.p, u_sel, u_light, ls)) {
+            if (sample_light(hit.p, u_sel, u_light, ls)) {
                 vec3 wi_local = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
                 if (max_component(ls.le) > 0.0 && max_component(f) > 0.0) {
@@ -93,23 +127,70 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng) {
                     vec3 target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
                     vec3 seg = target - origin;
                     float len = length(seg);
+                    segments += 1u;
                     if (!occluded(origin, seg / len, len)) {
-                        float w = mis_weight(ls.pdf, bsdf_pdf(bsdf, wo_local, wi_local), power);
+                        float pdf_mix = bsdf_pdf(bsdf, wo_local, wi_local);
+#if GUIDED
+                        if (g_frac > 0.0) pdf_mix = (1.0 - g_frac) * pdf_mix + g_frac * guided_pdf(row, ls.wi);
+#endif
+                        float w = mis_weight(ls.pdf, pdf_mix, power);
                         radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
                     }
                 }
             }
         }
 
+        // The continuation: sampled at the last bounce too when guiding learns,
+        // since the previous vertex's Q-learning target is estimated from it.
+        if (last && prev_key == NO_KEY) break;
+        float u_mix = rng_next(rng);
         float uc = rng_next(rng);
         vec2 u = rng_next_2d(rng);
-        BsdfSample s = bsdf_sample(bsdf, wo_local, uc, u);
-        if (!s.ok) break;
-        beta *= s.weight;
-        vec3 wi = normalize(to_world(frame, s.wi));
-        prev_pdf = s.pdf;
-        prev_delta = s.delta;
+        vec3 wi = vec3(0.0);
+        vec3 weight = vec3(0.0);
+        float pdf = 0.0;
+        bool delta = false;
+        bool ok = false;
+        if (u_mix < g_frac) {
+#if GUIDED
+            wi = guided_sample(row, uc, u);
+            vec3 wi_local = to_local(frame, wi);
+            vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
+            pdf = (1.0 - g_frac) * bsdf_pdf(bsdf, wo_local, wi_local) + g_frac * guided_pdf(row, wi);
+            ok = pdf > 0.0 && max_component(f) > 0.0;
+            if (ok) weight = f * (abs(wi_local.z) / pdf);
+#endif
+        } else {
+            BsdfSample s = bsdf_sample(bsdf, wo_local, uc, u);
+            ok = s.ok;
+            if (ok) {
+                wi = normalize(to_world(frame, s.wi));
+                weight = s.weight;
+                pdf = s.pdf;
+                delta = s.delta;
+#if GUIDED
+                if (!s.delta && g_frac > 0.0) {
+                    pdf = (1.0 - g_frac) * s.pdf + g_frac * guided_pdf(row, wi);
+                    weight = s.weight * (s.pdf / pdf);
+                }
+#endif
+            }
+        }
+#if GUIDED
+        if (prev_key != NO_KEY) {
+            // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
+            float reflected = ok ? mean3(weight) * q_table[row + bin_index(wi)] : 0.0;
+            record_target(prev_key, mean3(le) + reflected);
+        }
+#endif
+        if (last || !ok) break;
+        beta *= weight;
+        prev_pdf = pdf;
+        prev_delta = delta;
         prev_p = hit.p;
+#if GUIDED
+        prev_key = row + bin_index(wi);
+#endif
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
         depth += 1u;
@@ -131,14 +212,24 @@ void main() {
     uint pixel = py * params.width + px;
 
     vec3 radiance = vec3(0.0);
+    uint segments = 0u;
+    uint zero = 0u;
     if (inside) {
         uint rng = rng_init(params.seed, pixel, push.frame, sample_index);
         vec2 u = rng_next_2d(rng);
         vec3 o, d;
         camera_ray(px, py, u, o, d);
-        radiance = trace_path(o, d, rng);
+        radiance = trace_path(o, d, rng, segments);
+        if (!(max_component(radiance) > 0.0)) zero = 1u;
         // A NaN or infinite sample would poison the pixel for good; it is dropped, as on the CPU.
         if (any(isnan(radiance)) || any(isinf(radiance))) radiance = vec3(0.0);
+    }
+    // Frame counters: one atomic per subgroup.
+    uint zero_sum = subgroupAdd(zero);
+    uint segment_sum = subgroupAdd(segments);
+    if (subgroupElect()) {
+        atomicAdd(counters[COUNTER_ZERO_PATHS], zero_sum);
+        atomicAdd(counters[COUNTER_SEGMENTS], segment_sum);
     }
 
     // Every invocation takes part in the reduction, inside the image or not.

@@ -26,4 +26,8 @@ void main() {
     put4(params.cam_up); put4(params.environment);
     put(params.width); put(params.height); put(params.max_bounces); put(params.rr_depth);
     put(params.num_spheres); put(params.num_quads); put(params.num_lights); put(params.flags); put(params.seed);
+    put(params.guide_bins); put(params.guide_rows); put(params.guide_cols);
+    put4(params.guide_min); put4(params.guide_inv_cell);
+    put(params.guide_res_x); put(params.guide_res_y); put(params.guide_res_z); put(params.guide_cells);
+    putf(params.guide_floor);
 }

@@ -3,12 +3,17 @@
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rlpt::cpu::CpuRenderer;
 use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions};
+use rlpt::guide::{Bins, GuidingMode};
+use rlpt::image::Image;
+use rlpt::metrics;
 use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 use rlpt::shared;
+use rlpt::stats::{FrameStats, RenderStats};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -25,6 +30,25 @@ enum Command {
     Render(RenderArgs),
     /// List the Vulkan devices, their drivers and subgroup sizes, and what rlpt needs that they lack.
     Devices,
+    /// Print relMSE, RMSE and MAPE of an image against a reference (EXR or PNG).
+    Compare { image: PathBuf, reference: PathBuf },
+    /// Time every GPU pass of every frame (timestamp queries): a table, JSON, a Chrome trace.
+    Bench(BenchArgs),
+    /// Plot relMSE against time from `render --stats` files (log-log PNG).
+    Plot {
+        /// Statistics files written by `rlpt render --stats`.
+        #[arg(required = true)]
+        stats: Vec<PathBuf>,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum GuidingArg {
+    Off,
+    Octant,
+    Sphere,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -45,22 +69,15 @@ enum Heuristic {
     Balance,
 }
 
+/// What a frame is: size, bounces, seed, device, NEE and guiding (`render` and `bench`).
 #[derive(clap::Args)]
-struct RenderArgs {
-    /// Scene file (TOML, see SCENE_FORMAT.md).
-    scene: PathBuf,
-    /// Output image: .png or .exr.
-    #[arg(short, long)]
-    output: PathBuf,
+struct Settings {
     /// Image width in pixels (default: the scene's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: Option<u32>,
     /// Image height in pixels (default: the scene's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
     height: Option<u32>,
-    /// Samples per pixel, rounded up to a multiple of 64 (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
-    spp: Option<u32>,
     /// Scattering events per path (default: the scene's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
     max_bounces: Option<u32>,
@@ -79,6 +96,112 @@ struct RenderArgs {
     /// MIS heuristic for combining light and BSDF sampling.
     #[arg(long, value_enum, default_value_t = Heuristic::Power)]
     mis: Heuristic,
+    /// Learned guiding: off, octant (the seed's 8 octants) or sphere (finer bins, see --bins).
+    #[arg(long, value_enum, default_value_t = GuidingArg::Off)]
+    guiding: GuidingArg,
+    /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in phi).
+    #[arg(long, default_value = "8x16", value_parser = parse_bins)]
+    bins: Bins,
+    /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF sampling).
+    #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
+    guided_fraction: f32,
+}
+
+impl Settings {
+    /// The scene's render settings with these overrides.
+    fn options(&self, scene: &Scene) -> RenderOptions {
+        let mut opts = RenderOptions::from_scene(scene);
+        if let Some(w) = self.width {
+            opts.width = w;
+        }
+        if let Some(h) = self.height {
+            opts.height = h;
+        }
+        if let Some(b) = self.max_bounces {
+            opts.max_bounces = b;
+        }
+        opts.seed = self.seed;
+        opts.nee = self.nee == OnOff::On;
+        opts.power_heuristic = self.mis == Heuristic::Power;
+        opts.guiding = match self.guiding {
+            GuidingArg::Off => GuidingMode::Off,
+            GuidingArg::Octant => GuidingMode::Octant,
+            GuidingArg::Sphere => GuidingMode::Sphere,
+        };
+        opts.bins = self.bins;
+        opts.guided_fraction = self.guided_fraction;
+        opts
+    }
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// Scene file (TOML, see SCENE_FORMAT.md).
+    scene: PathBuf,
+    /// Output image: .png or .exr.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Samples per pixel, rounded up to a multiple of 64 (default: the scene's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    spp: Option<u32>,
+    #[command(flatten)]
+    settings: Settings,
+    /// Reference image (EXR) to measure relMSE against, frame by frame, for --stats.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Write per-frame statistics (time, relMSE, zero-radiance paths) as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Stop once this much render time has passed (GPU time from timestamps on the GPU,
+    /// wall clock on the CPU): equal-time comparisons. --spp is then the upper bound.
+    #[arg(long, value_parser = parse_seconds)]
+    time: Option<f64>,
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Scene file (TOML, see SCENE_FORMAT.md).
+    scene: PathBuf,
+    /// Frames (64 spp each) to measure.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    frames: u32,
+    /// Frames rendered first and not measured (warm-up: clocks, caches, and guiding's learning).
+    #[arg(long, default_value_t = 8)]
+    warmup: u32,
+    #[command(flatten)]
+    settings: Settings,
+    /// Write the report (per-pass summary, every frame, pipeline statistics) as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write the frames as a Chrome trace-event file (Perfetto, chrome://tracing).
+    #[arg(long)]
+    trace: Option<PathBuf>,
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("`{s}` is not a positive number of seconds")),
+    }
+}
+
+/// Frames at which relMSE is measured against the reference: about 24 per decade
+/// (each readback and comparison costs host time, not GPU time), and the last.
+fn measure_at(frame: u32) -> bool {
+    let f = frame as f64;
+    frame <= 8 || (f.log10() * 24.0).floor() != ((f - 1.0).log10() * 24.0).floor()
+}
+
+fn parse_bins(s: &str) -> Result<Bins, String> {
+    Bins::parse(s)
+}
+
+fn parse_fraction(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if !(0.0..=1.0).contains(&v) || (v == 1.0) {
+        return Err(format!("{v} is not in [0, 1): some BSDF sampling must remain so that no direction has pdf zero"));
+    }
+    Ok(v)
 }
 
 fn main() {
@@ -90,7 +213,10 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::Bench(args) => bench(args),
         Command::Devices => devices(),
+        Command::Compare { image, reference } => compare(&image, &reference),
+        Command::Plot { stats, output } => plot(&stats, &output),
     };
     if let Err(e) = result {
         eprintln!("rlpt: error: {e:#}");
@@ -113,26 +239,38 @@ fn check_output(path: &Path) -> Result<()> {
 
 fn render(args: RenderArgs) -> Result<()> {
     check_output(&args.output)?;
+    if let Some(stats) = &args.stats {
+        if let Some(parent) = stats.parent().filter(|p| !p.as_os_str().is_empty()) {
+            if !parent.is_dir() {
+                bail!("--stats {}: directory {} does not exist", stats.display(), parent.display());
+            }
+        }
+    }
     let scene = Scene::load(&args.scene)?;
-    let mut opts = RenderOptions::from_scene(&scene);
-    if let Some(w) = args.width {
-        opts.width = w;
-    }
-    if let Some(h) = args.height {
-        opts.height = h;
-    }
+    let mut opts = args.settings.options(&scene);
     if let Some(s) = args.spp {
         opts.spp = s;
     }
-    if let Some(b) = args.max_bounces {
-        opts.max_bounces = b;
-    }
-    opts.seed = args.seed;
-    opts.nee = args.nee == OnOff::On;
-    opts.power_heuristic = args.mis == Heuristic::Power;
+    let reference = match &args.reference {
+        Some(path) => {
+            let r = Image::load(path).with_context(|| format!("reading the reference {}", path.display()))?;
+            if (r.width, r.height) != (opts.width, opts.height) {
+                bail!(
+                    "reference {} is {}x{} but the render is {}x{}: render the reference at the same size",
+                    path.display(),
+                    r.width,
+                    r.height,
+                    opts.width,
+                    opts.height
+                );
+            }
+            Some(r)
+        }
+        None => None,
+    };
     let frames = opts.frames();
-    let spp = frames * shared::SAMPLES_PER_FRAME;
-    if spp != opts.spp {
+    let mut spp = frames * shared::SAMPLES_PER_FRAME;
+    if spp != opts.spp && args.time.is_none() {
         eprintln!(
             "note: {} samples per pixel rounded up to {spp}: rlpt renders frames of {} samples per pixel",
             opts.spp,
@@ -149,50 +287,238 @@ fn render(args: RenderArgs) -> Result<()> {
     );
     let start = Instant::now();
     let mut shown = false;
-    let mut tick = |done: u32| {
+    let mut renderer = match args.settings.device {
+        DeviceKind::Cpu => Renderer::Cpu(Box::new(CpuRenderer::new(&prepared))),
+        DeviceKind::Gpu => {
+            let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
+            Renderer::Gpu(Box::new(GpuRenderer::new(&ctx, &prepared)?))
+        }
+    };
+    let device_name = match &renderer {
+        Renderer::Cpu(_) => format!("CPU ({} threads)", rayon::current_num_threads()),
+        Renderer::Gpu(r) => r.context().info.name.clone(),
+    };
+    let mut stats = RenderStats {
+        label: format!("{} guiding={} nee={}", file_name(&args.scene), opts.guiding.name(), opts.nee),
+        scene: args.scene.display().to_string(),
+        device: device_name.clone(),
+        width: opts.width,
+        height: opts.height,
+        guiding: opts.guiding.name().into(),
+        nee: opts.nee,
+        frames: Vec::new(),
+    };
+    let mut gpu_ms_total = 0.0;
+    let paths_per_frame = (opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64) as f64;
+    let mut film = None;
+    for f in 0..frames {
+        let frame_start = Instant::now();
+        let (gpu_ms, zero_paths) = match &mut renderer {
+            Renderer::Cpu(r) => {
+                r.render_frame();
+                (None, r.last_counters.zero_paths)
+            }
+            Renderer::Gpu(r) => {
+                let t = r.render_frames(1)?;
+                (r.context().info.timestamps.then_some(t.total_ms()), t.zero_paths)
+            }
+        };
+        let frame_ms = gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
+        gpu_ms_total += frame_ms;
+        let out_of_time = args.time.is_some_and(|limit| gpu_ms_total >= limit * 1e3);
+        let last = f + 1 == frames || out_of_time;
+        let rel_mse = match &reference {
+            Some(r) if last || measure_at(f + 1) => {
+                let current = renderer.film()?;
+                let e = metrics::compare(&current.mean(), r).map_err(anyhow::Error::msg)?;
+                if last {
+                    film = Some(current);
+                }
+                Some(e.rel_mse)
+            }
+            _ => None,
+        };
+        stats.frames.push(FrameStats {
+            frame: f + 1,
+            spp: (f + 1) * shared::SAMPLES_PER_FRAME,
+            gpu_ms,
+            elapsed_ms: gpu_ms_total,
+            rel_mse,
+            zero_fraction: Some(zero_paths as f64 / paths_per_frame),
+        });
         if !shown && start.elapsed() > Duration::from_secs(1) {
             bar.set_draw_target(ProgressDrawTarget::stderr());
             shown = true;
         }
-        bar.set_position(done as u64);
-    };
-
-    let (film, device_name, gpu_ms): (Film, String, Option<f64>) = match args.device {
-        DeviceKind::Cpu => {
-            let mut film = Film::new(opts.width, opts.height);
-            rlpt::cpu::render(&prepared, &mut film, frames, |f| tick(f.frames));
-            (film, format!("CPU ({} threads)", rayon::current_num_threads()), None)
+        bar.set_position(f as u64 + 1);
+        if out_of_time {
+            spp = (f + 1) * shared::SAMPLES_PER_FRAME;
+            break;
         }
-        DeviceKind::Gpu => {
-            let ctx = Context::new(&ContextOptions::from_env(args.gpu))?;
-            let mut renderer = GpuRenderer::new(&ctx, &prepared)?;
-            let mut gpu_ms = Some(0.0);
-            for f in 0..frames {
-                let ms = renderer.render_frames(1)?;
-                gpu_ms = gpu_ms.zip(ms).map(|(a, b)| a + b);
-                tick(f + 1);
-            }
-            let film = renderer.film()?;
-            (film, ctx.info.name.clone(), gpu_ms)
-        }
-    };
+    }
     bar.finish_and_clear();
+    let film = match film {
+        Some(f) => f,
+        None => renderer.film()?,
+    };
     let elapsed = start.elapsed().as_secs_f64();
     film.mean().save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    if let Some(path) = &args.stats {
+        stats.save(path)?;
+    }
     let samples = opts.width as f64 * opts.height as f64 * spp as f64;
-    let gpu = gpu_ms.map(|ms| format!(", GPU time {:.1} ms", ms)).unwrap_or_default();
+    let gpu = match &renderer {
+        Renderer::Gpu(r) if r.context().info.timestamps => {
+            format!(
+                ", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame",
+                gpu_ms_total / (spp / shared::SAMPLES_PER_FRAME) as f64
+            )
+        }
+        _ => String::new(),
+    };
+    let rel = stats.frames.last().and_then(|f| f.rel_mse).map(|e| format!(", relMSE {e:.3e}")).unwrap_or_default();
     println!(
-        "{}: {}x{}, {} spp in {:.2} s on {} ({:.1} Msamples/s{}) -> {}",
+        "{}: {}x{}, {} spp, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
         opts.width,
         opts.height,
         spp,
+        opts.guiding.name(),
+        if opts.nee { "on" } else { "off" },
         elapsed,
         device_name,
         samples / elapsed / 1e6,
-        gpu,
         args.output.display()
     );
+    Ok(())
+}
+
+/// The two renderers behind one face.
+enum Renderer {
+    Cpu(Box<CpuRenderer>),
+    Gpu(Box<GpuRenderer>),
+}
+
+impl Renderer {
+    fn film(&self) -> Result<Film> {
+        Ok(match self {
+            Renderer::Cpu(r) => r.film().clone(),
+            Renderer::Gpu(r) => r.film()?,
+        })
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
+}
+
+fn compare(image: &Path, reference: &Path) -> Result<()> {
+    let a = Image::load(image).with_context(|| format!("reading {}", image.display()))?;
+    let b = Image::load(reference).with_context(|| format!("reading {}", reference.display()))?;
+    let e = metrics::compare(&a, &b)
+        .map_err(|m| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display()))?;
+    println!("relMSE {:.6e}  RMSE {:.6e}  MAPE {:.6e}", e.rel_mse, e.rmse, e.mape);
+    Ok(())
+}
+
+fn plot(stats: &[PathBuf], output: &Path) -> Result<()> {
+    let runs = stats.iter().map(|p| RenderStats::load(p)).collect::<Result<Vec<_>>>()?;
+    rlpt::plot::plot_convergence(&runs, output)?;
+    println!("wrote {}", output.display());
+    Ok(())
+}
+
+fn check_parent(flag: &str, path: &Path) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !parent.is_dir() {
+            bail!("{flag} {}: directory {} does not exist", path.display(), parent.display());
+        }
+    }
+    Ok(())
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    if let Some(p) = &args.json {
+        check_parent("--json", p)?;
+    }
+    if let Some(p) = &args.trace {
+        if args.settings.device == DeviceKind::Cpu {
+            bail!("--trace needs GPU timestamps: it is not available with --device cpu");
+        }
+        check_parent("--trace", p)?;
+    }
+    if args.frames == 0 {
+        bail!("--frames 0: bench needs at least one measured frame");
+    }
+    let scene = Scene::load(&args.scene)?;
+    let opts = args.settings.options(&scene);
+    let prepared = PreparedScene::new(&scene, &opts);
+    let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
+    let mut times = Vec::with_capacity(args.frames as usize);
+    let (device, driver, clock, pipelines) = match args.settings.device {
+        DeviceKind::Gpu => {
+            let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
+            let mut r = GpuRenderer::new(&ctx, &prepared)?;
+            for f in 0..args.warmup + args.frames {
+                let t = r.render_frame_profiled()?;
+                if f >= args.warmup {
+                    times.push(t);
+                }
+            }
+            let pipelines = r
+                .pipeline_statistics()?
+                .into_iter()
+                .map(|(pipeline, statistics)| rlpt::bench::PipelineReport { pipeline, statistics })
+                .collect();
+            (ctx.info.name.clone(), ctx.info.driver.clone(), "GPU timestamps", pipelines)
+        }
+        DeviceKind::Cpu => {
+            let mut r = CpuRenderer::new(&prepared);
+            for f in 0..args.warmup + args.frames {
+                let start = Instant::now();
+                r.render_frame();
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                if f >= args.warmup {
+                    let c = r.last_counters;
+                    times.push(rlpt::render::PassTimes {
+                        start_ms: 0.0,
+                        pathtrace_ms: ms,
+                        zero_paths: c.zero_paths,
+                        segments: c.segments,
+                        ..Default::default()
+                    });
+                }
+            }
+            (
+                format!("CPU ({} threads)", rayon::current_num_threads()),
+                "rlpt CPU renderer".into(),
+                "wall clock",
+                Vec::new(),
+            )
+        }
+    };
+    let report = rlpt::bench::BenchReport::new(
+        args.scene.display().to_string(),
+        device.clone(),
+        driver,
+        clock,
+        (opts.width, opts.height),
+        samples_per_frame,
+        opts.guiding.name().to_string(),
+        opts.nee,
+        args.warmup,
+        &times,
+        pipelines,
+    );
+    print!("{}", report.table());
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    if let Some(p) = &args.trace {
+        let trace = rlpt::bench::chrome_trace(&device, &times, args.warmup + 1);
+        std::fs::write(p, serde_json::to_string(&trace)?).with_context(|| format!("writing {}", p.display()))?;
+    }
     Ok(())
 }
 
@@ -203,10 +529,11 @@ fn devices() -> Result<()> {
         println!("    driver: {}", d.driver);
         println!("    subgroup size {}: {}", d.subgroup_size, d.subgroup_operations.join(", "));
         println!(
-            "    float atomic add: {}; subgroup partition (NV): {}; timestamps: {}",
+            "    float atomic add: {}; subgroup partition (NV): {}; timestamps: {}; pipeline statistics: {}",
             yes_no(d.float_atomic_add),
             yes_no(d.subgroup_partitioned),
-            yes_no(d.timestamps)
+            yes_no(d.timestamps),
+            yes_no(d.pipeline_statistics)
         );
         if d.missing.is_empty() {
             println!("    usable by rlpt");

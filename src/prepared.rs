@@ -4,6 +4,7 @@
 //! The GPU renderer uploads them; the CPU renderer reads the same values, so
 //! precomputed normals, light probabilities and camera vectors agree exactly.
 
+use crate::guide::{Bins, Grid, GuideConfig, GuidingMode};
 use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::shared;
@@ -68,6 +69,16 @@ pub struct RenderParams {
     pub num_lights: u32,
     pub flags: u32,
     pub seed: u32,
+    pub guide_bins: u32,
+    pub guide_rows: u32,
+    pub guide_cols: u32,
+    pub guide_min: [f32; 4],
+    pub guide_inv_cell: [f32; 4],
+    pub guide_res_x: u32,
+    pub guide_res_y: u32,
+    pub guide_res_z: u32,
+    pub guide_cells: u32,
+    pub guide_floor: f32,
     pub pad: [u32; 3],
 }
 
@@ -86,7 +97,7 @@ const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
-const _: () = assert!(std::mem::size_of::<RenderParams>() == 128);
+const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 
 /// How to render: the scene's `[render]` table with command-line overrides.
@@ -103,6 +114,14 @@ pub struct RenderOptions {
     pub nee: bool,
     /// Power heuristic (true) or balance heuristic for MIS.
     pub power_heuristic: bool,
+    /// Learned guiding: off, octant (2x4 bins) or sphere (`bins`).
+    pub guiding: GuidingMode,
+    /// Bins of `GuidingMode::Sphere`.
+    pub bins: Bins,
+    /// Probability of guided sampling at a non-delta vertex.
+    pub guided_fraction: f32,
+    /// Exploration floor of the guided distribution (see `GuideConfig::floor`).
+    pub guide_floor: f32,
 }
 
 impl RenderOptions {
@@ -118,6 +137,10 @@ impl RenderOptions {
             seed: 0,
             nee: true,
             power_heuristic: true,
+            guiding: GuidingMode::Off,
+            bins: Bins::SPHERE_DEFAULT,
+            guided_fraction: 0.5,
+            guide_floor: 0.5,
         }
     }
 
@@ -135,6 +158,8 @@ pub struct PreparedScene {
     pub spheres: Vec<GpuSphere>,
     pub quads: Vec<GpuQuad>,
     pub lights: Vec<GpuLight>,
+    /// Guiding geometry, when guiding is on.
+    pub guide: Option<GuideConfig>,
 }
 
 fn v4(v: Vec3, w: f32) -> [f32; 4] {
@@ -245,8 +270,39 @@ impl PreparedScene {
             num_lights: lights.len() as u32,
             flags,
             seed: opts.seed,
+            guide_bins: 0,
+            guide_rows: 0,
+            guide_cols: 0,
+            guide_min: [0.0; 4],
+            guide_inv_cell: [0.0; 4],
+            guide_res_x: 0,
+            guide_res_y: 0,
+            guide_res_z: 0,
+            guide_cells: 0,
+            guide_floor: 0.0,
             pad: [0; 3],
         };
-        PreparedScene { params, materials, spheres, quads, lights }
+        let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
+        let bins = match opts.guiding {
+            GuidingMode::Off => None,
+            GuidingMode::Octant => Some(Bins::OCTANT),
+            GuidingMode::Sphere => Some(opts.bins),
+        };
+        if let Some(bins) = bins {
+            let grid = Grid::for_scene(&prepared, &scene.guiding);
+            let cfg =
+                GuideConfig { mode: opts.guiding, bins, grid, fraction: opts.guided_fraction, floor: opts.guide_floor };
+            let p = &mut prepared.params;
+            p.guide_bins = bins.count();
+            p.guide_rows = bins.rows;
+            p.guide_cols = bins.cols;
+            p.guide_min = v4(grid.min, cfg.fraction);
+            p.guide_inv_cell = v4(grid.inv_cell_size(), bins.solid_angle());
+            [p.guide_res_x, p.guide_res_y, p.guide_res_z] = grid.res;
+            p.guide_cells = grid.cells();
+            p.guide_floor = cfg.floor;
+            prepared.guide = Some(cfg);
+        }
+        prepared
     }
 }

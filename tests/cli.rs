@@ -99,3 +99,81 @@ fn devices_lists_the_subgroup_size() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(stdout.contains("subgroup size") && stdout.contains("driver:"), "{stdout}");
 }
+
+#[test]
+fn bench_times_every_pass_and_writes_json_and_a_trace() {
+    let json = tmp("bench.json");
+    let trace = tmp("bench-trace.json");
+    let o = rlpt()
+        .args([
+            "bench",
+            "scenes/seed-exp2.toml",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--frames",
+            "3",
+            "--warmup",
+            "1",
+            "--guiding",
+            "sphere",
+            "--json",
+        ])
+        .arg(&json)
+        .arg("--trace")
+        .arg(&trace)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for pass in ["pathtrace", "learn: fold targets", "learn: build CDFs", "frame", "GPU timestamps"] {
+        assert!(stdout.contains(pass), "table names {pass}: {stdout}");
+    }
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let frames = report["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3, "every measured frame, none of the warm-up");
+    assert_eq!(frames[0]["frame"], 2);
+    for f in frames {
+        let sum = f["pathtrace_ms"].as_f64().unwrap()
+            + f["learn_fold_ms"].as_f64().unwrap()
+            + f["learn_cdf_ms"].as_f64().unwrap();
+        assert!(f["pathtrace_ms"].as_f64().unwrap() > 0.0 && f["learn_cdf_ms"].as_f64().unwrap() > 0.0, "{f}");
+        assert!((f["total_ms"].as_f64().unwrap() - sum).abs() < 1e-6 * sum.max(1.0), "passes add up to the frame: {f}");
+        assert!(f["segments"].as_u64().unwrap() >= 16 * 16 * 64, "at least one segment per path: {f}");
+    }
+    let t: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let spans: Vec<&serde_json::Value> =
+        t["traceEvents"].as_array().unwrap().iter().filter(|e| e["ph"] == "X").collect();
+    assert_eq!(spans.len(), 9, "three passes of three frames");
+    for w in spans.windows(2) {
+        let end = w[0]["ts"].as_f64().unwrap() + w[0]["dur"].as_f64().unwrap();
+        assert!(w[1]["ts"].as_f64().unwrap() >= end - 1e-3, "spans do not overlap on the queue: {w:?}");
+    }
+}
+
+#[test]
+fn bench_refuses_a_trace_without_gpu_timestamps() {
+    let o = rlpt()
+        .args([
+            "bench",
+            "scenes/smallpt.toml",
+            "--device",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--trace",
+        ])
+        .arg(tmp("cpu-trace.json"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("--trace") && stderr.contains("--device cpu"), "{stderr}");
+}

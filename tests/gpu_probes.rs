@@ -101,6 +101,16 @@ fn struct_layout_matches_the_rust_mirrors() {
         num_lights: 507,
         flags: 508,
         seed: 509,
+        guide_bins: 510,
+        guide_rows: 511,
+        guide_cols: 512,
+        guide_min: v4(),
+        guide_inv_cell: v4(),
+        guide_res_x: 513,
+        guide_res_y: 514,
+        guide_res_z: 515,
+        guide_cells: 516,
+        guide_floor: 0.125,
         pad: [0; 3],
     };
     let bufs = [
@@ -150,6 +160,18 @@ fn struct_layout_matches_the_rust_mirrors() {
         params.num_lights,
         params.flags,
         params.seed,
+        params.guide_bins,
+        params.guide_rows,
+        params.guide_cols,
+    ]);
+    want.extend(f(params.guide_min));
+    want.extend(f(params.guide_inv_cell));
+    want.extend([
+        params.guide_res_x,
+        params.guide_res_y,
+        params.guide_res_z,
+        params.guide_cells,
+        params.guide_floor.to_bits(),
     ]);
     assert_eq!(&got[..want.len()], &want[..]);
     common::assert_no_validation_messages(&ctx);

@@ -5,7 +5,7 @@
 //! The scenes are assembled from fixed pieces so that the bad line's number is
 //! known by construction:
 //! - `with_camera(c)`: `c` starts on line 1;
-//! - `with_render(r)`: `r` starts on line 1;
+//! - `with_render(r)`: `r` starts on line 1 (also used for `[environment]` and `[guiding]`);
 //! - `with_material(m)`: the camera takes lines 1-4, `m` starts on line 5;
 //! - `with_geometry(g)`: camera lines 1-4, material lines 5-8, `g` starts on line 9.
 
@@ -198,7 +198,11 @@ fn unknown_key_in_quad() {
 #[test]
 fn unknown_top_level_table() {
     let text = format!("{}[lights]\nintensity = 3\n", with_geometry(SPHERE));
-    expect(&text, "13:2", &["unknown table `[lights]`", "[camera]", "[[material]]", "[[sphere]]", "[[quad]]"]);
+    expect(
+        &text,
+        "13:2",
+        &["unknown table `[lights]`", "[camera]", "[guiding]", "[[material]]", "[[sphere]]", "[[quad]]"],
+    );
 }
 
 #[test]
@@ -695,6 +699,182 @@ fn degenerate_quad_zero_edge() {
     let text =
         with_geometry("[[quad]]\norigin = [0, 0, 0]\nedge_u = [0, 0, 0]\nedge_v = [0, 1, 0]\nmaterial = \"white\"\n");
     expect(&text, "11:10", &["key `edge_u` must be a non-zero vector"]);
+}
+
+// ---------------------------------------------------------------------------
+// The `[guiding]` table (an rlpt extension): `with_render(g)` puts it on line 1.
+
+#[test]
+fn guiding_pieces_are_valid() {
+    for guiding in [
+        "[guiding]\n",
+        "[guiding]\nresolution = [8, 8, 8]\n",
+        "[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\n",
+        "[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\nresolution = [64, 64, 64]\n",
+    ] {
+        Scene::parse(&with_render(guiding), "good.toml").unwrap();
+    }
+}
+
+#[test]
+fn unknown_key_in_guiding() {
+    let text = with_render("[guiding]\nresolution = [8, 8, 8]\ncells = 512\n");
+    expect(&text, "3:1", &["[guiding]: unknown key `cells`", "expected one of bounds_min, bounds_max, resolution"]);
+}
+
+#[test]
+fn guiding_written_as_array_of_tables() {
+    let text = with_render("[[guiding]]\nresolution = [8, 8, 8]\n");
+    expect(&text, "1:1", &["`guiding` must be a single table written [guiding]"]);
+}
+
+#[test]
+fn guiding_bounds_min_without_bounds_max() {
+    let text = with_render("[guiding]\nbounds_min = [0, 0, 0]\n");
+    expect(
+        &text,
+        "2:14",
+        &["[guiding]: missing key `bounds_max`", "`bounds_min` is given without it", "give both", "or neither"],
+    );
+}
+
+#[test]
+fn guiding_bounds_max_without_bounds_min() {
+    let text = with_render("[guiding]\nresolution = [4, 4, 4]\nbounds_max = [1, 1, 1]\n");
+    expect(&text, "3:14", &["[guiding]: missing key `bounds_min`", "`bounds_max` is given without it"]);
+}
+
+#[test]
+fn guiding_lone_bound_is_checked_first() {
+    // A malformed lone bound is reported as malformed, not as lonely.
+    let text = with_render("[guiding]\nbounds_min = [0, 0]\n");
+    expect(&text, "2:14", &["key `bounds_min` must be an array of 3 numbers", "found an array of 2 values"]);
+}
+
+#[test]
+fn guiding_bounds_max_equal_to_min_on_an_axis() {
+    let text = with_render("[guiding]\nbounds_min = [0, 2, 0]\nbounds_max = [1, 2.0, 1]\n");
+    expect(
+        &text,
+        "3:18",
+        &[
+            "[guiding]: key `bounds_max` must be greater than `bounds_min` on every axis",
+            "found 2.0 <= 2 on the y axis",
+        ],
+    );
+}
+
+#[test]
+fn guiding_bounds_max_below_min_on_an_axis() {
+    let text = with_render("[guiding]\nbounds_min = [0, 0, 5]\nbounds_max = [1, 1, -1]\n");
+    expect(&text, "3:21", &["must be greater than `bounds_min` on every axis", "found -1 <= 5 on the z axis"]);
+    // The x axis is reported first when several are wrong.
+    let text = with_render("[guiding]\nbounds_max = [0, 0, 0]\nbounds_min = [1, 1, 1]\n");
+    expect(&text, "2:15", &["found 0 <= 1 on the x axis"]);
+}
+
+#[test]
+fn guiding_bounds_equal_in_f32() {
+    // Different in f64, the same 32-bit float: the grid would have no extent.
+    let text = with_render("[guiding]\nbounds_min = [0, 0, 1]\nbounds_max = [1, 1, 1.00000001]\n");
+    expect(
+        &text,
+        "3:21",
+        &[
+            "must be greater than `bounds_min` on every axis",
+            "found 1.00000001 <= 1 (equal as 32-bit floats) on the z axis",
+        ],
+    );
+}
+
+#[test]
+fn guiding_box_extent_overflowing_f32() {
+    let text = with_render("[guiding]\nbounds_min = [-3e38, 0, 0]\nbounds_max = [3e38, 1, 1]\n");
+    expect(
+        &text,
+        "3:15",
+        &["[guiding]: the guiding box's extent on the x axis", "3e38 - (-3e38)", "does not fit a 32-bit float"],
+    );
+}
+
+#[test]
+fn guiding_non_finite_bound() {
+    let text = with_render("[guiding]\nbounds_min = [0, nan, 0]\nbounds_max = [1, 1, 1]\n");
+    expect(&text, "2:18", &["[guiding]: key `bounds_min` component 2 must be a finite number", "found nan"]);
+    let text = with_render("[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, +inf]\n");
+    expect(&text, "3:21", &["key `bounds_max` component 3 must be a finite number", "found +inf"]);
+    let text = with_render("[guiding]\nbounds_min = [-1e39, 0, 0]\nbounds_max = [1, 1, 1]\n");
+    expect(&text, "2:15", &["key `bounds_min` component 1", "32-bit float", "found -1e39"]);
+}
+
+#[test]
+fn guiding_bound_of_wrong_type() {
+    let text = with_render("[guiding]\nbounds_min = \"origin\"\nbounds_max = [1, 1, 1]\n");
+    expect(&text, "2:14", &["key `bounds_min` must be an array of 3 numbers", "found string \"origin\""]);
+}
+
+#[test]
+fn guiding_resolution_of_two() {
+    let text = with_render("[guiding]\nresolution = [8, 8]\n");
+    expect(
+        &text,
+        "2:14",
+        &["[guiding]: key `resolution` must be an array of 3 integers [nx, ny, nz]", "found an array of 2 values"],
+    );
+}
+
+#[test]
+fn guiding_resolution_of_four() {
+    let text = with_render("[guiding]\nresolution = [8, 8, 8, 8]\n");
+    expect(&text, "2:14", &["key `resolution` must be an array of 3 integers", "found an array of 4 values"]);
+}
+
+#[test]
+fn guiding_resolution_scalar() {
+    let text = with_render("[guiding]\nresolution = 16\n");
+    expect(&text, "2:14", &["key `resolution` must be an array of 3 integers", "found integer 16"]);
+}
+
+#[test]
+fn guiding_resolution_zero() {
+    let text = with_render("[guiding]\nresolution = [8, 0, 8]\n");
+    expect(&text, "2:18", &["[guiding]: key `resolution` component 2 must be an integer from 1 to 256", "found 0"]);
+}
+
+#[test]
+fn guiding_resolution_negative() {
+    let text = with_render("[guiding]\nresolution = [-4, 8, 8]\n");
+    expect(&text, "2:15", &["key `resolution` component 1 must be an integer from 1 to 256", "found -4"]);
+}
+
+#[test]
+fn guiding_resolution_257() {
+    let text = with_render("[guiding]\nresolution = [257, 1, 1]\n");
+    expect(&text, "2:15", &["key `resolution` component 1 must be an integer from 1 to 256", "found 257"]);
+}
+
+#[test]
+fn guiding_resolution_float() {
+    let text = with_render("[guiding]\nresolution = [16, 16, 16.0]\n");
+    expect(&text, "2:23", &["key `resolution` component 3 must be an integer from 1 to 256", "found float 16.0"]);
+}
+
+#[test]
+fn guiding_resolution_string() {
+    let text = with_render("[guiding]\nresolution = [16, \"16\", 16]\n");
+    expect(&text, "2:19", &["key `resolution` component 2 must be an integer", "found string \"16\""]);
+}
+
+#[test]
+fn guiding_resolution_product_too_large() {
+    let text = with_render("[guiding]\nresolution = [64, 64, 65]\n");
+    expect(
+        &text,
+        "2:14",
+        &["[guiding]: key `resolution` must have at most 262144 cells in all", "found 64 x 64 x 65 = 266240"],
+    );
+    let text = with_render("[guiding]\nresolution = [256, 256, 256]\n");
+    expect(&text, "2:14", &["at most 262144 cells", "found 256 x 256 x 256 = 16777216"]);
 }
 
 // ---------------------------------------------------------------------------

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use rlpt::scene::{MaterialKind, RenderSettings, Scene};
+use rlpt::scene::{GuidingSettings, MaterialKind, RenderSettings, Scene};
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
@@ -34,6 +34,15 @@ fn every_scene_in_the_scenes_directory_loads() {
         let n = scene.materials.len() as u32;
         assert!(scene.spheres.iter().all(|s| s.material < n));
         assert!(scene.quads.iter().all(|q| q.material < n));
+        // A [guiding] table, where a scene has one, keeps its promises.
+        let g = &scene.guiding;
+        assert_eq!(g.bounds_min.is_some(), g.bounds_max.is_some());
+        if let (Some(min), Some(max)) = (g.bounds_min, g.bounds_max) {
+            assert!(max.cmpgt(min).all() && (max - min).is_finite(), "{g:?}");
+        }
+        if let Some(r) = g.resolution {
+            assert!(r.iter().all(|&n| (1..=256).contains(&n)) && r.iter().product::<u32>() <= 262_144, "{g:?}");
+        }
         loaded.push(path.file_name().unwrap().to_string_lossy().into_owned());
     }
     for expected in ["smallpt.toml", "door.toml", "furnace-open.toml", "furnace-closed.toml"] {
@@ -155,6 +164,7 @@ fn defaults_are_filled_in() {
         RenderSettings { width: 640, height: 480, spp: 64, max_bounces: 8, russian_roulette_depth: None }
     );
     assert_eq!(scene.environment, Vec3::ZERO);
+    assert_eq!(scene.guiding, GuidingSettings::default());
     assert_eq!(scene.camera.up, Vec3::Y);
     assert_eq!(scene.camera.near, 0.0);
     assert_eq!(scene.camera.forward, Vec3::NEG_Z);
@@ -339,4 +349,100 @@ fn up_is_kept_as_written() {
     let text = MINIMAL.replace("vfov = 45", "vfov = 45\nup = [0, 2, 1]");
     let scene = Scene::parse(&text, "t").unwrap();
     assert_eq!(scene.camera.up, Vec3::new(0.0, 2.0, 1.0));
+}
+
+// ---------------------------------------------------------------------------
+// The `[guiding]` table (an rlpt extension).
+
+#[test]
+fn guiding_table_is_read() {
+    let text = format!(
+        "{MINIMAL}\n[guiding]\nbounds_min = [-1, -2.5, 0]\nbounds_max = [1e2, 3, 0.25]\nresolution = [8, 16, 0x20]\n"
+    );
+    let scene = Scene::parse(&text, "t").unwrap();
+    assert_eq!(
+        scene.guiding,
+        GuidingSettings {
+            bounds_min: Some(Vec3::new(-1.0, -2.5, 0.0)),
+            bounds_max: Some(Vec3::new(100.0, 3.0, 0.25)),
+            resolution: Some([8, 16, 32]),
+        }
+    );
+    // The rest of the scene is what it was without the table.
+    let plain = Scene::parse(MINIMAL, "t").unwrap();
+    assert_eq!(Scene { guiding: GuidingSettings::default(), ..scene }, plain);
+}
+
+#[test]
+fn no_guiding_table_means_all_automatic() {
+    let scene = Scene::parse(MINIMAL, "t").unwrap();
+    assert_eq!(scene.guiding, GuidingSettings::default());
+    assert_eq!(scene.guiding, GuidingSettings { bounds_min: None, bounds_max: None, resolution: None });
+    let empty = Scene::parse(&format!("[guiding]\n{MINIMAL}"), "t").unwrap();
+    assert_eq!(empty.guiding, GuidingSettings::default());
+}
+
+#[test]
+fn shipped_scenes_have_no_guiding_table_unless_they_say_so() {
+    // The shared scenes predate the extension; they must load as they always did.
+    for name in ["smallpt.toml", "door.toml", "furnace-open.toml", "furnace-closed.toml"] {
+        let path = scenes_dir().join(name);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let scene = load(name);
+        if !text.contains("guiding") {
+            assert_eq!(scene.guiding, GuidingSettings::default(), "{name}");
+        }
+    }
+}
+
+#[test]
+fn guiding_keys_are_independent() {
+    let only_resolution = Scene::parse(&format!("[guiding]\nresolution = [4, 2, 1]\n{MINIMAL}"), "t").unwrap();
+    assert_eq!(only_resolution.guiding, GuidingSettings { resolution: Some([4, 2, 1]), ..Default::default() });
+    let only_bounds =
+        Scene::parse(&format!("[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\n{MINIMAL}"), "t").unwrap();
+    assert_eq!(
+        only_bounds.guiding,
+        GuidingSettings { bounds_min: Some(Vec3::ZERO), bounds_max: Some(Vec3::ONE), resolution: None }
+    );
+}
+
+#[test]
+fn guiding_as_inline_or_dotted_table() {
+    let inline = Scene::parse(&format!("guiding = {{ resolution = [2, 3, 4] }}\n{MINIMAL}"), "t").unwrap();
+    assert_eq!(inline.guiding.resolution, Some([2, 3, 4]));
+    let dotted = Scene::parse(&format!("guiding.resolution = [2, 3, 4]\n{MINIMAL}"), "t").unwrap();
+    assert_eq!(dotted.guiding, inline.guiding);
+}
+
+#[test]
+fn guiding_limits_are_inclusive() {
+    for resolution in [[1, 1, 1], [256, 1, 1], [1, 256, 1], [64, 64, 64], [256, 256, 4], [4, 256, 256]] {
+        let text = format!("[guiding]\nresolution = {resolution:?}\n{MINIMAL}");
+        assert_eq!(Scene::parse(&text, "t").unwrap().guiding.resolution, Some(resolution));
+    }
+    // Smallpt-sized boxes, and boxes barely wider than a float step, are fine.
+    let text = format!("[guiding]\nbounds_min = [-1e5, -1e5, -1e5]\nbounds_max = [1e5, 1e5, 1e5]\n{MINIMAL}");
+    assert_eq!(Scene::parse(&text, "t").unwrap().guiding.bounds_max, Some(Vec3::splat(1e5)));
+    let text = format!("[guiding]\nbounds_min = [0, 0, 1]\nbounds_max = [1, 1, 1.0000002]\n{MINIMAL}");
+    let g = Scene::parse(&text, "t").unwrap().guiding;
+    assert!(g.bounds_max.unwrap().z > g.bounds_min.unwrap().z);
+}
+
+#[test]
+fn guiding_example_of_the_format_document_loads() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/SCENE_FORMAT.md")).unwrap();
+    let extensions = &doc[doc.find("## Extensions (rlpt)").expect("an Extensions section")..];
+    let start = extensions.find("```toml\n").expect("a TOML example") + "```toml\n".len();
+    let example = &extensions[start..start + extensions[start..].find("```").unwrap()];
+    let text = std::fs::read_to_string(scenes_dir().join("smallpt.toml")).unwrap() + "\n" + example;
+    let scene = Scene::parse(&text, "smallpt + example").unwrap();
+    assert_eq!(
+        scene.guiding,
+        GuidingSettings {
+            bounds_min: Some(Vec3::new(1.0, 0.0, 0.0)),
+            bounds_max: Some(Vec3::new(99.0, 81.6, 170.0)),
+            resolution: Some([16, 13, 28]),
+        }
+    );
 }

@@ -173,3 +173,22 @@ fn smallpt_matches_a_double_precision_path_tracer() {
     let z = assert_films_agree(&ours, &reference, 4, 5.0, "smallpt: rlpt GPU (f32) vs f64 reference");
     eprintln!("smallpt: worst block differs by {z:.2} sigma");
 }
+
+/// The full-size check of the issue: 640x480 at 1024 spp, rlpt's CPU renderer
+/// (f32, the same algorithm as the GPU kernel, which the test above and
+/// tests/render_agreement.rs tie to it) against the f64 reference, 16x16-pixel
+/// blocks. About 15 minutes on two cores: `cargo test --test smallpt_reference -- --ignored`.
+#[test]
+#[ignore]
+fn smallpt_full_size_matches_a_double_precision_path_tracer() {
+    let scene = scene("smallpt.toml");
+    let (w, h, spp) = (640, 480, 1024);
+    let start = std::time::Instant::now();
+    let reference = render_reference(&scene, w, h, spp / 64);
+    eprintln!("f64 reference: {:.0} s", start.elapsed().as_secs_f64());
+    let start = std::time::Instant::now();
+    let ours = render_cpu(&scene, &options(&scene, w, h, spp));
+    eprintln!("rlpt CPU: {:.0} s", start.elapsed().as_secs_f64());
+    let z = assert_films_agree(&ours, &reference, 16, 5.0, "smallpt 640x480: rlpt (f32) vs f64 reference");
+    eprintln!("smallpt 640x480, 1024 spp: worst of 3600 block comparisons differs by {z:.2} sigma");
+}

@@ -3,6 +3,7 @@
 //! reference the GPU renderer is tested against.
 
 use crate::film::Film;
+use crate::guide::{self, FrameSums, GuideConfig, QTable};
 use crate::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
 use crate::math::geometry::{emitted, intersect, light_pdf, occluded, offset_origin, sample_light};
 use crate::math::rng::Rng;
@@ -40,8 +41,25 @@ fn material_bsdf(scene: &PreparedScene, mat: u32) -> Bsdf {
     Bsdf { kind, albedo: xyz(m.albedo_roughness), alpha: r * r, ior: m.emission_ior[3] }
 }
 
-/// Traces one path from the camera ray (o, d) and returns the radiance it carries.
-pub fn trace_path(scene: &PreparedScene, mut o: Vec3, mut d: Vec3, rng: &mut Rng) -> Vec3 {
+/// The guiding state a path reads: configuration and the table of the previous frames.
+#[derive(Clone, Copy)]
+pub struct Guide<'a> {
+    pub cfg: &'a GuideConfig,
+    pub q: &'a [f32],
+    pub cdf: &'a [f32],
+}
+
+/// Traces one path from the camera ray (o, d) and returns the radiance it
+/// carries and the number of rays it traced. With guiding, every ray that
+/// reaches a surface or escapes hands its Q-learning target to `learn(key, target)`.
+pub fn trace_path(
+    scene: &PreparedScene,
+    guide: Option<Guide>,
+    mut o: Vec3,
+    mut d: Vec3,
+    rng: &mut Rng,
+    learn: &mut impl FnMut(u32, f32),
+) -> (Vec3, u32) {
     let p = &scene.params;
     let nee = p.flags & shared::FLAG_NEE != 0 && p.num_lights > 0;
     let power = p.flags & shared::FLAG_POWER_HEURISTIC != 0;
@@ -52,10 +70,18 @@ pub fn trace_path(scene: &PreparedScene, mut o: Vec3, mut d: Vec3, rng: &mut Rng
     let mut prev_pdf = 0.0f32;
     let mut prev_delta = true;
     let mut prev_p = o;
+    // Q-table entry of the ray being traced (none for camera rays).
+    let mut prev_key = shared::NO_KEY;
     let mut depth = 0u32;
+    let mut segments = 0u32;
     loop {
+        segments += 1;
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
-            radiance += beta * xyz(p.environment);
+            let env = xyz(p.environment);
+            if prev_key != shared::NO_KEY {
+                learn(prev_key, guide::mean3(env));
+            }
+            radiance += beta * env;
             break;
         };
         let wo = -d;
@@ -69,17 +95,43 @@ pub fn trace_path(scene: &PreparedScene, mut o: Vec3, mut d: Vec3, rng: &mut Rng
             radiance += beta * le * w;
         }
         let bsdf = material_bsdf(scene, hit.material);
-        if bsdf.kind == MaterialKind::Emissive || depth >= p.max_bounces {
-            break;
-        }
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.kind == MaterialKind::Dielectric || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
         let frame = Frame::from_normal(n);
         let wo_local = frame.to_local(wo);
 
-        if nee && !bsdf.is_delta() {
-            let u_sel = rng.next_f32();
-            let u_light = rng.next_2d();
+        // Guiding at this vertex: its cell's row of the table and sampling CDF.
+        let mut cell_key = 0u32;
+        let mut cdf: &[f32] = &[];
+        if let Some(g) = guide {
+            cell_key = g.cfg.grid.cell(hit.p) * g.cfg.bins.count();
+            cdf = &g.cdf[cell_key as usize..(cell_key + g.cfg.bins.count()) as usize];
+        }
+        if bsdf.kind == MaterialKind::Emissive {
+            // Reflects nothing: the target is the emission alone.
+            if prev_key != shared::NO_KEY {
+                learn(prev_key, guide::mean3(le));
+            }
+            break;
+        }
+        // Probability of guided sampling here: zero at delta vertices and where nothing is learned.
+        let g_frac = match guide {
+            Some(g) if !bsdf.is_delta() && guide::learned(cdf) => g.cfg.fraction,
+            _ => 0.0,
+        };
+        // The density of the mixture of BSDF and guided sampling.
+        let mix_pdf = |wi_world: Vec3, wi_local: Vec3| {
+            let pb = bsdf_pdf(&bsdf, wo_local, wi_local);
+            match guide {
+                Some(g) if g_frac > 0.0 => (1.0 - g_frac) * pb + g_frac * guide::guided_pdf(&g.cfg.bins, cdf, wi_world),
+                _ => pb,
+            }
+        };
+        let last = depth >= p.max_bounces;
+
+        let u_sel = rng.next_f32();
+        let u_light = rng.next_2d();
+        if nee && !last && !bsdf.is_delta() {
             if let Some(ls) = sample_light(scene, hit.p, u_sel, u_light) {
                 let wi_local = frame.to_local(ls.wi);
                 let f = bsdf_eval(&bsdf, wo_local, wi_local);
@@ -88,26 +140,63 @@ pub fn trace_path(scene: &PreparedScene, mut o: Vec3, mut d: Vec3, rng: &mut Rng
                     let target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
                     let seg = target - origin;
                     let len = seg.length();
+                    segments += 1;
                     if !occluded(scene, origin, seg / len, len) {
-                        let w = mis_weight(ls.pdf, bsdf_pdf(&bsdf, wo_local, wi_local), power);
+                        let w = mis_weight(ls.pdf, mix_pdf(ls.wi, wi_local), power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                     }
                 }
             }
-        } else if nee {
-            // Keep the random-number sequence aligned with the GPU kernel.
-            rng.next_f32();
-            rng.next_2d();
         }
 
+        // The continuation: sampled even at the last bounce when guiding learns, since
+        // the Q-learning target of the previous vertex is estimated from it.
+        if last && prev_key == shared::NO_KEY {
+            break;
+        }
+        let u_mix = rng.next_f32();
         let uc = rng.next_f32();
         let u = rng.next_2d();
-        let Some(s) = bsdf_sample(&bsdf, wo_local, uc, u) else { break };
-        beta *= s.weight;
-        let wi = frame.to_world(s.wi).normalize();
-        prev_pdf = s.pdf;
-        prev_delta = s.delta;
+        let sampled: Option<(Vec3, Vec3, f32, bool)> = if u_mix < g_frac {
+            let g = guide.expect("g_frac > 0 only with guiding");
+            let wi = guide::guided_sample(&g.cfg.bins, cdf, uc, u);
+            let wi_local = frame.to_local(wi);
+            let f = bsdf_eval(&bsdf, wo_local, wi_local);
+            let pdf = mix_pdf(wi, wi_local);
+            (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
+        } else {
+            bsdf_sample(&bsdf, wo_local, uc, u).map(|s| {
+                let wi = frame.to_world(s.wi).normalize();
+                if s.delta || g_frac == 0.0 {
+                    (wi, s.weight, s.pdf, s.delta)
+                } else {
+                    // f |cos| = weight * pdf_bsdf; divide by the mixture density instead.
+                    let pdf = mix_pdf(wi, s.wi);
+                    (wi, s.weight * (s.pdf / pdf), pdf, false)
+                }
+            })
+        };
+        if let Some(g) = guide {
+            if prev_key != shared::NO_KEY {
+                // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
+                let reflected = match sampled {
+                    Some((wi, weight, _, _)) => guide::mean3(weight) * g.q[(cell_key + g.cfg.bins.index(wi)) as usize],
+                    None => 0.0,
+                };
+                learn(prev_key, guide::mean3(le) + reflected);
+            }
+        }
+        if last {
+            break;
+        }
+        let Some((wi, weight, pdf, delta)) = sampled else { break };
+        beta *= weight;
+        prev_pdf = pdf;
+        prev_delta = delta;
         prev_p = hit.p;
+        if let Some(g) = guide {
+            prev_key = cell_key + g.cfg.bins.index(wi);
+        }
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
         depth += 1;
@@ -122,34 +211,120 @@ pub fn trace_path(scene: &PreparedScene, mut o: Vec3, mut d: Vec3, rng: &mut Rng
             break;
         }
     }
-    radiance
+    (radiance, segments)
 }
 
-/// Renders `frames` more frames of 64 samples per pixel into `film`, calling
-/// `on_frame` after each.
-pub fn render(scene: &PreparedScene, film: &mut Film, frames: u32, mut on_frame: impl FnMut(&Film)) {
-    let p = scene.params;
-    assert_eq!((film.width, film.height), (p.width, p.height), "film size matches the render size");
-    for _ in 0..frames {
-        let frame = film.frames;
-        film.pixels.par_chunks_mut(p.width as usize).enumerate().for_each(|(y, row)| {
-            for (x, acc) in row.iter_mut().enumerate() {
-                let pixel = y as u32 * p.width + x as u32;
-                let mut sum = Vec3::ZERO;
-                for sample in 0..shared::SAMPLES_PER_FRAME {
-                    let mut rng = Rng::new(p.seed, pixel, frame, sample);
-                    let u = rng.next_2d();
-                    let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                    let l = trace_path(scene, o, d, &mut rng);
-                    // A NaN or infinite sample would poison the pixel forever; it is dropped (and is a bug).
-                    if l.is_finite() {
-                        sum += l;
-                    }
-                }
-                crate::film::accumulate(acc, frame, sum.to_array());
-            }
-        });
-        film.frames += 1;
-        on_frame(film);
+/// What a frame measured besides the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameCounters {
+    /// Paths whose radiance was exactly zero.
+    pub zero_paths: u64,
+    /// Rays traced (camera, bounce and shadow rays).
+    pub segments: u64,
+}
+
+/// The CPU renderer: the film, the learned table (with guiding) and the frame counter.
+pub struct CpuRenderer {
+    scene: PreparedScene,
+    table: Option<QTable>,
+    film: Film,
+    /// Frames traced so far (decorrelates random numbers; not reset with the film).
+    frames_traced: u32,
+    pub last_counters: FrameCounters,
+}
+
+impl CpuRenderer {
+    pub fn new(scene: &PreparedScene) -> CpuRenderer {
+        let table = scene.guide.map(|g| QTable::new(g.entries()));
+        let film = Film::new(scene.params.width, scene.params.height);
+        CpuRenderer { scene: scene.clone(), table, film, frames_traced: 0, last_counters: FrameCounters::default() }
     }
+
+    pub fn film(&self) -> &Film {
+        &self.film
+    }
+
+    pub fn table(&self) -> Option<&QTable> {
+        self.table.as_ref()
+    }
+
+    /// Starts a new accumulation; what guiding learned is kept.
+    pub fn reset_film(&mut self) {
+        self.film = Film::new(self.film.width, self.film.height);
+    }
+
+    /// Renders one frame of 64 samples per pixel, then folds its Q-learning targets into the table.
+    pub fn render_frame(&mut self) {
+        let p = self.scene.params;
+        let frame = self.frames_traced;
+        let accum_frames = self.film.frames;
+        let scene = &self.scene;
+        let guide = scene.guide.as_ref().zip(self.table.as_ref()).map(|(cfg, t)| Guide { cfg, q: &t.q, cdf: &t.cdf });
+        let entries = scene.guide.map_or(0, |g| g.entries());
+        let (sums, counters) = self
+            .film
+            .pixels
+            .par_chunks_mut(p.width as usize)
+            .enumerate()
+            .fold(
+                || (FrameSums::new(entries), FrameCounters::default()),
+                |(mut sums, mut counters), (y, row)| {
+                    for (x, acc) in row.iter_mut().enumerate() {
+                        let pixel = y as u32 * p.width + x as u32;
+                        let mut sum = Vec3::ZERO;
+                        for sample in 0..shared::SAMPLES_PER_FRAME {
+                            let mut rng = Rng::new(p.seed, pixel, frame, sample);
+                            let u = rng.next_2d();
+                            let (o, d) = camera_ray(&p, x as u32, y as u32, u);
+                            let (l, segs) = trace_path(scene, guide, o, d, &mut rng, &mut |k, t| sums.add(k, t));
+                            counters.segments += segs as u64;
+                            // A NaN or infinite sample would poison the pixel forever; it is dropped
+                            // (as on the GPU) and counted as carrying nothing.
+                            if l.is_finite() {
+                                sum += l;
+                            }
+                            if !(l.max_element() > 0.0) {
+                                counters.zero_paths += 1;
+                            }
+                        }
+                        crate::film::accumulate(acc, accum_frames, sum.to_array());
+                    }
+                    (sums, counters)
+                },
+            )
+            .reduce(
+                || (FrameSums::new(entries), FrameCounters::default()),
+                |(a, ca), (b, cb)| {
+                    (
+                        a.merge(b),
+                        FrameCounters {
+                            zero_paths: ca.zero_paths + cb.zero_paths,
+                            segments: ca.segments + cb.segments,
+                        },
+                    )
+                },
+            );
+        if let (Some(t), Some(cfg)) = (self.table.as_mut(), self.scene.guide.as_ref()) {
+            t.learn(cfg, &sums);
+        }
+        self.film.frames += 1;
+        self.frames_traced += 1;
+        self.last_counters = counters;
+    }
+}
+
+/// Renders `frames` frames of 64 samples per pixel into a new film (no guiding
+/// state kept), calling `on_frame` after each.
+pub fn render(scene: &PreparedScene, film: &mut Film, frames: u32, mut on_frame: impl FnMut(&Film)) {
+    let mut r = CpuRenderer::new(scene);
+    assert_eq!(
+        (film.width, film.height),
+        (scene.params.width, scene.params.height),
+        "film size matches the render size"
+    );
+    for _ in 0..frames {
+        r.render_frame();
+        on_frame(r.film());
+    }
+    *film = r.film;
 }

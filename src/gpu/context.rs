@@ -69,6 +69,9 @@ pub struct DeviceInfo {
     pub subgroup_partitioned: bool,
     pub timestamp_period_ns: f32,
     pub timestamps: bool,
+    /// `VK_KHR_pipeline_executable_properties`: the driver reports each pipeline's
+    /// register and memory use (`rlpt bench`).
+    pub pipeline_statistics: bool,
     /// What rlpt requires and this device lacks; empty if usable.
     pub missing: Vec<String>,
     physical: vk::PhysicalDevice,
@@ -213,6 +216,14 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         unsafe { instance.get_physical_device_features2(physical, &mut features) };
         float_atomic_add = atomic.shader_buffer_float32_atomic_add == vk::TRUE;
     }
+    let mut pipeline_statistics = false;
+    if has_ext(ash::khr::pipeline_executable_properties::NAME) {
+        let mut exec = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
+        let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut exec);
+        // SAFETY: as above.
+        unsafe { instance.get_physical_device_features2(physical, &mut features) };
+        pipeline_statistics = exec.pipeline_executable_info == vk::TRUE;
+    }
     // SAFETY: as above.
     let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
     let queue_family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE));
@@ -264,6 +275,7 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         subgroup_partitioned: ops.contains(vk::SubgroupFeatureFlags::PARTITIONED_NV),
         timestamp_period_ns: props.limits.timestamp_period,
         timestamps,
+        pipeline_statistics,
         missing,
         physical,
         queue_family: queue_family.unwrap_or(0) as u32,
@@ -353,6 +365,12 @@ impl Context {
         }
         if info.subgroup_partitioned {
             extensions.push(ash::nv::shader_subgroup_partitioned::NAME.as_ptr());
+        }
+        let mut exec =
+            vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default().pipeline_executable_info(true);
+        if info.pipeline_statistics {
+            extensions.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
+            device_info = device_info.push_next(&mut exec);
         }
         let device_info = device_info.enabled_extension_names(&extensions);
         // SAFETY: `info.physical` belongs to `instance`; all pointers outlive the call.

@@ -9,7 +9,7 @@ mod timer;
 
 pub use buffer::{Buffer, BufferUsage};
 pub use context::{list_devices, Context, ContextOptions, DeviceInfo, GpuError};
-pub use pipeline::{Binding, Pipeline};
+pub use pipeline::{Binding, Pipeline, PipelineStatistic};
 pub use timer::Timer;
 
 pub use ash::vk;

@@ -10,6 +10,18 @@ pub enum Binding {
     Storage,
 }
 
+/// One statistic the driver reports about a compiled pipeline.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PipelineStatistic {
+    /// The executable (shader stage) it describes.
+    pub executable: String,
+    /// The subgroup size the executable was compiled for.
+    pub subgroup_size: u32,
+    pub name: String,
+    pub value: String,
+    pub description: String,
+}
+
 /// A compute pipeline with one descriptor set (set 0, bindings 0..n in the
 /// order given) and an optional push-constant block.
 pub struct Pipeline {
@@ -20,12 +32,25 @@ pub struct Pipeline {
     set_layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
-    bindings: Vec<Binding>,
+    bindings: Vec<(u32, Binding)>,
     push_size: u32,
 }
 
 impl Pipeline {
+    /// Bindings numbered 0..n in the order given.
     pub fn new(ctx: &Arc<Context>, name: &str, spirv: &[u8], bindings: &[Binding], push_size: u32) -> Result<Pipeline> {
+        let numbered: Vec<(u32, Binding)> = bindings.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
+        Pipeline::new_with_numbers(ctx, name, spirv, &numbered, push_size)
+    }
+
+    /// Bindings with explicit numbers, as the shader declares them.
+    pub fn new_with_numbers(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[(u32, Binding)],
+        push_size: u32,
+    ) -> Result<Pipeline> {
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).expect("build.rs wrote valid SPIR-V");
         let dev = &ctx.device;
         let ty = |b: &Binding| match b {
@@ -34,10 +59,9 @@ impl Pipeline {
         };
         let layout_bindings: Vec<_> = bindings
             .iter()
-            .enumerate()
             .map(|(i, b)| {
                 vk::DescriptorSetLayoutBinding::default()
-                    .binding(i as u32)
+                    .binding(*i)
                     .descriptor_type(ty(b))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -78,7 +102,12 @@ impl Pipeline {
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+            let flags = if ctx.info.pipeline_statistics {
+                vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
+            } else {
+                vk::PipelineCreateFlags::empty()
+            };
+            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
             let pipeline = dev.create_compute_pipelines(vk::PipelineCache::null(), &info, None);
             dev.destroy_shader_module(module, None);
             let raw = match pipeline {
@@ -91,7 +120,7 @@ impl Pipeline {
             };
             let mut sizes = Vec::new();
             for kind in [Binding::Uniform, Binding::Storage] {
-                let n = bindings.iter().filter(|b| **b == kind).count() as u32;
+                let n = bindings.iter().filter(|(_, b)| *b == kind).count() as u32;
                 if n > 0 {
                     sizes.push(vk::DescriptorPoolSize { ty: ty(&kind), descriptor_count: n });
                 }
@@ -136,7 +165,8 @@ impl Pipeline {
         }
     }
 
-    /// Points every binding at its buffer (`buffers[i]` for binding i). Call while the set is not in use.
+    /// Points every binding at its buffer (`buffers[i]` for the i-th binding given at
+    /// creation). Call while the set is not in use.
     pub fn bind(&self, buffers: &[&Buffer]) {
         assert_eq!(buffers.len(), self.bindings.len(), "{}: one buffer per binding", self.name);
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
@@ -147,11 +177,10 @@ impl Pipeline {
             .bindings
             .iter()
             .zip(&infos)
-            .enumerate()
-            .map(|(i, (kind, info))| {
+            .map(|((i, kind), info)| {
                 vk::WriteDescriptorSet::default()
                     .dst_set(self.set)
-                    .dst_binding(i as u32)
+                    .dst_binding(*i)
                     .descriptor_type(match kind {
                         Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
                         Binding::Storage => vk::DescriptorType::STORAGE_BUFFER,
@@ -161,6 +190,50 @@ impl Pipeline {
             .collect();
         // SAFETY: the set and buffers are alive; the caller ensures the set is not in use by the GPU.
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// What the driver says the compiled pipeline uses (registers, shared memory,
+    /// instructions...), as (name, value, description) per statistic; empty where the
+    /// device lacks `VK_KHR_pipeline_executable_properties`.
+    pub fn statistics(&self) -> Result<Vec<PipelineStatistic>> {
+        if !self.ctx.info.pipeline_statistics {
+            return Ok(Vec::new());
+        }
+        let ext = ash::khr::pipeline_executable_properties::Device::new(&self.ctx.instance, &self.ctx.device);
+        let text = |c: std::result::Result<&std::ffi::CStr, std::ffi::FromBytesUntilNulError>| {
+            c.map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        };
+        let mut out = Vec::new();
+        // SAFETY: the pipeline was created with CAPTURE_STATISTICS on a device with the extension enabled.
+        let executables =
+            unsafe { ext.get_pipeline_executable_properties(&vk::PipelineInfoKHR::default().pipeline(self.raw)) }
+                .map_err(|e| GpuError::vk("vkGetPipelineExecutablePropertiesKHR", e))?;
+        for (index, exe) in executables.iter().enumerate() {
+            let info = vk::PipelineExecutableInfoKHR::default().pipeline(self.raw).executable_index(index as u32);
+            // SAFETY: as above; `index` is below the count just returned.
+            let stats = unsafe { ext.get_pipeline_executable_statistics(&info) }
+                .map_err(|e| GpuError::vk("vkGetPipelineExecutableStatisticsKHR", e))?;
+            for s in stats {
+                // SAFETY: the union member read is the one `format` names.
+                let value = unsafe {
+                    match s.format {
+                        vk::PipelineExecutableStatisticFormatKHR::BOOL32 => (s.value.b32 == vk::TRUE).to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::INT64 => s.value.i64.to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::UINT64 => s.value.u64.to_string(),
+                        vk::PipelineExecutableStatisticFormatKHR::FLOAT64 => format!("{:.3}", s.value.f64),
+                        _ => "?".into(),
+                    }
+                };
+                out.push(PipelineStatistic {
+                    executable: text(exe.name_as_c_str()),
+                    subgroup_size: exe.subgroup_size,
+                    name: text(s.name_as_c_str()),
+                    value,
+                    description: text(s.description_as_c_str()),
+                });
+            }
+        }
+        Ok(out)
     }
 
     /// Records a dispatch of `groups` workgroups with `push` as push constants.

@@ -1,23 +1,95 @@
 //! The GPU renderer: uploads a [`PreparedScene`], runs `pathtrace.comp` once
-//! per frame (64 samples per pixel), and reads the accumulation back.
+//! per frame (64 samples per pixel) and, with guiding, `learn.comp` after it;
+//! reads the accumulation, the counters and the learned table back.
 
 use crate::film::Film;
-use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, Timer};
+use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, PipelineStatistic, Timer};
+use crate::guide::QTable;
 use crate::prepared::{AccumPixel, PreparedScene};
 use crate::shared;
 use std::sync::Arc;
 
+/// What one submission of frames measured.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameTimings {
+    /// GPU time of path tracing, from timestamps (ms).
+    pub pathtrace_ms: f64,
+    /// GPU time of the learning pass (ms; 0 without guiding).
+    pub learn_ms: f64,
+    /// Paths that carried zero radiance.
+    pub zero_paths: u64,
+    /// Rays traced: camera, bounce and shadow rays.
+    pub segments: u64,
+}
+
+impl FrameTimings {
+    pub fn total_ms(&self) -> f64 {
+        self.pathtrace_ms + self.learn_ms
+    }
+}
+
+/// GPU time of each pass of one frame (`GpuRenderer::render_frame_profiled`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassTimes {
+    /// When the frame began, in ms on the device's timestamp clock (for traces).
+    pub start_ms: f64,
+    /// Path tracing (`pathtrace.comp`), ms.
+    pub pathtrace_ms: f64,
+    /// Folding the frame's Q-learning targets into the table (`learn.comp` phase 0), ms.
+    pub learn_fold_ms: f64,
+    /// Rebuilding the sampling CDFs (`learn.comp` phase 1), ms.
+    pub learn_cdf_ms: f64,
+    /// Paths that carried zero radiance.
+    pub zero_paths: u64,
+    /// Rays traced: camera, bounce and shadow rays.
+    pub segments: u64,
+}
+
+/// The guiding buffers and the pass that learns from them.
+struct Learning {
+    pipeline: Pipeline,
+    q: Buffer,
+    visits: Buffer,
+    sums: Buffer,
+    counts: Buffer,
+    cdf: Buffer,
+    entries: u32,
+    bins: u32,
+    floor: f32,
+}
+
+impl Learning {
+    /// Phase 0 of learn.comp: fold the frame's targets into the table.
+    fn cmd_fold(&self, cmd: crate::gpu::vk::CommandBuffer) {
+        let push: [u32; 4] = [0, self.entries, self.bins, self.floor.to_bits()];
+        self.pipeline.cmd_dispatch(cmd, [self.entries.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
+    }
+
+    /// Phase 1 of learn.comp: rebuild each cell's sampling CDF.
+    fn cmd_build_cdf(&self, cmd: crate::gpu::vk::CommandBuffer) {
+        let push: [u32; 4] = [1, self.entries, self.bins, self.floor.to_bits()];
+        let cells = self.entries / self.bins;
+        self.pipeline.cmd_dispatch(cmd, [cells.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
+    }
+}
+
 pub struct GpuRenderer {
     ctx: Arc<Context>,
     pipeline: Pipeline,
+    learning: Option<Learning>,
     // Kept alive while the descriptor set points at them.
-    _scene_buffers: [Buffer; 5],
+    _scene_buffers: Vec<Buffer>,
     accum: Buffer,
     readback: Buffer,
+    counters: Buffer,
+    counters_readback: Buffer,
     timer: Timer,
     width: u32,
     height: u32,
-    frames: u32,
+    /// Frames traced so far (decorrelates random numbers; not reset with the accumulation).
+    frames_traced: u32,
+    /// Frames in the accumulation buffer.
+    accum_frames: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -27,21 +99,38 @@ fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
 impl GpuRenderer {
     pub fn new(ctx: &Arc<Context>, scene: &PreparedScene) -> Result<GpuRenderer, GpuError> {
         let p = &scene.params;
-        let pipeline = Pipeline::new(
-            ctx,
-            "pathtrace",
-            shader("pathtrace"),
-            &[
-                Binding::Uniform,
-                Binding::Storage,
-                Binding::Storage,
-                Binding::Storage,
-                Binding::Storage,
-                Binding::Storage,
-            ],
-            4,
-        )?;
-        let scene_buffers = [
+        let guided = scene.guide.is_some();
+        if guided && !ctx.info.float_atomic_add {
+            return Err(GpuError::Unsupported {
+                index: ctx.info.index,
+                name: ctx.info.name.clone(),
+                missing:
+                    "float atomic add on storage buffers (VK_EXT_shader_atomic_float), which learned guiding needs; \
+                          render with --guiding off or --device cpu"
+                        .into(),
+            });
+        }
+        let kernel = match (guided, ctx.info.subgroup_partitioned) {
+            (false, _) => "pathtrace",
+            (true, false) => "pathtrace_guided",
+            (true, true) => "pathtrace_guided_partitioned",
+        };
+        let mut bindings = vec![
+            Binding::Uniform,
+            Binding::Storage,
+            Binding::Storage,
+            Binding::Storage,
+            Binding::Storage,
+            Binding::Storage,
+        ];
+        if guided {
+            bindings.extend([Binding::Storage; 4]);
+        }
+        bindings.push(Binding::Storage);
+        // Bindings must be numbered as in common.glsl: without guiding, 6..9 are absent and
+        // the counters sit at BINDING_COUNTERS all the same.
+        let pipeline = Pipeline::new_with_numbers(ctx, kernel, shader(kernel), &numbered(&bindings, guided), 8)?;
+        let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
             Buffer::with_data(ctx, "spheres", bytes(&scene.spheres), false)?,
@@ -51,19 +140,63 @@ impl GpuRenderer {
         let accum_size = (p.width as u64) * (p.height as u64) * std::mem::size_of::<AccumPixel>() as u64;
         let accum = Buffer::new(ctx, "accumulation", accum_size, BufferUsage::Storage)?;
         let readback = Buffer::new(ctx, "accumulation readback", accum_size, BufferUsage::Readback)?;
-        let [b0, b1, b2, b3, b4] = &scene_buffers;
-        pipeline.bind(&[b0, b1, b2, b3, b4, &accum]);
-        ctx.run_commands("clear accumulation", |cmd| accum.cmd_clear(cmd))?;
+        let counters = Buffer::new(ctx, "frame counters", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Storage)?;
+        let counters_readback =
+            Buffer::new(ctx, "frame counters readback", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Readback)?;
+
+        let learning = match &scene.guide {
+            None => None,
+            Some(cfg) => {
+                let entries = cfg.entries() as u32;
+                let size = 4 * entries as u64;
+                let l = Learning {
+                    pipeline: Pipeline::new(ctx, "learn", shader("learn"), &[Binding::Storage; 5], 16)?,
+                    q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
+                    visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
+                    sums: Buffer::new(ctx, "frame target sums", size, BufferUsage::Storage)?,
+                    counts: Buffer::new(ctx, "frame target counts", size, BufferUsage::Storage)?,
+                    cdf: Buffer::new(ctx, "sampling CDFs", size, BufferUsage::Storage)?,
+                    entries,
+                    bins: cfg.bins.count(),
+                    floor: cfg.floor,
+                };
+                l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.cdf]);
+                Some(l)
+            }
+        };
+        {
+            let mut all: Vec<&Buffer> = scene_buffers.iter().collect();
+            all.push(&accum);
+            if let Some(l) = &learning {
+                all.extend([&l.q, &l.sums, &l.counts, &l.cdf]);
+            }
+            all.push(&counters);
+            pipeline.bind(&all);
+        }
+        ctx.run_commands("clear buffers", |cmd| {
+            accum.cmd_clear(cmd);
+            counters.cmd_clear(cmd);
+            if let Some(l) = &learning {
+                for b in [&l.q, &l.visits, &l.sums, &l.counts, &l.cdf] {
+                    b.cmd_clear(cmd);
+                }
+            }
+        })?;
+        scene_buffers.shrink_to_fit();
         Ok(GpuRenderer {
             ctx: ctx.clone(),
             pipeline,
+            learning,
             _scene_buffers: scene_buffers,
             accum,
             readback,
-            timer: Timer::new(ctx, 2)?,
+            counters,
+            counters_readback,
+            timer: Timer::new(ctx, 4)?,
             width: p.width,
             height: p.height,
-            frames: 0,
+            frames_traced: 0,
+            accum_frames: 0,
         })
     }
 
@@ -71,38 +204,135 @@ impl GpuRenderer {
         &self.ctx
     }
 
-    /// Frames rendered so far.
+    /// Frames in the accumulation.
     pub fn frames(&self) -> u32 {
-        self.frames
+        self.accum_frames
     }
 
-    /// Renders `count` frames in one submission; returns their GPU time in milliseconds
-    /// (from timestamp queries; `None` where the queue has no timestamps).
-    pub fn render_frames(&mut self, count: u32) -> Result<Option<f64>, GpuError> {
+    /// Starts a new accumulation on the next frame; what guiding learned is kept.
+    pub fn reset_accumulation(&mut self) -> Result<(), GpuError> {
+        self.ctx.run_commands("reset accumulation", |cmd| self.accum.cmd_clear(cmd))?;
+        self.accum_frames = 0;
+        Ok(())
+    }
+
+    /// Renders `count` frames in one submission (each followed by learning when
+    /// guiding is on) and returns what they measured. Times come from timestamp
+    /// queries (zero where the queue has none).
+    pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
         let groups = [self.width.div_ceil(shared::PIXELS_PER_GROUP), self.height, 1];
-        let first = self.frames;
         let timestamps = self.ctx.info.timestamps;
+        let (traced, accumulated) = (self.frames_traced, self.accum_frames);
         self.ctx.run_commands("pathtrace frames", |cmd| {
+            self.counters.cmd_clear(cmd);
+            self.ctx.barrier(cmd);
             if timestamps {
                 self.timer.cmd_reset(cmd);
-                self.timer.cmd_stamp(cmd, 0);
             }
             for f in 0..count {
                 if f > 0 {
                     self.ctx.barrier(cmd);
                 }
-                self.pipeline.cmd_dispatch(cmd, groups, &(first + f).to_le_bytes());
+                if timestamps && f == 0 {
+                    self.timer.cmd_stamp(cmd, 0);
+                }
+                let push: [u32; 2] = [traced + f, accumulated + f];
+                self.pipeline.cmd_dispatch(cmd, groups, bytemuck::bytes_of(&push));
+                if let Some(l) = &self.learning {
+                    if timestamps && f + 1 == count {
+                        self.timer.cmd_stamp(cmd, 1);
+                    }
+                    self.ctx.barrier(cmd);
+                    l.cmd_fold(cmd);
+                    self.ctx.barrier(cmd);
+                    l.cmd_build_cdf(cmd);
+                }
             }
             if timestamps {
-                self.timer.cmd_stamp(cmd, 1);
+                if self.learning.is_none() {
+                    self.timer.cmd_stamp(cmd, 1);
+                }
+                self.timer.cmd_stamp(cmd, 2);
             }
+            self.ctx.barrier(cmd);
+            self.counters.cmd_copy_to(cmd, &self.counters_readback);
         })?;
-        self.frames += count;
-        if !timestamps {
-            return Ok(None);
+        self.frames_traced += count;
+        self.accum_frames += count;
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let mut t = FrameTimings {
+            zero_paths: c[shared::COUNTER_ZERO_PATHS as usize] as u64,
+            segments: c[shared::COUNTER_SEGMENTS as usize] as u64,
+            ..Default::default()
+        };
+        if timestamps {
+            let s = self.timer.read(3)?;
+            // With several frames in one submission, learning between them counts as path tracing
+            // except after the last; call with count = 1 to separate the passes exactly.
+            t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[1]);
+            t.learn_ms = self.timer.ticks_to_ms(s[1], s[2]);
         }
-        let t = self.timer.read(2)?;
-        Ok(Some(self.timer.ticks_to_ms(t[0], t[1])))
+        Ok(t)
+    }
+
+    /// Renders one frame in its own submission with a timestamp after each pass:
+    /// what `rlpt bench` measures. Needs timestamp queries on the compute queue.
+    pub fn render_frame_profiled(&mut self) -> Result<PassTimes, GpuError> {
+        if !self.ctx.info.timestamps {
+            return Err(GpuError::Unsupported {
+                index: self.ctx.info.index,
+                name: self.ctx.info.name.clone(),
+                missing: "timestamp queries on the compute queue, which GPU timing needs".into(),
+            });
+        }
+        let groups = [self.width.div_ceil(shared::PIXELS_PER_GROUP), self.height, 1];
+        let push: [u32; 2] = [self.frames_traced, self.accum_frames];
+        self.ctx.run_commands("profiled frame", |cmd| {
+            self.counters.cmd_clear(cmd);
+            self.timer.cmd_reset(cmd);
+            self.ctx.barrier(cmd);
+            self.timer.cmd_stamp(cmd, 0);
+            self.pipeline.cmd_dispatch(cmd, groups, bytemuck::bytes_of(&push));
+            self.timer.cmd_stamp(cmd, 1);
+            if let Some(l) = &self.learning {
+                self.ctx.barrier(cmd);
+                l.cmd_fold(cmd);
+                self.timer.cmd_stamp(cmd, 2);
+                self.ctx.barrier(cmd);
+                l.cmd_build_cdf(cmd);
+                self.timer.cmd_stamp(cmd, 3);
+            }
+            self.ctx.barrier(cmd);
+            self.counters.cmd_copy_to(cmd, &self.counters_readback);
+        })?;
+        self.frames_traced += 1;
+        self.accum_frames += 1;
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let s = self.timer.read(if self.learning.is_some() { 4 } else { 2 })?;
+        let ms = |a: u64, b: u64| self.timer.ticks_to_ms(a, b);
+        let mut t = PassTimes {
+            start_ms: s[0] as f64 * self.ctx.info.timestamp_period_ns as f64 * 1e-6,
+            pathtrace_ms: ms(s[0], s[1]),
+            zero_paths: c[shared::COUNTER_ZERO_PATHS as usize] as u64,
+            segments: c[shared::COUNTER_SEGMENTS as usize] as u64,
+            ..Default::default()
+        };
+        if self.learning.is_some() {
+            t.learn_fold_ms = ms(s[1], s[2]);
+            t.learn_cdf_ms = ms(s[2], s[3]);
+        }
+        Ok(t)
+    }
+
+    /// What the driver reports about the compiled pipelines (registers, shared
+    /// memory...), by pipeline name; empty where the device cannot say.
+    pub fn pipeline_statistics(&self) -> Result<Vec<(String, Vec<PipelineStatistic>)>, GpuError> {
+        let mut out = vec![(self.pipeline.name.clone(), self.pipeline.statistics()?)];
+        if let Some(l) = &self.learning {
+            out.push((l.pipeline.name.clone(), l.pipeline.statistics()?));
+        }
+        out.retain(|(_, s)| !s.is_empty());
+        Ok(out)
     }
 
     /// Copies the accumulation back to the host.
@@ -111,9 +341,41 @@ impl GpuRenderer {
             self.ctx.barrier(cmd);
             self.accum.cmd_copy_to(cmd, &self.readback);
         })?;
-        let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(
-            &self.readback.read()[..(self.width * self.height) as usize * std::mem::size_of::<AccumPixel>()],
-        );
-        Ok(Film { width: self.width, height: self.height, frames: self.frames, pixels })
+        let n = (self.width * self.height) as usize * std::mem::size_of::<AccumPixel>();
+        let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(&self.readback.read()[..n]);
+        Ok(Film { width: self.width, height: self.height, frames: self.accum_frames, pixels })
     }
+
+    /// The learned table (None without guiding).
+    pub fn table(&self) -> Result<Option<QTable>, GpuError> {
+        let Some(l) = &self.learning else { return Ok(None) };
+        let rq = Buffer::new(&self.ctx, "Q readback", l.q.size, BufferUsage::Readback)?;
+        let rv = Buffer::new(&self.ctx, "visits readback", l.visits.size, BufferUsage::Readback)?;
+        let rc = Buffer::new(&self.ctx, "CDF readback", l.cdf.size, BufferUsage::Readback)?;
+        self.ctx.run_commands("read Q table", |cmd| {
+            self.ctx.barrier(cmd);
+            l.q.cmd_copy_to(cmd, &rq);
+            l.visits.cmd_copy_to(cmd, &rv);
+            l.cdf.cmd_copy_to(cmd, &rc);
+        })?;
+        let n = l.entries as usize * 4;
+        Ok(Some(QTable {
+            q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
+            visits: bytemuck::pod_collect_to_vec(&rv.read()[..n]),
+            cdf: bytemuck::pod_collect_to_vec(&rc.read()[..n]),
+        }))
+    }
+}
+
+/// Binding numbers for the path-tracing pipeline: 0..=5 scene and accumulation,
+/// 6..=9 guiding (when on), BINDING_COUNTERS the counters.
+fn numbered(bindings: &[Binding], guided: bool) -> Vec<(u32, Binding)> {
+    let mut out: Vec<(u32, Binding)> = bindings.iter().take(6).enumerate().map(|(i, b)| (i as u32, *b)).collect();
+    if guided {
+        for (k, b) in bindings[6..10].iter().enumerate() {
+            out.push((shared::BINDING_Q + k as u32, *b));
+        }
+    }
+    out.push((shared::BINDING_COUNTERS, Binding::Storage));
+    out
 }

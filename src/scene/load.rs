@@ -15,7 +15,7 @@ use glam::Vec3;
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
-use super::{Camera, Material, MaterialKind, Quad, RenderSettings, Scene, Sphere};
+use super::{Camera, GuidingSettings, Material, MaterialKind, Quad, RenderSettings, Scene, Sphere};
 
 /// Why a scene was refused. The `Display` text is the whole message: the file,
 /// where in it (`line:column`, 1-based, when known), and what was expected.
@@ -78,11 +78,16 @@ const MAX_BOUNCES: i64 = 1024;
 /// Two directions whose angle has a sine below this count as parallel
 /// (camera `up` against the view direction, quad edges against each other).
 const PARALLEL_SINE: f64 = 1e-6;
+/// Largest accepted guiding-grid cell count along one axis.
+const MAX_GUIDING_CELLS_PER_AXIS: i64 = 256;
+/// Largest accepted guiding-grid cell count in all (64^3).
+const MAX_GUIDING_CELLS: u64 = 262_144;
 
-const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "material", "sphere", "quad"];
+const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "guiding", "material", "sphere", "quad"];
 const CAMERA_KEYS: &[&str] = &["position", "look_at", "direction", "up", "vfov", "near"];
 const RENDER_KEYS: &[&str] = &["width", "height", "spp", "max_bounces", "russian_roulette_depth"];
 const ENVIRONMENT_KEYS: &[&str] = &["radiance"];
+const GUIDING_KEYS: &[&str] = &["bounds_min", "bounds_max", "resolution"];
 const SPHERE_KEYS: &[&str] = &["center", "radius", "material"];
 const QUAD_KEYS: &[&str] = &["origin", "edge_u", "edge_v", "material"];
 const MATERIAL_TYPES: &[&str] = &["diffuse", "specular", "glossy", "dielectric", "emissive"];
@@ -328,6 +333,11 @@ impl<'s, 'i> Table<'s, '_, 'i> {
 
     /// An integer in `min..=max`; floats are refused.
     fn integer(&self, key: &str, value: &Value<'_>, min: i64, max: i64, meaning: &str) -> Result<u32, SceneError> {
+        self.integer_at(value, &format!("key `{key}`"), min, max, meaning)
+    }
+
+    /// [`Table::integer`] for any value; `what` names it ("key `resolution` component 2").
+    fn integer_at(&self, value: &Value<'_>, what: &str, min: i64, max: i64, meaning: &str) -> Result<u32, SceneError> {
         let expected = if max == i64::from(u32::MAX) {
             format!("an integer >= {min} ({meaning})")
         } else {
@@ -337,15 +347,13 @@ impl<'s, 'i> Table<'s, '_, 'i> {
         let n = match value.get_ref() {
             DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix()).ok(),
             _ => {
-                return Err(self.error_at(
-                    value.span(),
-                    format!("key `{key}` must be {expected}, found {}", self.src.describe(value)),
-                ))
+                return Err(self
+                    .error_at(value.span(), format!("{what} must be {expected}, found {}", self.src.describe(value))))
             }
         };
         match n {
             Some(n) if (min..=max).contains(&n) => Ok(n as u32),
-            _ => Err(self.error_at(value.span(), format!("key `{key}` must be {expected}, found {text}"))),
+            _ => Err(self.error_at(value.span(), format!("{what} must be {expected}, found {text}"))),
         }
     }
 
@@ -427,7 +435,7 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
                 Some(key.span()),
                 format!(
                     "{what}; expected the tables [camera], [render], [environment], \
-                     [[material]], [[sphere]] and [[quad]]"
+                     [guiding], [[material]], [[sphere]] and [[quad]]"
                 ),
             ));
         }
@@ -447,6 +455,10 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
     let environment = match root.get("environment") {
         None => Vec3::ZERO,
         Some(v) => parse_environment(&single_table(&src, "environment", v)?)?,
+    };
+    let guiding = match root.get("guiding") {
+        None => GuidingSettings::default(),
+        Some(v) => parse_guiding(&single_table(&src, "guiding", v)?)?,
     };
 
     // Materials first, so geometry may name materials declared after it.
@@ -475,7 +487,7 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
         );
     }
 
-    Ok(Scene { source: PathBuf::from("<string>"), camera, render, environment, materials, spheres, quads })
+    Ok(Scene { source: PathBuf::from("<string>"), camera, render, environment, materials, spheres, quads, guiding })
 }
 
 /// `[name]`: one table (a header table or an inline table), not an array of tables.
@@ -662,6 +674,102 @@ fn parse_environment(t: &Table<'_, '_, '_>) -> Result<Vec3, SceneError> {
         None => Ok(Vec3::ZERO),
         Some(v) => Ok(to_vec3(t.vec3("radiance", v, |x| x >= 0.0, ">= 0")?)),
     }
+}
+
+/// `[guiding]`: the box and resolution of the guiding grid; what is left out
+/// stays `None` (chosen automatically by the renderer).
+fn parse_guiding(t: &Table<'_, '_, '_>) -> Result<GuidingSettings, SceneError> {
+    t.check_keys(GUIDING_KEYS, "")?;
+    let mut g = GuidingSettings::default();
+
+    match (t.get("bounds_min"), t.get("bounds_max")) {
+        (None, None) => {}
+        (Some(v), None) | (None, Some(v)) => {
+            let (given, missing) =
+                if t.get("bounds_min").is_some() { ("bounds_min", "bounds_max") } else { ("bounds_max", "bounds_min") };
+            // The given one must be well formed before its partner is asked for.
+            t.point(given, v)?;
+            return Err(t.error_at(
+                v.span(),
+                format!(
+                    "missing key `{missing}`: `{given}` is given without it; give both `bounds_min` and \
+                     `bounds_max` (the corners [x, y, z] of the guiding grid's box), or neither to fit the \
+                     box automatically"
+                ),
+            ));
+        }
+        (Some(min_value), Some(max_value)) => {
+            let min64 = t.point("bounds_min", min_value)?;
+            let max64 = t.point("bounds_max", max_value)?;
+            let (min, max) = (to_vec3(min64), to_vec3(max64));
+            // Both are arrays of 3 by now; messages quote the components as written.
+            let component = |value: &Value<'_>, axis: usize| match value.get_ref() {
+                DeValue::Array(a) => (a[axis].span(), t.src.snippet(a[axis].span())),
+                _ => (value.span(), t.src.snippet(value.span())),
+            };
+            // Compared as the f32 values the grid will use.
+            for (axis, name) in ["x", "y", "z"].into_iter().enumerate() {
+                let (span, max_text) = component(max_value, axis);
+                let (_, min_text) = component(min_value, axis);
+                if max[axis] <= min[axis] {
+                    let note = if max64[axis] > min64[axis] { " (equal as 32-bit floats)" } else { "" };
+                    return Err(t.error_at(
+                        span,
+                        format!(
+                            "key `bounds_max` must be greater than `bounds_min` on every axis, \
+                             found {max_text} <= {min_text}{note} on the {name} axis"
+                        ),
+                    ));
+                }
+                if !(max[axis] - min[axis]).is_finite() {
+                    return Err(t.error_at(
+                        span,
+                        format!(
+                            "the guiding box's extent on the {name} axis, {max_text} - ({min_text}), \
+                             does not fit a 32-bit float; give a smaller box"
+                        ),
+                    ));
+                }
+            }
+            g.bounds_min = Some(min);
+            g.bounds_max = Some(max);
+        }
+    }
+
+    if let Some(v) = t.get("resolution") {
+        let shape = "an array of 3 integers [nx, ny, nz] (cells along x, y, z)";
+        let array = match v.get_ref() {
+            DeValue::Array(a) if a.len() == 3 => a,
+            _ => {
+                return Err(
+                    t.error_at(v.span(), format!("key `resolution` must be {shape}, found {}", t.src.describe(v)))
+                )
+            }
+        };
+        let mut cells = [0u32; 3];
+        for (i, element) in array.iter().enumerate() {
+            cells[i] = t.integer_at(
+                element,
+                &format!("key `resolution` component {}", i + 1),
+                1,
+                MAX_GUIDING_CELLS_PER_AXIS,
+                "cells along that axis",
+            )?;
+        }
+        let product: u64 = cells.iter().map(|&n| u64::from(n)).product();
+        if product > MAX_GUIDING_CELLS {
+            return Err(t.error_at(
+                v.span(),
+                format!(
+                    "key `resolution` must have at most {MAX_GUIDING_CELLS} cells in all, \
+                     found {} x {} x {} = {product}",
+                    cells[0], cells[1], cells[2]
+                ),
+            ));
+        }
+        g.resolution = Some(cells);
+    }
+    Ok(g)
 }
 
 /// Returns the material and the span of its name (for duplicate messages).

@@ -89,6 +89,20 @@ pub struct Quad {
     pub material: u32,
 }
 
+/// The optional `[guiding]` table: where the guiding grid lies and how fine it is.
+/// Every field is optional; `None` means "choose automatically" (see `rlpt::guide`).
+///
+/// When given, `bounds_min` and `bounds_max` come together, `bounds_max` exceeds
+/// `bounds_min` on every axis, and every cell count is in 1..=256 with a product
+/// of at most 262144.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GuidingSettings {
+    pub bounds_min: Option<Vec3>,
+    pub bounds_max: Option<Vec3>,
+    /// Cells along x, y, z.
+    pub resolution: Option<[u32; 3]>,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     /// Where the scene was loaded from (for messages); `<string>` when parsed from text.
@@ -100,6 +114,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
     pub quads: Vec<Quad>,
+    /// The optional `[guiding]` table (all `None` when absent).
+    pub guiding: GuidingSettings,
 }
 
 impl Scene {

@@ -1,0 +1,72 @@
+// Learned guiding on the GPU: src/guide/mod.rs, same functions.
+// Needs scene.glsl (params); declares the guiding buffers.
+#ifndef RLPT_GUIDE_GLSL
+#define RLPT_GUIDE_GLSL
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_EXT_shader_atomic_float : require
+#ifdef RLPT_PARTITIONED
+#extension GL_NV_shader_subgroup_partitioned : require
+#endif
+#include "scene.glsl"
+#include "sampling.glsl"
+
+layout(std430, set = 0, binding = BINDING_Q) readonly buffer QTable { float q_table[]; };
+layout(std430, set = 0, binding = BINDING_FRAME_SUMS) buffer FrameSums { float frame_sums[]; };
+layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uint frame_counts[]; };
+layout(std430, set = 0, binding = BINDING_CDF) readonly buffer Cdf { float cdf_table[]; };
+
+float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
+
+uint bin_index(vec3 d) {
+    uint rows = params.guide_rows;
+    uint cols = params.guide_cols;
+    uint row = min(uint((1.0 - d.z) * 0.5 * float(rows)), rows - 1u);
+    float phi = atan(d.y, d.x);
+    if (phi < 0.0) phi += 2.0 * PI;
+    uint col = min(uint(phi * (0.5 / PI) * float(cols)), cols - 1u);
+    return row * cols + col;
+}
+
+vec3 bin_sample(uint b, vec2 u) {
+    uint cols = params.guide_cols;
+    uint row = b / cols;
+    uint col = b % cols;
+    float z = 1.0 - 2.0 * (float(row) + u.x) / float(params.guide_rows);
+    float phi = 2.0 * PI * (float(col) + u.y) / float(cols);
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
+uint cell_index(vec3 p) {
+    vec3 g = (p - params.guide_min.xyz) * params.guide_inv_cell.xyz;
+    uint x = min(uint(max(g.x, 0.0)), params.guide_res_x - 1u);
+    uint y = min(uint(max(g.y, 0.0)), params.guide_res_y - 1u);
+    uint z = min(uint(max(g.z, 0.0)), params.guide_res_z - 1u);
+    return (z * params.guide_res_y + y) * params.guide_res_x + x;
+}
+
+// src/guide/mod.rs `guided_sample`: bin by binary search in the cell's CDF
+// (`row` = cell * bins), direction uniform inside it.
+vec3 guided_sample(uint row, float uc, vec2 u) {
+    uint lo = 0u;
+    uint hi = params.guide_bins - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (uc < cdf_table[row + mid]) hi = mid; else lo = mid + 1u;
+    }
+    return bin_sample(lo, u);
+}
+
+float guided_pdf(uint row, vec3 dir) {
+    uint b = bin_index(dir);
+    float below = b == 0u ? 0.0 : cdf_table[row + b - 1u];
+    return (cdf_table[row + b] - below) / params.guide_inv_cell.w;
+}
+
+bool guide_learned(uint row) { return cdf_table[row + params.guide_bins - 1u] > 0.0; }
+
+#include "record.glsl"
+
+#endif

@@ -1,0 +1,256 @@
+//! `rlpt bench`: where the time of a frame goes. Each frame is one submission
+//! with a timestamp query after every pass (`GpuRenderer::render_frame_profiled`);
+//! this module turns those per-frame times into a table, a JSON report and a
+//! Chrome trace-event file (opened by Perfetto and chrome://tracing).
+
+use crate::render::PassTimes;
+use serde::Serialize;
+
+/// Median, minimum, maximum and mean of one pass over the measured frames (ms).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    pub pass: String,
+    pub median_ms: f64,
+    pub min_ms: f64,
+    pub max_ms: f64,
+    pub mean_ms: f64,
+}
+
+impl Summary {
+    /// Summarises `times` (ms); the median of an even count is the mean of the middle two.
+    /// `None` for an empty slice or one with a NaN.
+    pub fn of(pass: &str, times: &[f64]) -> Option<Summary> {
+        if times.is_empty() || times.iter().any(|t| t.is_nan()) {
+            return None;
+        }
+        let mut sorted = times.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let n = sorted.len();
+        let median = if n % 2 == 1 { sorted[n / 2] } else { 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]) };
+        Some(Summary {
+            pass: pass.to_string(),
+            median_ms: median,
+            min_ms: sorted[0],
+            max_ms: sorted[n - 1],
+            mean_ms: sorted.iter().sum::<f64>() / n as f64,
+        })
+    }
+}
+
+/// One measured frame as it appears in the JSON report.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRecord {
+    pub frame: u32,
+    pub pathtrace_ms: f64,
+    pub learn_fold_ms: f64,
+    pub learn_cdf_ms: f64,
+    pub total_ms: f64,
+    pub segments: u64,
+    pub zero_paths: u64,
+}
+
+/// What `rlpt bench` measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub scene: String,
+    pub device: String,
+    pub driver: String,
+    /// "GPU timestamps" or "wall clock" (the CPU renderer).
+    pub clock: String,
+    pub width: u32,
+    pub height: u32,
+    pub samples_per_frame: u64,
+    pub guiding: String,
+    pub nee: bool,
+    pub warmup_frames: u32,
+    pub frames: Vec<FrameRecord>,
+    /// One row per pass, then "frame" (all passes).
+    pub passes: Vec<Summary>,
+    /// Samples per pixel per frame times pixels, over the median frame time.
+    pub msamples_per_s: f64,
+    /// Rays traced (camera, bounce, shadow) over the total measured time.
+    pub msegments_per_s: f64,
+    /// Rays per path, averaged over the measured frames.
+    pub segments_per_path: f64,
+    /// Fraction of paths that carried no radiance, over the measured frames.
+    pub zero_fraction: f64,
+    /// What the driver reports about each pipeline (registers, shared memory...).
+    pub pipelines: Vec<PipelineReport>,
+}
+
+/// Driver statistics of one pipeline.
+#[derive(Clone, Debug, Serialize)]
+pub struct PipelineReport {
+    pub pipeline: String,
+    pub statistics: Vec<crate::gpu::PipelineStatistic>,
+}
+
+impl BenchReport {
+    /// Builds the report from the measured frames (warm-up frames already left out).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        scene: String,
+        device: String,
+        driver: String,
+        clock: &str,
+        (width, height): (u32, u32),
+        samples_per_frame: u64,
+        guiding: String,
+        nee: bool,
+        warmup_frames: u32,
+        times: &[PassTimes],
+        pipelines: Vec<PipelineReport>,
+    ) -> BenchReport {
+        let frames: Vec<FrameRecord> = times
+            .iter()
+            .enumerate()
+            .map(|(i, t)| FrameRecord {
+                frame: warmup_frames + i as u32 + 1,
+                pathtrace_ms: t.pathtrace_ms,
+                learn_fold_ms: t.learn_fold_ms,
+                learn_cdf_ms: t.learn_cdf_ms,
+                total_ms: t.pathtrace_ms + t.learn_fold_ms + t.learn_cdf_ms,
+                segments: t.segments,
+                zero_paths: t.zero_paths,
+            })
+            .collect();
+        let column = |f: fn(&FrameRecord) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
+        let mut passes = vec![Summary::of("pathtrace", &column(|f| f.pathtrace_ms))];
+        if guiding != "off" {
+            passes.push(Summary::of("learn: fold targets", &column(|f| f.learn_fold_ms)));
+            passes.push(Summary::of("learn: build CDFs", &column(|f| f.learn_cdf_ms)));
+        }
+        passes.push(Summary::of("frame", &column(|f| f.total_ms)));
+        let passes: Vec<Summary> = passes.into_iter().flatten().collect();
+        let median_frame = passes.last().map(|s| s.median_ms).unwrap_or(f64::NAN);
+        let total_ms: f64 = frames.iter().map(|f| f.total_ms).sum();
+        let segments: u64 = frames.iter().map(|f| f.segments).sum();
+        let zero: u64 = frames.iter().map(|f| f.zero_paths).sum();
+        let paths = samples_per_frame as f64 * frames.len() as f64;
+        BenchReport {
+            scene,
+            device,
+            driver,
+            clock: clock.to_string(),
+            width,
+            height,
+            samples_per_frame,
+            guiding,
+            nee,
+            warmup_frames,
+            msamples_per_s: samples_per_frame as f64 / median_frame * 1e-3,
+            msegments_per_s: segments as f64 / total_ms * 1e-3,
+            segments_per_path: segments as f64 / paths,
+            zero_fraction: zero as f64 / paths,
+            frames,
+            passes,
+            pipelines,
+        }
+    }
+
+    /// The table `rlpt bench` prints.
+    pub fn table(&self) -> String {
+        let mut out = format!(
+            "{} on {} ({}), {}x{}, guiding {}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
+            self.scene,
+            self.device,
+            self.driver,
+            self.width,
+            self.height,
+            self.guiding,
+            if self.nee { "on" } else { "off" },
+            self.frames.len(),
+            self.warmup_frames,
+            self.clock
+        );
+        out += &format!("{:<22} {:>10} {:>10} {:>10} {:>10}\n", "pass", "median ms", "min ms", "max ms", "mean ms");
+        for s in &self.passes {
+            out += &format!(
+                "{:<22} {:>10.4} {:>10.4} {:>10.4} {:>10.4}\n",
+                s.pass, s.median_ms, s.min_ms, s.max_ms, s.mean_ms
+            );
+        }
+        out += &format!(
+            "{:.1} Msamples/s (median frame), {:.1} Msegments/s, {:.2} segments per path, {:.4} of paths carried no radiance\n",
+            self.msamples_per_s, self.msegments_per_s, self.segments_per_path, self.zero_fraction
+        );
+        for p in &self.pipelines {
+            let interesting: Vec<String> = p
+                .statistics
+                .iter()
+                .filter(|s| !s.value.is_empty())
+                .map(|s| format!("{} {}", s.name, s.value))
+                .collect();
+            out += &format!("pipeline {}: {}\n", p.pipeline, interesting.join(", "));
+        }
+        out
+    }
+}
+
+/// The frames as Chrome trace events ("X" complete events, microseconds), one
+/// row per pass on a common timeline of the device clock (gaps between frames are
+/// host time: submission and readback).
+pub fn chrome_trace(device: &str, times: &[PassTimes], first_frame: u32) -> serde_json::Value {
+    let origin = times.first().map(|t| t.start_ms).unwrap_or(0.0);
+    let mut events = vec![
+        serde_json::json!({"name": "process_name", "ph": "M", "pid": 1, "args": {"name": format!("GPU: {device}")}}),
+        serde_json::json!({"name": "thread_name", "ph": "M", "pid": 1, "tid": 1, "args": {"name": "compute queue"}}),
+    ];
+    for (i, t) in times.iter().enumerate() {
+        let frame = first_frame + i as u32;
+        let mut at = (t.start_ms - origin) * 1e3;
+        for (name, ms) in [
+            ("pathtrace", t.pathtrace_ms),
+            ("learn: fold targets", t.learn_fold_ms),
+            ("learn: build CDFs", t.learn_cdf_ms),
+        ] {
+            if ms <= 0.0 {
+                continue;
+            }
+            events.push(serde_json::json!({
+                "name": name, "cat": "gpu", "ph": "X", "pid": 1, "tid": 1,
+                "ts": at, "dur": ms * 1e3,
+                "args": {"frame": frame, "segments": t.segments, "zero_paths": t.zero_paths},
+            }));
+            at += ms * 1e3;
+        }
+    }
+    serde_json::json!({"traceEvents": events, "displayTimeUnit": "ms"})
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summary_of_odd_and_even_counts() {
+        let s = Summary::of("p", &[3.0, 1.0, 2.0]).unwrap();
+        assert_eq!((s.median_ms, s.min_ms, s.max_ms, s.mean_ms), (2.0, 1.0, 3.0, 2.0));
+        let s = Summary::of("p", &[4.0, 1.0, 2.0, 10.0]).unwrap();
+        assert_eq!((s.median_ms, s.min_ms, s.max_ms, s.mean_ms), (3.0, 1.0, 10.0, 4.25));
+        assert!(Summary::of("p", &[]).is_none());
+        assert!(Summary::of("p", &[1.0, f64::NAN]).is_none());
+    }
+
+    #[test]
+    fn trace_events_follow_each_other() {
+        let t = |start: f64| PassTimes {
+            start_ms: start,
+            pathtrace_ms: 2.0,
+            learn_fold_ms: 0.5,
+            learn_cdf_ms: 0.25,
+            zero_paths: 1,
+            segments: 10,
+        };
+        let v = chrome_trace("dev", &[t(100.0), t(103.0)], 5);
+        let ev = v["traceEvents"].as_array().unwrap();
+        let x: Vec<_> = ev.iter().filter(|e| e["ph"] == "X").collect();
+        assert_eq!(x.len(), 6);
+        assert_eq!(x[0]["ts"], 0.0);
+        assert_eq!(x[0]["dur"], 2000.0);
+        assert_eq!(x[1]["ts"], 2000.0);
+        assert_eq!(x[2]["ts"], 2500.0);
+        assert_eq!(x[3]["ts"], 3000.0);
+        assert_eq!(x[3]["args"]["frame"], 6);
+    }
+}

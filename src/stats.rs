@@ -1,0 +1,85 @@
+//! The convergence-statistics file: one JSON record per render, written by
+//! `rlpt render --stats FILE.json` and read back by the convergence plot
+//! ([`crate::plot::plot_convergence`]).
+//!
+//! The format is plain serde JSON of [`RenderStats`]; optional values that are
+//! absent are written as `null`.
+
+use std::path::Path;
+
+use anyhow::{bail, Context};
+use serde::{Deserialize, Serialize};
+
+/// One render's convergence record, written by `rlpt render --stats FILE.json`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct RenderStats {
+    /// Short label for plots, e.g. "door.toml guiding=sphere nee=on".
+    pub label: String,
+    /// The scene file rendered.
+    pub scene: String,
+    /// The device that rendered it (GPU name, or "cpu").
+    pub device: String,
+    pub width: u32,
+    pub height: u32,
+    /// "off" | "octant" | "sphere".
+    pub guiding: String,
+    /// Whether next-event estimation was on.
+    pub nee: bool,
+    /// One entry per accumulated frame, in order.
+    pub frames: Vec<FrameStats>,
+}
+
+/// The state of a render after one more frame was accumulated.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FrameStats {
+    /// 1-based count of frames accumulated.
+    pub frame: u32,
+    /// Samples per pixel so far.
+    pub spp: u32,
+    /// GPU time of this frame (path tracing + learning), from timestamps;
+    /// `None` on the CPU renderer.
+    pub gpu_ms: Option<f64>,
+    /// Cumulative render time so far: GPU time where available, else wall
+    /// clock of the CPU renderer.
+    pub elapsed_ms: f64,
+    /// Relative MSE against the `--reference` image, if one was given.
+    pub rel_mse: Option<f64>,
+    /// Fraction of this frame's paths that carried zero radiance.
+    pub zero_fraction: Option<f64>,
+}
+
+impl RenderStats {
+    /// Writes the record as pretty-printed JSON. Errors name the path.
+    ///
+    /// JSON has no NaN or infinity (serde_json would write `null`, which would
+    /// not load back into `elapsed_ms`), so a non-finite `elapsed_ms` is refused.
+    pub fn save(&self, path: &Path) -> anyhow::Result<()> {
+        if let Some(f) = self.frames.iter().find(|f| !f.elapsed_ms.is_finite()) {
+            bail!(
+                "cannot save render statistics {}: frame {} has a non-finite elapsed_ms ({})",
+                path.display(),
+                f.frame,
+                f.elapsed_ms
+            );
+        }
+        let mut json = serde_json::to_string_pretty(self)
+            .with_context(|| format!("cannot save render statistics {}", path.display()))?;
+        json.push('\n');
+        std::fs::write(path, json).with_context(|| format!("cannot save render statistics {}", path.display()))
+    }
+
+    /// Reads a record written by [`save`](Self::save). Errors name the path and,
+    /// for malformed JSON or missing fields, the `line:column` of the problem
+    /// (as `PATH:LINE:COLUMN: message`).
+    pub fn load(path: &Path) -> anyhow::Result<RenderStats> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read render statistics {}", path.display()))?;
+        serde_json::from_str(&text).map_err(|e| {
+            let (line, column) = (e.line(), e.column());
+            // serde_json's message ends in " at line L column C"; say it once, up front.
+            let message = e.to_string();
+            let message = message.strip_suffix(&format!(" at line {line} column {column}")).unwrap_or(&message);
+            anyhow::anyhow!("invalid render statistics {}:{line}:{column}: {message}", path.display())
+        })
+    }
+}

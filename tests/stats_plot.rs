@@ -1,0 +1,150 @@
+//! The convergence-statistics file round-trips through JSON and names the path
+//! and line:column of malformed input; the convergence plot is a 900x600 PNG
+//! with a curve per run, and refuses runs without relMSE and non-PNG outputs.
+
+use std::path::{Path, PathBuf};
+
+use rlpt::plot::{plot_convergence, run_colour, PLOT_HEIGHT, PLOT_WIDTH};
+use rlpt::stats::{FrameStats, RenderStats};
+
+/// A fresh, empty directory for one test.
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("stats_plot").join(test);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A run whose relMSE falls as `constant / t`, with a little deterministic
+/// wobble, over `frames` frames of `frame_ms` each.
+fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> RenderStats {
+    let frames = (1..=frames)
+        .map(|frame| {
+            let elapsed_ms = frame as f64 * frame_ms;
+            let wobble = 1.0 + 0.15 * (frame as f64 * 1.7).sin() / (frame as f64).sqrt();
+            FrameStats {
+                frame,
+                spp: frame * 4,
+                gpu_ms: Some(frame_ms),
+                elapsed_ms,
+                rel_mse: Some(constant / (elapsed_ms / 1000.0) * wobble),
+                zero_fraction: Some(0.25),
+            }
+        })
+        .collect();
+    RenderStats {
+        label: label.to_string(),
+        scene: "scenes/door.toml".to_string(),
+        device: "NVIDIA H100".to_string(),
+        width: 640,
+        height: 480,
+        guiding: "sphere".to_string(),
+        nee: true,
+        frames,
+    }
+}
+
+#[test]
+fn json_round_trip() {
+    let dir = temp_dir("round_trip");
+    let path = dir.join("stats.json");
+    let mut stats = synthetic_run("door.toml guiding=sphere nee=on", 0.02, 12.5, 5);
+    // The CPU renderer's shape: no GPU time, and a frame without relMSE.
+    stats.frames[1].gpu_ms = None;
+    stats.frames[2].rel_mse = None;
+    stats.frames[3].zero_fraction = None;
+    stats.frames[4].elapsed_ms = 0.1 + 0.2; // not exactly representable: must still round-trip exactly
+    stats.save(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("\n  \"label\": \"door.toml guiding=sphere nee=on\""), "not pretty JSON:\n{text}");
+    assert!(text.contains("\"gpu_ms\": null"), "{text}");
+    let loaded = RenderStats::load(&path).unwrap();
+    assert_eq!(loaded, stats);
+}
+
+#[test]
+fn malformed_file_names_path_and_position() {
+    let dir = temp_dir("malformed");
+    let path = dir.join("broken.json");
+    std::fs::write(&path, "{\n  \"label\": \"x\",\n  \"scene\": oops\n}\n").unwrap();
+    let message = format!("{:#}", RenderStats::load(&path).unwrap_err());
+    assert!(message.contains(&format!("{}:3:12", path.display())), "{message}");
+
+    // A missing field is reported too, at the end of the object.
+    let path = dir.join("incomplete.json");
+    std::fs::write(&path, "{\"label\": \"x\"}").unwrap();
+    let message = format!("{:#}", RenderStats::load(&path).unwrap_err());
+    assert!(message.contains(&format!("{}:1:14", path.display())), "{message}");
+    assert!(message.contains("missing field"), "{message}");
+
+    let missing = dir.join("missing.json");
+    let message = format!("{:#}", RenderStats::load(&missing).unwrap_err());
+    assert!(message.contains(&missing.display().to_string()), "{message}");
+}
+
+#[test]
+fn plot_of_two_runs_shows_both() {
+    let dir = temp_dir("two_runs");
+    let out = dir.join("convergence.png");
+    let runs = [
+        synthetic_run("door.toml guiding=off nee=on", 0.5, 20.0, 200),
+        synthetic_run("door.toml guiding=sphere nee=on", 0.08, 24.0, 200),
+    ];
+    plot_convergence(&runs, &out).unwrap();
+
+    let image = image::open(&out).unwrap().into_rgb8();
+    assert_eq!((image.width(), image.height()), (PLOT_WIDTH, PLOT_HEIGHT));
+    assert_eq!((PLOT_WIDTH, PLOT_HEIGHT), (900, 600));
+    assert_ne!(run_colour(0), run_colour(1));
+    let count = |colour: [u8; 3]| image.pixels().filter(|p| p.0 == colour).count();
+    let white = count([255, 255, 255]);
+    assert!(white < image.pixels().count() * 99 / 100, "the plot is blank");
+    // Each curve spans the plot: hundreds of pixels of exactly its colour.
+    for index in 0..runs.len() {
+        let n = count(run_colour(index));
+        assert!(n > 300, "run {index} has only {n} pixels of its colour {:?}", run_colour(index));
+    }
+}
+
+#[test]
+fn run_without_rel_mse_is_an_error_naming_it() {
+    let dir = temp_dir("no_rel_mse");
+    let out = dir.join("convergence.png");
+    let mut blind = synthetic_run("cornell.toml guiding=off nee=off", 0.3, 10.0, 10);
+    for frame in &mut blind.frames {
+        frame.rel_mse = None;
+    }
+    let runs = [synthetic_run("cornell.toml guiding=sphere nee=off", 0.1, 10.0, 10), blind];
+    let message = format!("{:#}", plot_convergence(&runs, &out).unwrap_err());
+    assert!(message.contains("cornell.toml guiding=off nee=off"), "{message}");
+    assert!(message.contains("--reference"), "{message}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn frames_without_rel_mse_or_positive_values_are_skipped() {
+    let dir = temp_dir("skipped");
+    let out = dir.join("convergence.png");
+    let mut run = synthetic_run("partial", 0.1, 10.0, 20);
+    run.frames[0].rel_mse = None;
+    run.frames[1].rel_mse = Some(0.0);
+    run.frames[2].rel_mse = Some(f64::NAN);
+    run.frames[3].elapsed_ms = 0.0;
+    plot_convergence(&[run], &out).unwrap();
+    assert!(out.is_file());
+}
+
+#[test]
+fn non_png_output_is_refused() {
+    let dir = temp_dir("not_png");
+    let runs = [synthetic_run("a", 0.1, 10.0, 10)];
+    for name in ["convergence.jpg", "convergence", "convergence.png.txt"] {
+        let out = dir.join(name);
+        let message = format!("{:#}", plot_convergence(&runs, &out).unwrap_err());
+        assert!(message.contains(&out.display().to_string()), "{message}");
+        assert!(message.contains(".png"), "{message}");
+        assert!(!out.exists());
+    }
+    // The extension is not case-sensitive.
+    plot_convergence(&runs, &dir.join("convergence.PNG")).unwrap();
+}
