@@ -32,6 +32,10 @@
 // MIS heuristic: power (beta = 2) when set, balance otherwise.
 #define FLAG_POWER_HEURISTIC 4
 
+// Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
+#define ABLATE_RECORD 1
+#define ABLATE_GUIDED_SAMPLING 2
+
 // Descriptor bindings of set 0 (pathtrace.comp).
 #define BINDING_PARAMS 0
 #define BINDING_MATERIALS 1

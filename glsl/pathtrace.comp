@@ -24,8 +24,9 @@ layout(std430, set = 0, binding = BINDING_ACCUM) buffer Accum { AccumPixel accum
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
 
 // frame: frames traced so far (decorrelates the random numbers);
-// accum_frames: frames in the accumulation buffer (restarts keep learning going).
-layout(push_constant) uniform Push { uint frame; uint accum_frames; } push;
+// accum_frames: frames in the accumulation buffer (restarts keep learning going);
+// ablate: ABLATE_* bits, parts of guiding left out (profiling only, else 0).
+layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; } push;
 
 // src/film.rs `accumulate`.
 void accumulate(uint pixel, vec3 sum) {
@@ -76,12 +77,16 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
     vec3 prev_p = o;
     uint prev_key = NO_KEY;
     uint depth = 0u;
+#if GUIDED
+    bool learn = (push.ablate & ABLATE_RECORD) == 0u;
+    bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
+#endif
     for (;;) {
         segments += 1u;
         Hit hit;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
 #if GUIDED
-            if (prev_key != NO_KEY) record_target(prev_key, mean3(params.environment.xyz));
+            if (learn && prev_key != NO_KEY) record_target(prev_key, mean3(params.environment.xyz));
 #endif
             radiance += beta * params.environment.xyz;
             break;
@@ -105,13 +110,13 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
-            if (prev_key != NO_KEY) record_target(prev_key, mean3(le));
+            if (learn && prev_key != NO_KEY) record_target(prev_key, mean3(le));
 #endif
             break;
         }
         float g_frac = 0.0;
 #if GUIDED
-        if (!bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
+        if (guide && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
 #endif
         bool last = depth >= params.max_bounces;
 
@@ -177,7 +182,7 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
             }
         }
 #if GUIDED
-        if (prev_key != NO_KEY) {
+        if (learn && prev_key != NO_KEY) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
             float reflected = ok ? mean3(weight) * q_table[row + bin_index(wi)] : 0.0;
             record_target(prev_key, mean3(le) + reflected);

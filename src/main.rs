@@ -176,6 +176,18 @@ struct BenchArgs {
     /// Write the frames as a Chrome trace-event file (Perfetto, chrome://tracing).
     #[arg(long)]
     trace: Option<PathBuf>,
+    /// Profiling: leave parts of guiding out of the measured frames (the warm-up
+    /// learns as usual), to see what each costs. The image is then not rlpt's.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    ablate: Vec<AblateArg>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum AblateArg {
+    /// Recording Q-learning targets (the subgroup-aggregated atomics).
+    Record,
+    /// Guided sampling and the guided pdf (paths sample the BSDF only).
+    GuidedSampling,
 }
 
 fn parse_seconds(s: &str) -> Result<f64, String> {
@@ -447,6 +459,10 @@ fn bench(args: BenchArgs) -> Result<()> {
         }
         check_parent("--trace", p)?;
     }
+    if !args.ablate.is_empty() && (args.settings.guiding == GuidingArg::Off || args.settings.device == DeviceKind::Cpu)
+    {
+        bail!("--ablate leaves parts of GPU guiding out: it needs --guiding octant or sphere and --device gpu");
+    }
     if args.frames == 0 {
         bail!("--frames 0: bench needs at least one measured frame");
     }
@@ -459,7 +475,14 @@ fn bench(args: BenchArgs) -> Result<()> {
         DeviceKind::Gpu => {
             let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
             let mut r = GpuRenderer::new(&ctx, &prepared)?;
+            let ablate = args.ablate.iter().fold(0, |bits, a| {
+                bits | match a {
+                    AblateArg::Record => shared::ABLATE_RECORD,
+                    AblateArg::GuidedSampling => shared::ABLATE_GUIDED_SAMPLING,
+                }
+            });
             for f in 0..args.warmup + args.frames {
+                r.ablate = if f >= args.warmup { ablate } else { 0 };
                 let t = r.render_frame_profiled()?;
                 if f >= args.warmup {
                     times.push(t);

@@ -177,3 +177,14 @@ fn bench_refuses_a_trace_without_gpu_timestamps() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("--trace") && stderr.contains("--device cpu"), "{stderr}");
 }
+
+#[test]
+fn bench_ablate_needs_gpu_guiding() {
+    let o = rlpt()
+        .args(["bench", "scenes/smallpt.toml", "--width", "8", "--height", "8", "--frames", "1", "--ablate", "record"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("--ablate") && stderr.contains("--guiding"), "{stderr}");
+}

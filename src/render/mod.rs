@@ -90,6 +90,9 @@ pub struct GpuRenderer {
     frames_traced: u32,
     /// Frames in the accumulation buffer.
     accum_frames: u32,
+    /// `ABLATE_*` bits for `render_frame_profiled`: parts of guiding left out
+    /// (profiling only: the image is then not what rlpt renders).
+    pub ablate: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -129,7 +132,7 @@ impl GpuRenderer {
         bindings.push(Binding::Storage);
         // Bindings must be numbered as in common.glsl: without guiding, 6..9 are absent and
         // the counters sit at BINDING_COUNTERS all the same.
-        let pipeline = Pipeline::new_with_numbers(ctx, kernel, shader(kernel), &numbered(&bindings, guided), 8)?;
+        let pipeline = Pipeline::new_with_numbers(ctx, kernel, shader(kernel), &numbered(&bindings, guided), 12)?;
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -197,6 +200,7 @@ impl GpuRenderer {
             height: p.height,
             frames_traced: 0,
             accum_frames: 0,
+            ablate: 0,
         })
     }
 
@@ -236,7 +240,7 @@ impl GpuRenderer {
                 if timestamps && f == 0 {
                     self.timer.cmd_stamp(cmd, 0);
                 }
-                let push: [u32; 2] = [traced + f, accumulated + f];
+                let push: [u32; 3] = [traced + f, accumulated + f, 0];
                 self.pipeline.cmd_dispatch(cmd, groups, bytemuck::bytes_of(&push));
                 if let Some(l) = &self.learning {
                     if timestamps && f + 1 == count {
@@ -286,7 +290,7 @@ impl GpuRenderer {
             });
         }
         let groups = [self.width.div_ceil(shared::PIXELS_PER_GROUP), self.height, 1];
-        let push: [u32; 2] = [self.frames_traced, self.accum_frames];
+        let push: [u32; 3] = [self.frames_traced, self.accum_frames, self.ablate];
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);
