@@ -55,6 +55,9 @@
 #define NUM_COUNTERS 4
 // learn.comp
 #define LEARN_GROUP 256
+// tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
+#define TONEMAP_GROUP_X 16
+#define TONEMAP_GROUP_Y 16
 #define NO_KEY 4294967295
 
 struct Material {

@@ -28,6 +28,8 @@ struct Cli {
 enum Command {
     /// Render a scene to a PNG (clamped, sRGB) or an EXR (linear float).
     Render(RenderArgs),
+    /// Open a window that shows the render converge; move around, switch guiding and NEE.
+    View(ViewArgs),
     /// List the Vulkan devices, their drivers and subgroup sizes, and what rlpt needs that they lack.
     Devices,
     /// Print relMSE, RMSE and MAPE of an image against a reference (EXR or PNG).
@@ -159,6 +161,34 @@ struct RenderArgs {
 }
 
 #[derive(clap::Args)]
+struct ViewArgs {
+    /// Scene file (TOML, see SCENE_FORMAT.md).
+    scene: PathBuf,
+    #[command(flatten)]
+    settings: Settings,
+    /// Scripted mode: render this many frames (64 spp each), save --screenshot, exit.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    frames: Option<u32>,
+    /// Scripted mode: where to save what the window shows (.png; the linear image is
+    /// written beside it as .exr).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Scripted mode: resize the window to WxH after the first frame (exercises
+    /// swapchain recreation).
+    #[arg(long, value_parser = parse_size)]
+    resize: Option<(u32, u32)>,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT, e.g. 800x600"))?;
+    let parse = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}`: `{v}` is not a size from 1 to 16384")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+#[derive(clap::Args)]
 struct BenchArgs {
     /// Scene file (TOML, see SCENE_FORMAT.md).
     scene: PathBuf,
@@ -225,6 +255,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
         Command::Compare { image, reference } => compare(&image, &reference),
@@ -543,6 +574,23 @@ fn bench(args: BenchArgs) -> Result<()> {
         std::fs::write(p, serde_json::to_string(&trace)?).with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
+}
+
+fn view(args: ViewArgs) -> Result<()> {
+    if args.settings.device == DeviceKind::Cpu {
+        bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
+    }
+    let scene = Scene::load(&args.scene)?;
+    let render = args.settings.options(&scene);
+    rlpt::viewer::run(rlpt::viewer::ViewOptions {
+        scene_path: args.scene,
+        scene,
+        render,
+        context: ContextOptions::from_env(args.settings.gpu),
+        frames: args.frames,
+        screenshot: args.screenshot,
+        resize: args.resize,
+    })
 }
 
 fn devices() -> Result<()> {

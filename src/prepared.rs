@@ -82,6 +82,29 @@ pub struct RenderParams {
     pub pad: [u32; 3],
 }
 
+impl RenderParams {
+    /// Points the camera fields at `cam` (the aspect ratio is the image's: set
+    /// `width` and `height` first).
+    pub fn set_camera(&mut self, cam: &crate::scene::Camera) {
+        let right = cam.forward.cross(cam.up).normalize();
+        let up = right.cross(cam.forward).normalize();
+        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+        self.cam_position_near = v4(cam.position, cam.near);
+        self.cam_forward_tan = v4(cam.forward, tan_half);
+        self.cam_right_aspect = v4(right, self.width as f32 / self.height as f32);
+        self.cam_up = v4(up, 0.0);
+    }
+
+    /// Next-event estimation on or off.
+    pub fn set_nee(&mut self, on: bool) {
+        if on {
+            self.flags |= shared::FLAG_NEE;
+        } else {
+            self.flags &= !shared::FLAG_NEE;
+        }
+    }
+}
+
 /// One pixel of the accumulation buffer: the sum of all radiance samples, and
 /// Welford's running sum of squared deviations of the per-frame 64-sample means
 /// (for variance estimates; it stays accurate in f32 where sum-of-squares minus
@@ -241,10 +264,6 @@ impl PreparedScene {
             last.cdf = 1.0;
         }
 
-        let cam = &scene.camera;
-        let right = cam.forward.cross(cam.up).normalize();
-        let up = right.cross(cam.forward).normalize();
-        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
         let mut flags = 0;
         if opts.nee {
             flags |= shared::FLAG_NEE;
@@ -255,11 +274,11 @@ impl PreparedScene {
         if opts.power_heuristic {
             flags |= shared::FLAG_POWER_HEURISTIC;
         }
-        let params = RenderParams {
-            cam_position_near: v4(cam.position, cam.near),
-            cam_forward_tan: v4(cam.forward, tan_half),
-            cam_right_aspect: v4(right, opts.width as f32 / opts.height as f32),
-            cam_up: v4(up, 0.0),
+        let mut params = RenderParams {
+            cam_position_near: [0.0; 4],
+            cam_forward_tan: [0.0; 4],
+            cam_right_aspect: [0.0; 4],
+            cam_up: [0.0; 4],
             environment: v4(scene.environment, 0.0),
             width: opts.width,
             height: opts.height,
@@ -282,6 +301,7 @@ impl PreparedScene {
             guide_floor: 0.0,
             pad: [0; 3],
         };
+        params.set_camera(&scene.camera);
         let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
         let bins = match opts.guiding {
             GuidingMode::Off => None,

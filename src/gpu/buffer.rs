@@ -104,6 +104,14 @@ impl Buffer {
         unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.raw, 0, vk::WHOLE_SIZE, 0) };
     }
 
+    /// Records a copy of `size` bytes of `self`, from byte `offset`, to the start of `dst`.
+    pub fn cmd_copy_range_to(&self, cmd: vk::CommandBuffer, offset: u64, dst: &Buffer, size: u64) {
+        assert!(offset + size <= self.size && size <= dst.size, "copy range outside the buffers");
+        let region = [vk::BufferCopy { src_offset: offset, dst_offset: 0, size }];
+        // SAFETY: `cmd` is recording; the range lies inside both buffers; usages as in cmd_copy_to.
+        unsafe { self.ctx.device.cmd_copy_buffer(cmd, self.raw, dst.raw, &region) };
+    }
+
     /// Records a copy of all of `self` into `dst`.
     pub fn cmd_copy_to(&self, cmd: vk::CommandBuffer, dst: &Buffer) {
         let region = [vk::BufferCopy { src_offset: 0, dst_offset: 0, size: self.size.min(dst.size) }];

@@ -29,6 +29,8 @@ pub enum GpuError {
     NoValidationLayer,
     #[error("the GPU ran out of memory while allocating {what}: try a smaller image")]
     OutOfMemory { what: String },
+    #[error("cannot show a window through Vulkan: {0}")]
+    NoPresentation(String),
     #[error("the GPU device was lost (a driver crash or a kernel that ran too long): {0}")]
     DeviceLost(String),
     #[error("Vulkan call {call} failed: {result}")]
@@ -86,12 +88,29 @@ pub struct ContextOptions {
     pub gpu: Option<usize>,
     /// Turn on the Khronos validation layer; every message it prints is counted.
     pub validation: bool,
+    /// A window to present to (the viewer): the context then owns a surface for it,
+    /// chooses a device whose compute queue can present to it, and enables swapchains.
+    pub window: Option<WindowTarget>,
+}
+
+/// The platform handles of a window. The window must outlive the [`Context`]
+/// made for it (the context's surface refers to it).
+#[derive(Clone, Copy, Debug)]
+pub struct WindowTarget {
+    pub display: raw_window_handle::RawDisplayHandle,
+    pub window: raw_window_handle::RawWindowHandle,
+}
+
+/// The window surface a context owns.
+pub struct Surface {
+    pub loader: ash::khr::surface::Instance,
+    pub raw: vk::SurfaceKHR,
 }
 
 impl ContextOptions {
     /// Validation on when the environment variable `RLPT_VALIDATION` is `1`.
     pub fn from_env(gpu: Option<usize>) -> ContextOptions {
-        ContextOptions { gpu, validation: std::env::var("RLPT_VALIDATION").is_ok_and(|v| v == "1") }
+        ContextOptions { gpu, validation: std::env::var("RLPT_VALIDATION").is_ok_and(|v| v == "1"), window: None }
     }
 }
 
@@ -106,6 +125,8 @@ pub struct Context {
     pub queue: vk::Queue,
     pub queue_family: u32,
     pub info: DeviceInfo,
+    /// The window surface, when made with [`ContextOptions::window`].
+    pub surface: Option<Surface>,
     allocator: ManuallyDrop<Mutex<Allocator>>,
     command_pool: Mutex<vk::CommandPool>,
     debug_instance: Option<ash::ext::debug_utils::Instance>,
@@ -150,6 +171,7 @@ fn create_instance(
     entry: &ash::Entry,
     validation: bool,
     messenger_info: Option<&mut vk::DebugUtilsMessengerCreateInfoEXT<'_>>,
+    display: Option<raw_window_handle::RawDisplayHandle>,
 ) -> Result<ash::Instance> {
     let app_name = c"rlpt";
     let app = vk::ApplicationInfo::default()
@@ -159,6 +181,24 @@ fn create_instance(
         .api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
+    if let Some(display) = display {
+        let needed = ash_window::enumerate_required_extensions(display)
+            .map_err(|e| GpuError::vk("ash_window::enumerate_required_extensions", e))?;
+        // SAFETY: plain enumeration.
+        let available = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .map_err(|e| GpuError::vk("vkEnumerateInstanceExtensionProperties", e))?;
+        for &ext in needed {
+            // SAFETY: ash_window returns pointers to static NUL-terminated names.
+            let name = unsafe { CStr::from_ptr(ext) };
+            if !available.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name)) {
+                return Err(GpuError::NoPresentation(format!(
+                    "the Vulkan loader offers no {} (the window system's surface extension)",
+                    name.to_string_lossy()
+                )));
+            }
+        }
+        extensions.extend_from_slice(needed);
+    }
     if validation {
         // SAFETY: plain enumeration.
         let available = unsafe { entry.enumerate_instance_layer_properties() }
@@ -299,7 +339,7 @@ fn enumerate(instance: &ash::Instance) -> Result<Vec<DeviceInfo>> {
 /// Every Vulkan device the loader finds, usable or not (`rlpt devices`).
 pub fn list_devices() -> Result<Vec<DeviceInfo>> {
     let entry = load_entry()?;
-    let instance = create_instance(&entry, false, None)?;
+    let instance = create_instance(&entry, false, None, None)?;
     let result = enumerate(&instance);
     // SAFETY: nothing made from the instance outlives it.
     unsafe { instance.destroy_instance(None) };
@@ -321,20 +361,57 @@ impl Context {
             )
             .pfn_user_callback(Some(debug_callback))
             .user_data(&*messages as *const AtomicU32 as *mut c_void);
-        let instance = create_instance(&entry, options.validation, options.validation.then_some(&mut messenger_info))?;
-        // From here on, failures must destroy the instance: a guard does it.
-        struct InstanceGuard(Option<ash::Instance>);
+        let instance = create_instance(
+            &entry,
+            options.validation,
+            options.validation.then_some(&mut messenger_info),
+            options.window.map(|w| w.display),
+        )?;
+        // From here on, failures must destroy the surface and the instance: a guard does it.
+        struct InstanceGuard(Option<ash::Instance>, Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>);
         impl Drop for InstanceGuard {
             fn drop(&mut self) {
-                if let Some(i) = self.0.take() {
-                    // SAFETY: only reached on an error path, before any child object exists.
-                    unsafe { i.destroy_instance(None) };
+                // SAFETY: only reached on an error path, before any other child object exists.
+                unsafe {
+                    if let Some((loader, surface)) = self.1.take() {
+                        loader.destroy_surface(surface, None);
+                    }
+                    if let Some(i) = self.0.take() {
+                        i.destroy_instance(None);
+                    }
                 }
             }
         }
-        let mut guard = InstanceGuard(Some(instance.clone()));
+        let mut guard = InstanceGuard(Some(instance.clone()), None);
+        let surface = match options.window {
+            None => None,
+            Some(w) => {
+                // SAFETY: the handles are those of a live window that outlives the context (WindowTarget's contract).
+                let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) }
+                    .map_err(|e| GpuError::NoPresentation(format!("creating a surface for the window failed: {e}")))?;
+                let loader = ash::khr::surface::Instance::new(&entry, &instance);
+                guard.1 = Some((loader.clone(), raw));
+                Some(Surface { loader, raw })
+            }
+        };
 
-        let devices = enumerate(&instance)?;
+        let mut devices = enumerate(&instance)?;
+        if let Some(s) = &surface {
+            for d in &mut devices {
+                // SAFETY: device, family and surface all belong to this instance.
+                let presents =
+                    unsafe { s.loader.get_physical_device_surface_support(d.physical, d.queue_family, s.raw) }
+                        .unwrap_or(false);
+                if !presents {
+                    d.missing.push("presentation to this window from its compute queue".into());
+                }
+                // SAFETY: plain enumeration.
+                let exts = unsafe { instance.enumerate_device_extension_properties(d.physical) }.unwrap_or_default();
+                if !exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::khr::swapchain::NAME)) {
+                    d.missing.push("swapchains (VK_KHR_swapchain)".into());
+                }
+            }
+        }
         let chosen = match options.gpu {
             Some(i) => devices.get(i).ok_or(GpuError::NoSuchGpu { index: i, count: devices.len() })?,
             None => devices
@@ -372,6 +449,9 @@ impl Context {
             extensions.push(ash::khr::pipeline_executable_properties::NAME.as_ptr());
             device_info = device_info.push_next(&mut exec);
         }
+        if surface.is_some() {
+            extensions.push(ash::khr::swapchain::NAME.as_ptr());
+        }
         let device_info = device_info.enabled_extension_names(&extensions);
         // SAFETY: `info.physical` belongs to `instance`; all pointers outlive the call.
         let device = unsafe { instance.create_device(info.physical, &device_info, None) }
@@ -407,6 +487,7 @@ impl Context {
             .map_err(|e| GpuError::vk("vkCreateCommandPool", e))?;
 
         guard.0 = None;
+        guard.1 = None;
         let ctx = Context {
             entry,
             instance,
@@ -415,6 +496,7 @@ impl Context {
             queue,
             queue_family: info.queue_family,
             info,
+            surface,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             command_pool: Mutex::new(command_pool),
             debug_instance,
@@ -452,6 +534,20 @@ impl Context {
 
     /// Records commands with `record`, submits them and waits for completion.
     pub fn run_commands(&self, name: &str, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        self.run_commands_synced(name, &[], &[], record)
+    }
+
+    /// [`run_commands`](Self::run_commands) whose submission first waits on `waits`
+    /// (each semaphore at its stage) and signals `signals` when done (presentation).
+    pub fn run_commands_synced(
+        &self,
+        name: &str,
+        waits: &[(vk::Semaphore, vk::PipelineStageFlags)],
+        signals: &[vk::Semaphore],
+        record: impl FnOnce(vk::CommandBuffer),
+    ) -> Result<()> {
+        let wait_semaphores: Vec<vk::Semaphore> = waits.iter().map(|w| w.0).collect();
+        let wait_stages: Vec<vk::PipelineStageFlags> = waits.iter().map(|w| w.1).collect();
         let pool = self.command_pool.lock().unwrap_or_else(|e| e.into_inner());
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(*pool)
@@ -473,7 +569,11 @@ impl Context {
             let fence = unsafe { self.device.create_fence(&vk::FenceCreateInfo::default(), None) }
                 .map_err(|e| GpuError::vk("vkCreateFence", e))?;
             let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let submit = [vk::SubmitInfo::default()
+                .command_buffers(&cmds)
+                .wait_semaphores(&wait_semaphores)
+                .wait_dst_stage_mask(&wait_stages)
+                .signal_semaphores(signals)];
             // SAFETY: the queue is used from one thread at a time (the pool lock is held).
             let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
                 .map_err(|e| GpuError::vk("vkQueueSubmit", e))
@@ -489,6 +589,29 @@ impl Context {
         // SAFETY: the command buffer is no longer executing (waited above or never submitted).
         unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
         result
+    }
+
+    /// Presents swapchain image `index` once `wait` is signalled, on the context's queue.
+    /// `Ok(true)` when the swapchain no longer matches the surface (suboptimal or out of
+    /// date) and should be recreated.
+    pub fn present(
+        &self,
+        loader: &ash::khr::swapchain::Device,
+        swapchain: vk::SwapchainKHR,
+        index: u32,
+        wait: vk::Semaphore,
+    ) -> Result<bool> {
+        // Queue access is serialised by the command pool's lock, as in run_commands.
+        let _pool = self.command_pool.lock().unwrap_or_else(|e| e.into_inner());
+        let (waits, swapchains, indices) = ([wait], [swapchain], [index]);
+        let info =
+            vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
+        // SAFETY: the swapchain belongs to this device and `index` was acquired from it.
+        match unsafe { loader.queue_present(self.queue, &info) } {
+            Ok(suboptimal) => Ok(suboptimal),
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(true),
+            Err(e) => Err(GpuError::vk("vkQueuePresentKHR", e)),
+        }
     }
 
     /// A memory barrier making compute and transfer writes visible to later compute and transfer work.
@@ -518,6 +641,9 @@ impl Drop for Context {
             self.device.destroy_command_pool(*self.command_pool.get_mut().unwrap_or_else(|e| e.into_inner()), None);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
+            if let Some(s) = &self.surface {
+                s.loader.destroy_surface(s.raw, None);
+            }
             if let Some(d) = &self.debug_instance {
                 d.destroy_debug_utils_messenger(self.messenger, None);
             }

@@ -1,15 +1,18 @@
 //! The one home of `unsafe` Vulkan: a [`Context`] owning instance, device,
-//! queue and allocator; RAII [`Buffer`]s; compute [`Pipeline`]s; timestamp
-//! [`Timer`]s. Everything else in the crate is safe code on top of these.
+//! queue and allocator (and, for the viewer, a window surface); RAII
+//! [`Buffer`]s and [`Image`]s; compute [`Pipeline`]s; timestamp [`Timer`]s; the
+//! viewer's [`Swapchain`]. Everything else in the crate is safe code on top of these.
 
 mod buffer;
 mod context;
 mod pipeline;
+mod swapchain;
 mod timer;
 
 pub use buffer::{Buffer, BufferUsage};
-pub use context::{list_devices, Context, ContextOptions, DeviceInfo, GpuError};
+pub use context::{list_devices, Context, ContextOptions, DeviceInfo, GpuError, Surface, WindowTarget};
 pub use pipeline::{Binding, Pipeline, PipelineStatistic};
+pub use swapchain::{Acquired, Image, Swapchain};
 pub use timer::Timer;
 
 pub use ash::vk;

@@ -9,6 +9,8 @@ use crate::prepared::{AccumPixel, PreparedScene};
 use crate::shared;
 use std::sync::Arc;
 
+pub mod display;
+
 /// What one submission of frames measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameTimings {
@@ -86,6 +88,7 @@ pub struct GpuRenderer {
     timer: Timer,
     width: u32,
     height: u32,
+    params: crate::prepared::RenderParams,
     /// Frames traced so far (decorrelates random numbers; not reset with the accumulation).
     frames_traced: u32,
     /// Frames in the accumulation buffer.
@@ -198,6 +201,7 @@ impl GpuRenderer {
             timer: Timer::new(ctx, 4)?,
             width: p.width,
             height: p.height,
+            params: *p,
             frames_traced: 0,
             accum_frames: 0,
             ablate: 0,
@@ -211,6 +215,44 @@ impl GpuRenderer {
     /// Frames in the accumulation.
     pub fn frames(&self) -> u32 {
         self.accum_frames
+    }
+
+    /// Replaces the render parameters (camera, NEE flag...) for the following frames.
+    /// The image size and the guiding geometry must stay those the renderer was made
+    /// with; restart the accumulation when the image they describe changes.
+    pub fn set_params(&mut self, params: &crate::prepared::RenderParams) {
+        let p = &self.params;
+        assert_eq!(
+            (p.width, p.height, p.guide_bins, p.guide_cells),
+            (params.width, params.height, params.guide_bins, params.guide_cells),
+            "set_params keeps the image size and the guiding geometry"
+        );
+        self.params = *params;
+        // The uniform is host-visible; run_commands waited for every frame that read it.
+        self._scene_buffers[0].write(bytemuck::bytes_of(params));
+    }
+
+    /// The render parameters in use.
+    pub fn params(&self) -> &crate::prepared::RenderParams {
+        &self.params
+    }
+
+    /// The accumulation buffer (`AccumPixel` per pixel), for passes that display it.
+    pub fn accumulation(&self) -> &Buffer {
+        &self.accum
+    }
+
+    /// The learned values Q of every direction bin of voxel `cell` (None without guiding).
+    pub fn cell_values(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
+        let Some(l) = &self.learning else { return Ok(None) };
+        assert!(cell * l.bins < l.entries, "voxel {cell} is outside the grid");
+        let size = 4 * l.bins as u64;
+        let rb = Buffer::new(&self.ctx, "Q row readback", size, BufferUsage::Readback)?;
+        self.ctx.run_commands("read Q row", |cmd| {
+            self.ctx.barrier(cmd);
+            l.q.cmd_copy_range_to(cmd, 4 * (cell * l.bins) as u64, &rb, size);
+        })?;
+        Ok(Some(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize])))
     }
 
     /// Starts a new accumulation on the next frame; what guiding learned is kept.

@@ -13,7 +13,7 @@ pub fn gpu() -> Arc<Context> {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    Context::new(&ContextOptions { gpu: None, validation: true })
+    Context::new(&ContextOptions { gpu: None, validation: true, window: None })
         .expect("a Vulkan device (lavapipe: apt install mesa-vulkan-drivers) and the validation layer")
 }
 

@@ -1,0 +1,636 @@
+//! `rlpt view`: a window that shows the render converge. Each redraw adds one
+//! frame (64 samples per pixel) on the GPU, runs the display pass
+//! (`glsl/tonemap.comp`) and blits the result, letterboxed, into a swapchain
+//! image. The camera can be moved (the accumulation restarts, what guiding
+//! learned stays: it lives in world space), guiding and NEE switched, and the
+//! learned distribution of the voxel under the cursor shown as an inset.
+//!
+//! The render size is fixed (the scene's, or `--width`/`--height`); the window
+//! scales it to fit. Vulkan stays in `crate::gpu`; this module is winit and state.
+
+mod camera;
+mod inset;
+
+pub use camera::ViewCamera;
+pub use inset::{inset_texels, letterbox, window_to_pixel};
+
+use crate::gpu::{Acquired, Context, ContextOptions, Swapchain, WindowTarget};
+use crate::guide::GuidingMode;
+use crate::math::geometry::intersect;
+use crate::prepared::{PreparedScene, RenderOptions};
+use crate::render::display::{Display, Inset};
+use crate::render::GpuRenderer;
+use crate::scene::Scene;
+use crate::shared;
+use anyhow::{anyhow, bail, Context as _, Result};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+use winit::window::{Window, WindowId};
+
+/// What `rlpt view` was asked to do.
+pub struct ViewOptions {
+    pub scene_path: PathBuf,
+    pub scene: Scene,
+    /// Size, bounces, seed, NEE and the initial guiding mode.
+    pub render: RenderOptions,
+    pub context: ContextOptions,
+    /// Scripted mode: render this many frames, save `screenshot`, exit.
+    pub frames: Option<u32>,
+    /// Where the scripted mode saves what the window shows (.png; the linear
+    /// image goes beside it as .exr).
+    pub screenshot: Option<PathBuf>,
+    /// Scripted mode: resize the window to this size after the first frame.
+    pub resize: Option<(u32, u32)>,
+}
+
+/// The controls, as `H` prints them.
+pub const CONTROLS: &str = "\
+controls:
+  left drag   orbit around the point at the centre of the view
+  W A S D     move forward, left, back, right
+  Q E         move down, up
+  wheel       field of view
+  R           restart accumulation (guiding keeps what it learned)
+  G           guiding: off -> octant -> sphere
+  N           next-event estimation on/off
+  V           show the learned light distribution of the voxel under the cursor
+  Space       pause / resume
+  P           save PNG and EXR of what is shown
+  H           print these controls
+  Esc         quit";
+
+/// Opens the window and runs until it is closed (or the scripted frames are done).
+pub fn run(options: ViewOptions) -> Result<()> {
+    if let Some(s) = &options.screenshot {
+        if s.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() != Some("png") {
+            bail!("--screenshot {}: the file name must end in .png (the EXR is written beside it)", s.display());
+        }
+        if let Some(parent) = s.parent().filter(|p| !p.as_os_str().is_empty()) {
+            if !parent.is_dir() {
+                bail!("--screenshot {}: directory {} does not exist", s.display(), parent.display());
+            }
+        }
+    }
+    if options.frames.is_some() != options.screenshot.is_some() {
+        bail!("--frames and --screenshot go together: the scripted mode renders N frames and saves what it shows");
+    }
+    if options.resize.is_some() && options.frames.is_none() {
+        bail!("--resize is part of the scripted mode: give --frames and --screenshot too");
+    }
+    let event_loop = EventLoop::new().map_err(|e| {
+        anyhow!(
+            "cannot open a window: {e}. `rlpt view` needs an X11 or Wayland display (is DISPLAY or \
+             WAYLAND_DISPLAY set?); without one, use `rlpt render`"
+        )
+    })?;
+    let mut app = App { options, viewer: None, error: None };
+    event_loop.run_app(&mut app).map_err(|e| anyhow!("the window's event loop failed: {e}"))?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct App {
+    options: ViewOptions,
+    viewer: Option<Viewer>,
+    error: Option<anyhow::Error>,
+}
+
+impl App {
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: anyhow::Error) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+        // Free the GPU objects before the event loop (and the window) goes.
+        self.viewer = None;
+        event_loop.exit();
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.viewer.is_some() || self.error.is_some() {
+            return;
+        }
+        match Viewer::new(event_loop, &self.options) {
+            Ok(v) => {
+                v.window.request_redraw();
+                self.viewer = Some(v);
+            }
+            Err(e) => self.fail(event_loop, e),
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(v) = self.viewer.as_mut() else { return };
+        match v.handle(event, &self.options) {
+            Ok(Flow::Continue) => {}
+            Ok(Flow::Exit) => {
+                let result = v.finish();
+                self.viewer = None;
+                match result {
+                    Ok(()) => event_loop.exit(),
+                    Err(e) => self.fail(event_loop, e),
+                }
+            }
+            Err(e) => self.fail(event_loop, e),
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        // Redraw continuously while there is work (frames to add, a resize to finish);
+        // otherwise sleep until an event: no busy loop when paused or minimised.
+        event_loop.set_control_flow(ControlFlow::Wait);
+        if let Some(v) = &self.viewer {
+            if v.wants_frames(&self.options) {
+                v.window.request_redraw();
+            }
+        }
+    }
+}
+
+enum Flow {
+    Continue,
+    Exit,
+}
+
+/// One guiding mode's renderer (made when first shown; each keeps its own table).
+struct ModeRenderer {
+    mode: GuidingMode,
+    prepared: PreparedScene,
+    renderer: GpuRenderer,
+}
+
+/// Timings of the last frame.
+#[derive(Clone, Copy, Default)]
+struct LastFrame {
+    pathtrace_ms: f64,
+    learn_ms: f64,
+    /// From timestamps; false: wall clock.
+    gpu: bool,
+}
+
+struct Viewer {
+    // Fields drop in order: GPU objects first, then the context, the window last
+    // (the context's surface refers to it).
+    display: Display,
+    swapchain: Option<Swapchain>,
+    swapchain_dirty: bool,
+    renderers: Vec<ModeRenderer>,
+    current: usize,
+    ctx: Arc<Context>,
+    window: Arc<Window>,
+
+    scene: Scene,
+    base: RenderOptions,
+    scene_name: String,
+    camera: ViewCamera,
+    nee: bool,
+    paused: bool,
+    inset_on: bool,
+    inset_shown: Option<u32>,
+    inset_checked: Instant,
+    cursor: Option<(f64, f64)>,
+    drag_from: Option<(f64, f64)>,
+    last: LastFrame,
+    /// Frames rendered in this window (all modes), for the scripted mode.
+    rendered: u32,
+    resize_requested: bool,
+    resized_at: Option<(u32, u32)>,
+    started: Instant,
+}
+
+impl Viewer {
+    fn new(event_loop: &ActiveEventLoop, options: &ViewOptions) -> Result<Viewer> {
+        let (w, h) = (options.render.width, options.render.height);
+        let scene_name = options
+            .scene_path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| options.scene_path.display().to_string());
+        let attributes = Window::default_attributes()
+            .with_title(format!("rlpt: {scene_name}"))
+            .with_inner_size(PhysicalSize::new(w, h));
+        let window = Arc::new(event_loop.create_window(attributes).context("cannot create the window")?);
+        let target = WindowTarget {
+            display: window.display_handle().map_err(|e| anyhow!("the window has no display handle: {e}"))?.as_raw(),
+            window: window.window_handle().map_err(|e| anyhow!("the window has no window handle: {e}"))?.as_raw(),
+        };
+        let mut ctx_options = options.context.clone();
+        ctx_options.window = Some(target);
+        let ctx = Context::new(&ctx_options)?;
+        let first = make_renderer(&ctx, &options.scene, &options.render, options.render.guiding)?;
+        let size = window.inner_size();
+        let swapchain = Swapchain::new(&ctx, (size.width, size.height), None)?;
+        let srgb = swapchain.as_ref().is_some_and(|s| s.is_srgb());
+        let display = Display::new(&ctx, first.renderer.accumulation(), w, h, srgb)?;
+        let camera = ViewCamera::new(&options.scene.camera, &first.prepared);
+        if let Some(s) = &swapchain {
+            eprintln!(
+                "rlpt view: {} ({}), {}x{} render in a {}x{} window, present mode {:?}",
+                ctx.info.name, ctx.info.driver, w, h, s.extent.width, s.extent.height, s.present_mode
+            );
+        }
+        if options.frames.is_none() {
+            println!("{CONTROLS}");
+        }
+        Ok(Viewer {
+            display,
+            swapchain,
+            swapchain_dirty: false,
+            renderers: vec![first],
+            current: 0,
+            ctx,
+            window,
+            scene: options.scene.clone(),
+            base: options.render.clone(),
+            scene_name,
+            camera,
+            nee: options.render.nee,
+            paused: false,
+            inset_on: false,
+            inset_shown: None,
+            inset_checked: Instant::now(),
+            cursor: None,
+            drag_from: None,
+            last: LastFrame::default(),
+            rendered: 0,
+            resize_requested: false,
+            resized_at: None,
+            started: Instant::now(),
+        })
+    }
+
+    fn renderer(&self) -> &ModeRenderer {
+        &self.renderers[self.current]
+    }
+
+    /// True while redraws should follow each other without waiting for events.
+    fn wants_frames(&self, options: &ViewOptions) -> bool {
+        if self.swapchain.is_none() && !self.swapchain_dirty {
+            return false; // minimised: wait for a resize
+        }
+        match options.frames {
+            Some(n) => self.rendered < n || (options.resize.is_some() && self.resized_at.is_none()),
+            None => !self.paused || self.swapchain_dirty,
+        }
+    }
+
+    fn handle(&mut self, event: WindowEvent, options: &ViewOptions) -> Result<Flow> {
+        match event {
+            WindowEvent::CloseRequested => return Ok(Flow::Exit),
+            WindowEvent::Resized(_) => {
+                self.swapchain_dirty = true;
+                self.window.request_redraw();
+            }
+            WindowEvent::RedrawRequested => return self.redraw(options),
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                if let PhysicalKey::Code(code) = event.physical_key {
+                    return self.key(code);
+                }
+            }
+            WindowEvent::MouseInput { button: MouseButton::Left, state, .. } => {
+                self.drag_from = (state == ElementState::Pressed).then_some(self.cursor).flatten();
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let now = (position.x, position.y);
+                if let Some(from) = self.drag_from {
+                    self.camera.orbit((now.0 - from.0) as f32, (now.1 - from.1) as f32);
+                    self.drag_from = Some(now);
+                    self.camera_changed();
+                }
+                self.cursor = Some(now);
+            }
+            WindowEvent::CursorLeft { .. } => self.cursor = None,
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+                };
+                if lines != 0.0 {
+                    self.camera.zoom(lines);
+                    self.camera_changed();
+                }
+            }
+            _ => {}
+        }
+        Ok(Flow::Continue)
+    }
+
+    fn key(&mut self, code: KeyCode) -> Result<Flow> {
+        let step = self.camera.step();
+        match code {
+            KeyCode::Escape => return Ok(Flow::Exit),
+            KeyCode::KeyW => self.camera.translate(step, 0.0, 0.0),
+            KeyCode::KeyS => self.camera.translate(-step, 0.0, 0.0),
+            KeyCode::KeyD => self.camera.translate(0.0, step, 0.0),
+            KeyCode::KeyA => self.camera.translate(0.0, -step, 0.0),
+            KeyCode::KeyE => self.camera.translate(0.0, 0.0, step),
+            KeyCode::KeyQ => self.camera.translate(0.0, 0.0, -step),
+            KeyCode::KeyR => {
+                self.restart()?;
+                return Ok(Flow::Continue);
+            }
+            KeyCode::KeyG => {
+                self.cycle_guiding()?;
+                return Ok(Flow::Continue);
+            }
+            KeyCode::KeyN => {
+                self.nee = !self.nee;
+                println!("next-event estimation {}", if self.nee { "on" } else { "off" });
+                self.apply_params()?;
+                return Ok(Flow::Continue);
+            }
+            KeyCode::KeyV => {
+                self.inset_on = !self.inset_on;
+                if self.inset_on && self.renderer().mode == GuidingMode::Off {
+                    println!("V: guiding is off, so nothing is learned; press G to turn it on");
+                }
+                self.update_inset(true)?;
+                self.window.request_redraw();
+                return Ok(Flow::Continue);
+            }
+            KeyCode::Space => {
+                self.paused = !self.paused;
+                self.update_title();
+                self.window.request_redraw();
+                return Ok(Flow::Continue);
+            }
+            KeyCode::KeyP => {
+                let spp = self.renderer().renderer.frames() * shared::SAMPLES_PER_FRAME;
+                let stem = Path::new(&self.scene_name).file_stem().map(|s| s.to_string_lossy().into_owned());
+                let png = PathBuf::from(format!("rlpt-{}-{spp}spp.png", stem.unwrap_or_else(|| "view".into())));
+                self.save(&png)?;
+                return Ok(Flow::Continue);
+            }
+            KeyCode::KeyH => {
+                println!("{CONTROLS}");
+                return Ok(Flow::Continue);
+            }
+            _ => return Ok(Flow::Continue),
+        }
+        // A movement key.
+        self.camera_changed();
+        Ok(Flow::Continue)
+    }
+
+    fn camera_changed(&mut self) {
+        if let Err(e) = self.apply_params() {
+            log::error!("{e:#}");
+        }
+    }
+
+    /// Writes the camera and NEE into the current renderer and restarts its accumulation.
+    fn apply_params(&mut self) -> Result<()> {
+        let cam = self.camera.to_scene_camera();
+        let nee = self.nee;
+        let r = &mut self.renderers[self.current].renderer;
+        let mut p = *r.params();
+        p.set_camera(&cam);
+        p.set_nee(nee);
+        r.set_params(&p);
+        self.restart()
+    }
+
+    fn restart(&mut self) -> Result<()> {
+        self.renderers[self.current].renderer.reset_accumulation()?;
+        self.inset_shown = None;
+        self.window.request_redraw();
+        Ok(())
+    }
+
+    fn cycle_guiding(&mut self) -> Result<()> {
+        let next = match self.renderer().mode {
+            GuidingMode::Off => GuidingMode::Octant,
+            GuidingMode::Octant => GuidingMode::Sphere,
+            GuidingMode::Sphere => GuidingMode::Off,
+        };
+        let index = match self.renderers.iter().position(|r| r.mode == next) {
+            Some(i) => i,
+            None => match make_renderer(&self.ctx, &self.scene, &self.base, next) {
+                Ok(r) => {
+                    self.renderers.push(r);
+                    self.renderers.len() - 1
+                }
+                Err(e) => {
+                    // A device without float atomics cannot guide: say so and stay.
+                    println!("guiding {}: {e:#}", next.name());
+                    return Ok(());
+                }
+            },
+        };
+        self.current = index;
+        self.display.bind(self.renderers[index].renderer.accumulation());
+        println!("guiding {}", next.name());
+        self.apply_params()?;
+        self.update_inset(true)
+    }
+
+    /// Shows or hides the inset of the voxel under the cursor; re-reads the table at
+    /// most four times a second (or at once with `force`).
+    fn update_inset(&mut self, force: bool) -> Result<()> {
+        if !force && self.inset_checked.elapsed() < Duration::from_millis(250) {
+            return Ok(());
+        }
+        self.inset_checked = Instant::now();
+        let mr = &self.renderers[self.current];
+        let target = if !self.inset_on { None } else { self.voxel_under_cursor(mr) };
+        let Some((cell, bins)) = target else {
+            self.inset_shown = None;
+            return self.display.set_inset(None).map_err(|e| anyhow!(e));
+        };
+        let Some(values) = mr.renderer.cell_values(cell)? else { return Ok(()) };
+        let (w, h) = self.display.size();
+        let iw = (w / 2).min(256).max(bins.cols);
+        let ih = (iw / 2).min(h / 2).max(bins.rows);
+        if (iw as u64) * (ih as u64) * 4 > (w as u64) * (h as u64) || iw + 2 > w || ih + 2 > h {
+            return self.display.set_inset(None).map_err(|e| anyhow!(e));
+        }
+        let texels = inset_texels(&values, bins, iw, ih);
+        let inset = Inset { x: 2, y: 2, width: iw, height: ih, texels };
+        self.display.set_inset(Some(&inset)).map_err(|e| anyhow!(e))?;
+        if self.inset_shown != Some(cell) {
+            let g = mr.prepared.guide.as_ref().map(|c| c.grid);
+            if let Some(g) = g {
+                let (x, y, z) = (cell % g.res[0], (cell / g.res[0]) % g.res[1], cell / (g.res[0] * g.res[1]));
+                let best = values.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(i, _)| i as u32);
+                let dir = best.map(|b| bins.center(b)).unwrap_or_default();
+                println!(
+                    "voxel ({x}, {y}, {z}): brightest bin towards ({:.2}, {:.2}, {:.2}), Q max {:.4}",
+                    dir.x,
+                    dir.y,
+                    dir.z,
+                    values.iter().cloned().fold(0.0f32, f32::max)
+                );
+            }
+            self.inset_shown = Some(cell);
+        }
+        Ok(())
+    }
+
+    /// The voxel seen through the pixel under the cursor and the bins of its table.
+    fn voxel_under_cursor(&self, mr: &ModeRenderer) -> Option<(u32, crate::guide::Bins)> {
+        let cfg = mr.prepared.guide.as_ref()?;
+        let (cx, cy) = self.cursor?;
+        let sc = self.swapchain.as_ref()?;
+        let (w, h) = self.display.size();
+        let rect = letterbox((w, h), (sc.extent.width, sc.extent.height));
+        let (px, py) = window_to_pixel(rect, (w, h), (cx, cy))?;
+        let (o, d) = crate::cpu::camera_ray(mr.renderer.params(), px, py, [0.5, 0.5]);
+        let hit = intersect(&mr.prepared, o, d, f32::INFINITY)?;
+        Some((cfg.grid.cell(hit.p), cfg.bins))
+    }
+
+    fn recreate_swapchain(&mut self) -> Result<()> {
+        let size = self.window.inner_size();
+        let old = self.swapchain.take();
+        let new = Swapchain::new(&self.ctx, (size.width, size.height), old.as_ref())?;
+        drop(old);
+        self.swapchain_dirty = false;
+        if let Some(s) = &new {
+            if s.is_srgb() != self.display_is_srgb() {
+                let (w, h) = self.display.size();
+                self.display = Display::new(&self.ctx, self.renderer().renderer.accumulation(), w, h, s.is_srgb())?;
+            }
+            eprintln!("rlpt view: swapchain recreated at {}x{}", s.extent.width, s.extent.height);
+            self.resized_at = Some((s.extent.width, s.extent.height));
+        }
+        self.swapchain = new;
+        Ok(())
+    }
+
+    fn display_is_srgb(&self) -> bool {
+        self.display.image.format == crate::gpu::vk::Format::R8G8B8A8_SRGB
+    }
+
+    fn redraw(&mut self, options: &ViewOptions) -> Result<Flow> {
+        if self.swapchain_dirty || self.swapchain.is_none() {
+            self.recreate_swapchain()?;
+        }
+        if self.swapchain.is_none() {
+            return Ok(Flow::Continue); // minimised
+        }
+        let render_more = match options.frames {
+            Some(n) => self.rendered < n,
+            None => !self.paused,
+        };
+        if render_more {
+            let start = Instant::now();
+            let t = self.renderers[self.current].renderer.render_frames(1)?;
+            let gpu = self.ctx.info.timestamps;
+            self.last = LastFrame {
+                pathtrace_ms: if gpu { t.pathtrace_ms } else { start.elapsed().as_secs_f64() * 1e3 },
+                learn_ms: if gpu { t.learn_ms } else { 0.0 },
+                gpu,
+            };
+            self.rendered += 1;
+        }
+        if self.inset_on {
+            self.update_inset(false)?;
+        }
+        let sc = self.swapchain.as_ref().expect("checked above");
+        let index = match sc.acquire()? {
+            Acquired::Image { index, .. } => index,
+            Acquired::OutOfDate => {
+                self.swapchain_dirty = true;
+                return Ok(Flow::Continue);
+            }
+        };
+        let (w, h) = self.display.size();
+        let rect = letterbox((w, h), (sc.extent.width, sc.extent.height));
+        let frames = self.renderer().renderer.frames();
+        let display = &self.display;
+        let recreate = sc.draw_and_present(index, &display.image, rect, |cmd| display.cmd_draw(cmd, frames))?;
+        if recreate {
+            self.swapchain_dirty = true;
+        }
+        self.update_title();
+
+        if let Some(n) = options.frames {
+            if self.rendered == 1 && !self.resize_requested {
+                if let Some((rw, rh)) = options.resize {
+                    self.resize_requested = true;
+                    let _ = self.window.request_inner_size(PhysicalSize::new(rw, rh));
+                }
+            }
+            let resized = options.resize.is_none() || self.resized_at == options.resize;
+            if self.rendered >= n && resized {
+                if let Some(path) = &options.screenshot {
+                    self.save(path)?;
+                }
+                return Ok(Flow::Exit);
+            }
+            if self.rendered >= n && self.started.elapsed() > Duration::from_secs(60) {
+                let (rw, rh) = options.resize.unwrap_or_default();
+                bail!(
+                    "the window was not resized to {rw}x{rh} within a minute (the window system ignored the request)"
+                );
+            }
+        }
+        Ok(Flow::Continue)
+    }
+
+    fn update_title(&self) {
+        let mr = self.renderer();
+        let spp = mr.renderer.frames() * shared::SAMPLES_PER_FRAME;
+        let (w, h) = self.display.size();
+        let ms = self.last.pathtrace_ms + self.last.learn_ms;
+        let msps = if ms > 0.0 { (w as f64 * h as f64 * shared::SAMPLES_PER_FRAME as f64) / (ms * 1e3) } else { 0.0 };
+        let clock = if self.last.gpu { "GPU" } else { "wall" };
+        let learn =
+            if mr.mode == GuidingMode::Off { String::new() } else { format!(" (learn {:.2})", self.last.learn_ms) };
+        self.window.set_title(&format!(
+            "rlpt: {} | {spp} spp | {ms:.2} ms/frame {clock}{learn} | {msps:.1} Msamples/s | guiding {} | NEE {}{}",
+            self.scene_name,
+            mr.mode.name(),
+            if self.nee { "on" } else { "off" },
+            if self.paused { " | paused" } else { "" }
+        ));
+    }
+
+    /// Saves what the window shows as `png` (the display pass's bytes, inset included)
+    /// and the linear mean radiance beside it as .exr.
+    fn save(&self, png: &Path) -> Result<()> {
+        let (w, h) = self.display.size();
+        let rgb = self.display.read_rgb8()?;
+        image::save_buffer(png, &rgb, w, h, image::ExtendedColorType::Rgb8)
+            .with_context(|| format!("writing {}", png.display()))?;
+        let exr = png.with_extension("exr");
+        let film = self.renderer().renderer.film()?;
+        film.mean().save(&exr).with_context(|| format!("writing {}", exr.display()))?;
+        println!(
+            "saved {} and {} ({} spp, guiding {}, NEE {})",
+            png.display(),
+            exr.display(),
+            film.samples_per_pixel(),
+            self.renderer().mode.name(),
+            if self.nee { "on" } else { "off" }
+        );
+        Ok(())
+    }
+
+    /// Checks on the way out: the validation layer, when on, must have said nothing.
+    fn finish(&self) -> Result<()> {
+        let n = self.ctx.validation_messages();
+        if n > 0 {
+            bail!("the Vulkan validation layer reported {n} problem(s) (printed above)");
+        }
+        Ok(())
+    }
+}
+
+fn make_renderer(ctx: &Arc<Context>, scene: &Scene, base: &RenderOptions, mode: GuidingMode) -> Result<ModeRenderer> {
+    let mut opts = base.clone();
+    opts.guiding = mode;
+    let prepared = PreparedScene::new(scene, &opts);
+    let renderer = GpuRenderer::new(ctx, &prepared)?;
+    Ok(ModeRenderer { mode, prepared, renderer })
+}
