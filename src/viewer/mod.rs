@@ -150,7 +150,11 @@ impl ApplicationHandler for App {
         // otherwise sleep until an event: no busy loop when paused or minimised.
         event_loop.set_control_flow(ControlFlow::Wait);
         if let Some(v) = &self.viewer {
-            if v.wants_frames(&self.options) {
+            if v.hidden() {
+                // Not every window system says when a minimised window comes back:
+                // look four times a second (a wait, not a busy loop).
+                event_loop.set_control_flow(ControlFlow::WaitUntil(Instant::now() + Duration::from_millis(250)));
+            } else if v.wants_frames(&self.options) {
                 v.window.request_redraw();
             }
         }
@@ -206,6 +210,8 @@ struct Viewer {
     resize_requested: bool,
     resized_at: Option<(u32, u32)>,
     started: Instant,
+    occluded: bool,
+    scripted_frames: Option<u32>,
 }
 
 impl Viewer {
@@ -266,6 +272,8 @@ impl Viewer {
             resize_requested: false,
             resized_at: None,
             started: Instant::now(),
+            occluded: false,
+            scripted_frames: options.frames,
         })
     }
 
@@ -273,10 +281,17 @@ impl Viewer {
         &self.renderers[self.current]
     }
 
+    /// Minimised or fully covered: nothing would be seen, so nothing is rendered
+    /// (except in the scripted mode, which must finish).
+    fn hidden(&self) -> bool {
+        self.scripted_frames.is_none()
+            && (self.occluded || self.window.is_minimized() == Some(true) || self.window.inner_size().width == 0)
+    }
+
     /// True while redraws should follow each other without waiting for events.
     fn wants_frames(&self, options: &ViewOptions) -> bool {
         if self.swapchain.is_none() && !self.swapchain_dirty {
-            return false; // minimised: wait for a resize
+            return false; // no area: wait for a resize
         }
         match options.frames {
             Some(n) => self.rendered < n || (options.resize.is_some() && self.resized_at.is_none()),
@@ -291,7 +306,11 @@ impl Viewer {
                 self.swapchain_dirty = true;
                 self.window.request_redraw();
             }
-            WindowEvent::RedrawRequested => return self.redraw(options),
+            WindowEvent::RedrawRequested if !self.hidden() => return self.redraw(options),
+            WindowEvent::Occluded(hidden) => {
+                self.occluded = hidden;
+                self.window.request_redraw();
+            }
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
                 if let PhysicalKey::Code(code) = event.physical_key {
                     return self.key(code);
