@@ -27,8 +27,9 @@ pub fn window_to_pixel(rect: (i32, i32, u32, u32), render: (u32, u32), pos: (f64
 /// A `width` x `height` picture of one voxel's values `q` (one per bin of `bins`),
 /// as RGBA8 texels (R in the low byte): columns are phi = atan2(y, x) from 0 at the
 /// left to 2 pi at the right, rows are cos theta = z from +1 at the top to -1 at the
-/// bottom, each bin a block in false colour from black (0) through red and yellow to
-/// white (the voxel's largest value), with a grey frame. Equal-area bins make equal blocks.
+/// bottom, each bin a block in false colour ([`shade`]: two decades on a log scale,
+/// from black through red and yellow to white at the voxel's largest value), with a
+/// grey frame. Equal-area bins make equal blocks.
 pub fn inset_texels(q: &[f32], bins: Bins, width: u32, height: u32) -> Vec<u32> {
     assert_eq!(q.len(), bins.count() as usize, "one value per bin");
     let max = q.iter().cloned().filter(|v| v.is_finite()).fold(0.0f32, f32::max);
@@ -41,12 +42,20 @@ pub fn inset_texels(q: &[f32], bins: Bins, width: u32, height: u32) -> Vec<u32> 
             }
             let row = ((y as u64 * bins.rows as u64) / height as u64) as u32;
             let col = ((x as u64 * bins.cols as u64) / width as u64) as u32;
-            let v = q[(row * bins.cols + col) as usize];
-            let t = if max > 0.0 && v.is_finite() { (v / max).clamp(0.0, 1.0) } else { 0.0 };
-            out.push(pack(heat(t)));
+            out.push(pack(heat(shade(q[(row * bins.cols + col) as usize], max))));
         }
     }
     out
+}
+
+/// Where `v` lies between 1% of `max` (0) and `max` (1), on a log scale: light
+/// through a small opening is often a hundred times brighter than the rest, and a
+/// linear scale would show only that. Zero, negative or non-finite values give 0.
+pub fn shade(v: f32, max: f32) -> f32 {
+    if !(max > 0.0) || !(v > 0.0) || !v.is_finite() {
+        return 0.0;
+    }
+    ((v / max).log10() / 2.0 + 1.0).clamp(0.0, 1.0)
 }
 
 /// Black -> red -> yellow -> white for t in [0, 1].
@@ -91,8 +100,11 @@ mod tests {
         let at = |x: u32, y: u32| t[(y * 42 + x) as usize];
         assert_eq!(at(0, 0), pack([128, 128, 128]), "frame");
         assert_eq!(at(25, 15), pack(heat(1.0)), "the brightest bin is white");
-        assert_eq!(at(15, 5), pack(heat(0.5)), "half as bright");
+        assert_eq!(at(15, 5), pack(heat(shade(1.0, 2.0))), "half as bright");
         assert_eq!(at(5, 5), pack(heat(0.0)), "nothing learned is black");
+        assert!((shade(1.0, 2.0) - (1.0 - 0.150515)).abs() < 1e-5, "log10(1/2)/2 + 1");
+        assert_eq!(shade(0.1, 10.0), 0.0, "a hundredth of the largest is black");
+        assert_eq!(shade(1.0, 0.0), 0.0, "an empty voxel is black");
         assert_eq!(heat(1.0), [255, 255, 255]);
         assert_eq!(heat(0.0), [0, 0, 0]);
     }
