@@ -112,32 +112,16 @@ fn the_screenshot_is_the_scene() {
     let opts = options(&scene, w, h, frames * 64);
     let headless = render_gpu(&ctx, &scene, &opts);
     let (mean, var) = (headless.mean(), headless.variance_of_mean().unwrap());
-    let block = 6;
-    let mut worst_z = 0.0f64;
-    for by in (0..h).step_by(block) {
-        for bx in (0..w).step_by(block) {
-            for c in 0..3 {
-                let (mut d, mut v, mut r, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-                for y in by..(by + block as u32).min(h) {
-                    for x in bx..(bx + block as u32).min(w) {
-                        let i = (y * w + x) as usize;
-                        d += exr.pixels[i][c] as f64 - mean.pixels[i][c] as f64;
-                        // The viewer's render has the headless one's variance (same estimator, spp).
-                        v += 2.0 * var.pixels[i][c] as f64;
-                        r += 2.0 * rounding_bound(&headless, mean.pixels[i][c]);
-                        n += 1.0;
-                    }
-                }
-                let (d, v) = (d / n, v / (n * n) + (r / n) * (r / n));
-                let z = if v > 0.0 { d / v.sqrt() } else { d / 1e-6 };
-                worst_z = worst_z.max(z.abs());
-                assert!(
-                    z.abs() < 5.0,
-                    "block ({bx},{by}) channel {c}: viewer and headless differ by {d:.5} = {z:.2} sigma"
-                );
-            }
-        }
-    }
+    // The viewer's render has the headless one's variance (same estimator and spp).
+    let worst_z = assert_means_agree(
+        &exr,
+        &mean,
+        |i, c| 2.0 * var.pixels[i][c] as f64,
+        |i, c| 2.0 * rounding_bound(&headless, mean.pixels[i][c]),
+        6,
+        5.0,
+        "seed-exp1: viewer vs headless",
+    );
     eprintln!("viewer vs headless: worst block {worst_z:.2} sigma; shown bytes within {worst} step(s)");
 }
 

@@ -3,6 +3,7 @@
 
 use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions};
+use rlpt::image::Image;
 use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
@@ -99,17 +100,40 @@ pub fn assert_films_agree(a: &Film, b: &Film, block: u32, k: f64, what: &str) ->
     assert_eq!((a.width, a.height), (b.width, b.height));
     let (ma, mb) = (a.mean(), b.mean());
     let (va, vb) = (a.variance_of_mean().unwrap(), b.variance_of_mean().unwrap());
+    assert_means_agree(
+        &ma,
+        &mb,
+        |i, c| va.pixels[i][c] as f64 + vb.pixels[i][c] as f64,
+        |i, c| rounding_bound(a, ma.pixels[i][c]) + rounding_bound(b, mb.pixels[i][c]),
+        block,
+        k,
+        what,
+    )
+}
+
+/// The block test of [`assert_films_agree`] on two mean images, given for pixel `i`
+/// and channel `c` the variance of their difference and a bound on its rounding error.
+pub fn assert_means_agree(
+    ma: &Image,
+    mb: &Image,
+    diff_variance: impl Fn(usize, usize) -> f64,
+    rounding: impl Fn(usize, usize) -> f64,
+    block: u32,
+    k: f64,
+    what: &str,
+) -> f64 {
+    assert_eq!((ma.width, ma.height), (mb.width, mb.height));
     let mut worst = 0.0f64;
-    for by in (0..a.height).step_by(block as usize) {
-        for bx in (0..a.width).step_by(block as usize) {
+    for by in (0..ma.height).step_by(block as usize) {
+        for bx in (0..ma.width).step_by(block as usize) {
             for c in 0..3 {
                 let (mut d, mut v, mut r, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-                for y in by..(by + block).min(a.height) {
-                    for x in bx..(bx + block).min(a.width) {
-                        let i = (y * a.width + x) as usize;
+                for y in by..(by + block).min(ma.height) {
+                    for x in bx..(bx + block).min(ma.width) {
+                        let i = (y * ma.width + x) as usize;
                         d += ma.pixels[i][c] as f64 - mb.pixels[i][c] as f64;
-                        v += va.pixels[i][c] as f64 + vb.pixels[i][c] as f64;
-                        r += rounding_bound(a, ma.pixels[i][c]) + rounding_bound(b, mb.pixels[i][c]);
+                        v += diff_variance(i, c);
+                        r += rounding(i, c);
                         n += 1.0;
                     }
                 }
