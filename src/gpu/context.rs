@@ -93,12 +93,23 @@ pub struct ContextOptions {
     pub window: Option<WindowTarget>,
 }
 
-/// The platform handles of a window. The window must outlive the [`Context`]
-/// made for it (the context's surface refers to it).
+/// The platform handles of a window, for a [`Context`] that presents to it.
 #[derive(Clone, Copy, Debug)]
 pub struct WindowTarget {
-    pub display: raw_window_handle::RawDisplayHandle,
-    pub window: raw_window_handle::RawWindowHandle,
+    display: raw_window_handle::RawDisplayHandle,
+    window: raw_window_handle::RawWindowHandle,
+}
+
+impl WindowTarget {
+    /// # Safety
+    /// The handles must be those of a live window that outlives every [`Context`]
+    /// made with this target: the context's surface refers to the window.
+    pub unsafe fn new(
+        display: raw_window_handle::RawDisplayHandle,
+        window: raw_window_handle::RawWindowHandle,
+    ) -> WindowTarget {
+        WindowTarget { display, window }
+    }
 }
 
 /// The window surface a context owns.
@@ -386,7 +397,7 @@ impl Context {
         let surface = match options.window {
             None => None,
             Some(w) => {
-                // SAFETY: the handles are those of a live window that outlives the context (WindowTarget's contract).
+                // SAFETY: the handles are those of a live window that outlives the context (WindowTarget::new's contract).
                 let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) }
                     .map_err(|e| GpuError::NoPresentation(format!("creating a surface for the window failed: {e}")))?;
                 let loader = ash::khr::surface::Instance::new(&entry, &instance);

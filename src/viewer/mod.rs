@@ -226,10 +226,12 @@ impl Viewer {
             .with_title(format!("rlpt: {scene_name}"))
             .with_inner_size(PhysicalSize::new(w, h));
         let window = Arc::new(event_loop.create_window(attributes).context("cannot create the window")?);
-        let target = WindowTarget {
-            display: window.display_handle().map_err(|e| anyhow!("the window has no display handle: {e}"))?.as_raw(),
-            window: window.window_handle().map_err(|e| anyhow!("the window has no window handle: {e}"))?.as_raw(),
-        };
+        let display = window.display_handle().map_err(|e| anyhow!("the window has no display handle: {e}"))?.as_raw();
+        let handle = window.window_handle().map_err(|e| anyhow!("the window has no window handle: {e}"))?.as_raw();
+        // SAFETY: the window outlives the context: both live in the Viewer, whose fields
+        // drop in declaration order, GPU objects and context before `window`; `fail`
+        // and exit drop the Viewer before the event loop ends.
+        let target = unsafe { WindowTarget::new(display, handle) };
         let mut ctx_options = options.context.clone();
         ctx_options.window = Some(target);
         let ctx = Context::new(&ctx_options)?;
