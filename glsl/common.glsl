@@ -55,6 +55,14 @@
 #define NUM_COUNTERS 4
 // learn.comp
 #define LEARN_GROUP 256
+// Guiding: sampling distributions per cell, one per class of surface orientation
+// (src/guide/mod.rs `normal_class`).
+#define NORMAL_CLASSES 6
+// Learned Russian roulette (src/cpu/mod.rs `survival_probability`): a path
+// survives with probability RR_WINDOW * (expected contribution) / (pixel
+// estimate), at least RR_MIN_PERCENT / 100 and at most 1.
+#define RR_WINDOW 4
+#define RR_MIN_PERCENT 25
 // tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16

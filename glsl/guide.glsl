@@ -39,6 +39,16 @@ vec3 bin_sample(uint b, vec2 u) {
     return vec3(r * cos(phi), r * sin(phi), z);
 }
 
+// src/guide/mod.rs `normal_class`: the signed axis closest to a unit normal.
+uint normal_class(vec3 n) {
+    vec3 a = abs(n);
+    uint axis = (a.x >= a.y && a.x >= a.z) ? 0u : (a.y >= a.z ? 1u : 2u);
+    return 2u * axis + (n[axis] < 0.0 ? 1u : 0u);
+}
+
+// The first entry of the sampling CDF for a cell and a normal class.
+uint cdf_row(uint cell, uint class_) { return (cell * NORMAL_CLASSES + class_) * params.guide_bins; }
+
 uint cell_index(vec3 p) {
     vec3 g = (p - params.guide_min.xyz) * params.guide_inv_cell.xyz;
     uint x = min(uint(max(g.x, 0.0)), params.guide_res_x - 1u);
@@ -48,7 +58,7 @@ uint cell_index(vec3 p) {
 }
 
 // src/guide/mod.rs `guided_sample`: bin by binary search in the cell's CDF
-// (`row` = cell * bins), direction uniform inside it.
+// row (`cdf_row`), direction uniform inside it.
 vec3 guided_sample(uint row, float uc, vec2 u) {
     uint lo = 0u;
     uint hi = params.guide_bins - 1u;

@@ -3,9 +3,11 @@
 // phase 0, one invocation per entry: folds the frame's Q-learning targets into
 // the running means, Q <- (Q n + S) / (n + c), i.e. learning rate 1 / (1 + visits)
 // for each target, and clears the frame's sums;
-// phase 1, one invocation per cell: rebuilds the cell's sampling CDF over bins in
-// proportion to Q + floor * mean(Q) (`build_cdf`).
+// phase 1, one invocation per (cell, normal class): rebuilds that sampling CDF,
+// bins in proportion to (Q + floor * Qbar) cos (`build_cdf`).
 #include "common.glsl"
+
+const float PI = 3.14159265358979323846;
 
 layout(local_size_x = LEARN_GROUP) in;
 layout(std430, set = 0, binding = 0) buffer QTable { float q_table[]; };
@@ -18,7 +20,22 @@ layout(push_constant) uniform Push {
     uint entries;
     uint bins;
     float floor_factor;
+    uint rows;
+    uint cols;
 } push;
+
+// src/guide/mod.rs `Bins::center` and `bin_cosine` for the axis of `class_`.
+float bin_cosine(uint b, uint class_) {
+    uint row = b / push.cols;
+    uint col = b % push.cols;
+    float z = 1.0 - 2.0 * (float(row) + 0.5) / float(push.rows);
+    float phi = 2.0 * PI * (float(col) + 0.5) / float(push.cols);
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    vec3 c = vec3(r * cos(phi), r * sin(phi), z);
+    float s = c[class_ / 2u];
+    s = (class_ % 2u == 0u) ? s : -s;
+    return s > 1e-6 ? s : 0.0;
+}
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -33,20 +50,32 @@ void main() {
         frame_counts[i] = 0u;
         return;
     }
+    uint cell = i / NORMAL_CLASSES;
+    uint class_ = i % NORMAL_CLASSES;
+    uint qrow = cell * push.bins;
+    if (qrow >= push.entries) return;
     uint row = i * push.bins;
-    if (row >= push.entries) return;
-    float sum = 0.0;
-    for (uint b = 0u; b < push.bins; ++b) sum += q_table[row + b];
-    float q_floor = push.floor_factor * sum / float(push.bins);
-    float total = sum + q_floor * float(push.bins);
+    float qc = 0.0;
+    float c = 0.0;
+    for (uint b = 0u; b < push.bins; ++b) {
+        float w = bin_cosine(b, class_);
+        qc += q_table[qrow + b] * w;
+        c += w;
+    }
+    float q_floor = c > 0.0 ? push.floor_factor * qc / c : 0.0;
+    float total = qc + q_floor * c;
     if (!(total > 0.0)) {
         for (uint b = 0u; b < push.bins; ++b) cdf_table[row + b] = 0.0;
         return;
     }
     float acc = 0.0;
+    uint last = 0u;
     for (uint b = 0u; b < push.bins; ++b) {
-        acc += q_table[row + b] + q_floor;
+        float w = bin_cosine(b, class_);
+        float q = q_table[qrow + b];
+        acc += (q + q_floor) * w;
         cdf_table[row + b] = acc / total;
+        if (w > 0.0 && q + q_floor > 0.0) last = b;
     }
-    cdf_table[row + push.bins - 1u] = 1.0;
+    for (uint b = last; b < push.bins; ++b) cdf_table[row + b] = 1.0;
 }

@@ -60,13 +60,18 @@ void camera_ray(uint x, uint y, vec2 u, out vec3 o, out vec3 d) {
 }
 
 #ifdef RLPT_GUIDING
+// src/cpu/mod.rs `survival_probability`.
+float survival_probability(float expected, float pixel_estimate) {
+    return clamp(float(RR_WINDOW) * expected / pixel_estimate, float(RR_MIN_PERCENT) / 100.0, 1.0);
+}
 #define GUIDED 1
 #else
 #define GUIDED 0
 #endif
 
 // src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
-vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
+// `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
+vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint segments) {
     bool nee = (params.flags & FLAG_NEE) != 0u && params.num_lights > 0u;
     bool power = (params.flags & FLAG_POWER_HEURISTIC) != 0u;
     bool rr = (params.flags & FLAG_RUSSIAN_ROULETTE) != 0u;
@@ -106,7 +111,9 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
         vec3 wo_local = to_local(frame, wo);
 
 #if GUIDED
-        uint row = cell_index(hit.p) * params.guide_bins;
+        uint cell = cell_index(hit.p);
+        uint qrow = cell * params.guide_bins;
+        uint row = cdf_row(cell, normal_class(n));
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
@@ -184,7 +191,7 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
 #if GUIDED
         if (learn && prev_key != NO_KEY) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
-            float reflected = ok ? mean3(weight) * q_table[row + bin_index(wi)] : 0.0;
+            float reflected = ok ? mean3(weight) * q_table[qrow + bin_index(wi)] : 0.0;
             record_target(prev_key, mean3(le) + reflected);
         }
 #endif
@@ -194,13 +201,16 @@ vec3 trace_path(vec3 o, vec3 d, inout uint rng, inout uint segments) {
         prev_delta = delta;
         prev_p = hit.p;
 #if GUIDED
-        prev_key = row + bin_index(wi);
+        prev_key = qrow + bin_index(wi);
 #endif
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
         depth += 1u;
         if (rr && depth >= params.rr_depth) {
             float q = min(max_component(beta), 0.95);
+#if GUIDED
+            if (pixel_estimate > 0.0 && prev_key != NO_KEY) q = survival_probability(mean3(beta) * q_table[prev_key], pixel_estimate);
+#endif
             if (rng_next(rng) >= q) break;
             beta /= q;
         }
@@ -221,10 +231,18 @@ void main() {
     uint zero = 0u;
     if (inside) {
         uint rng = rng_init(params.seed, pixel, push.frame, sample_index);
-        vec2 u = rng_next_2d(rng);
+        // Stratified over the pixel: sample (x, y) of the 8 x 8 takes its own
+        // sub-square, jittered (src/cpu/mod.rs `pixel_jitter`).
+        vec2 j = rng_next_2d(rng);
+        vec2 u = (vec2(gl_LocalInvocationID.xy) + j) / vec2(SAMPLES_X, SAMPLES_Y);
         vec3 o, d;
         camera_ray(px, py, u, o, d);
-        radiance = trace_path(o, d, rng, segments);
+        float estimate = 0.0;
+#if GUIDED
+        if (push.accum_frames > 0u)
+            estimate = mean3(accum[pixel].sum.xyz) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames));
+#endif
+        radiance = trace_path(o, d, estimate, rng, segments);
         if (!(max_component(radiance) > 0.0)) zero = 1u;
         // A NaN or infinite sample would poison the pixel for good; it is dropped, as on the CPU.
         if (any(isnan(radiance)) || any(isinf(radiance))) radiance = vec3(0.0);

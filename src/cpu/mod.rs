@@ -18,6 +18,15 @@ fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
+/// Where in its pixel sample `sample` (0..64) of a frame looks: the pixel is cut
+/// into the 8 x 8 grid of the workgroup's samples, and each sample is jittered by
+/// `j` inside its own sub-square (stratified sampling: edges converge much faster
+/// than with 64 independent positions). `glsl/pathtrace.comp` `main`.
+pub fn pixel_jitter(sample: u32, j: [f32; 2]) -> [f32; 2] {
+    let (sx, sy) = (shared::SAMPLES_X, shared::SAMPLES_Y);
+    [((sample % sx) as f32 + j[0]) / sx as f32, ((sample / sx) as f32 + j[1]) / sy as f32]
+}
+
 /// The primary ray through pixel (x, y) jittered by `u`; `glsl/pathtrace.comp` `camera_ray`.
 pub fn camera_ray(p: &RenderParams, x: u32, y: u32, u: [f32; 2]) -> (Vec3, Vec3) {
     let tan = p.cam_forward_tan[3];
@@ -49,6 +58,20 @@ pub struct Guide<'a> {
     pub cdf: &'a [f32],
 }
 
+/// Russian roulette with guiding: the probability that a path goes on, from its
+/// expected contribution (throughput times the radiance the table has learned for
+/// the ray it is about to trace) relative to the pixel's estimate so far. Paths
+/// that can still matter to the pixel survive; a path whose every continuation is
+/// dim is cut early (after Vorba & Křivánek, "Adjoint-Driven Russian Roulette and
+/// Splitting in Light Transport Simulation", 2016, without the splitting). Plain
+/// throughput-based roulette gives up exactly where guiding pays, in dim regions
+/// lit through long paths. At least `RR_MIN_PERCENT` %, so that a dark estimate
+/// in a bin not yet learned costs little variance; any probability above zero
+/// keeps the estimate unbiased. `glsl/pathtrace.comp` is the same.
+pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
+    (shared::RR_WINDOW as f32 * expected / pixel_estimate).clamp(shared::RR_MIN_PERCENT as f32 / 100.0, 1.0)
+}
+
 /// Traces one path from the camera ray (o, d) and returns the radiance it
 /// carries and the number of rays it traced. With guiding, every ray that
 /// reaches a surface or escapes hands its Q-learning target to `learn(key, target)`.
@@ -58,6 +81,7 @@ pub fn trace_path(
     mut o: Vec3,
     mut d: Vec3,
     rng: &mut Rng,
+    pixel_estimate: f32,
     learn: &mut impl FnMut(u32, f32),
 ) -> (Vec3, u32) {
     let p = &scene.params;
@@ -104,8 +128,10 @@ pub fn trace_path(
         let mut cell_key = 0u32;
         let mut cdf: &[f32] = &[];
         if let Some(g) = guide {
-            cell_key = g.cfg.grid.cell(hit.p) * g.cfg.bins.count();
-            cdf = &g.cdf[cell_key as usize..(cell_key + g.cfg.bins.count()) as usize];
+            let (cell, bins) = (g.cfg.grid.cell(hit.p), g.cfg.bins.count());
+            cell_key = cell * bins;
+            let row = ((cell * guide::NORMAL_CLASSES + guide::normal_class(n)) * bins) as usize;
+            cdf = &g.cdf[row..row + bins as usize];
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
@@ -201,7 +227,13 @@ pub fn trace_path(
         d = wi;
         depth += 1;
         if rr && depth >= p.rr_depth {
-            let q = max_component(beta).min(0.95);
+            let q = match guide {
+                // The radiance learned for the ray about to be traced, times the throughput.
+                Some(g) if pixel_estimate > 0.0 => {
+                    survival_probability(guide::mean3(beta) * g.q[prev_key as usize], pixel_estimate)
+                }
+                _ => max_component(beta).min(0.95),
+            };
             if rng.next_f32() >= q {
                 break;
             }
@@ -272,11 +304,19 @@ impl CpuRenderer {
                     for (x, acc) in row.iter_mut().enumerate() {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
+                        // The pixel's mean so far (for learned Russian roulette), 0 where none.
+                        let estimate = if accum_frames > 0 && guide.is_some() {
+                            guide::mean3(Vec3::from_slice(&acc.sum[..3]))
+                                / (shared::SAMPLES_PER_FRAME * accum_frames) as f32
+                        } else {
+                            0.0
+                        };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
                             let mut rng = Rng::new(p.seed, pixel, frame, sample);
-                            let u = rng.next_2d();
+                            let u = pixel_jitter(sample, rng.next_2d());
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                            let (l, segs) = trace_path(scene, guide, o, d, &mut rng, &mut |k, t| sums.add(k, t));
+                            let (l, segs) =
+                                trace_path(scene, guide, o, d, &mut rng, estimate, &mut |k, t| sums.add(k, t));
                             counters.segments += segs as u64;
                             // A NaN or infinite sample would poison the pixel forever; it is dropped
                             // (as on the GPU) and counted as carrying nothing.

@@ -242,24 +242,81 @@ pub fn learned(cdf: &[f32]) -> bool {
     cdf.last().is_some_and(|&c| c > 0.0)
 }
 
-/// Builds one cell's sampling CDF from its Q row: bins in proportion to
-/// `Q + floor * mean(Q)`. All zeros if the row is all zero. `glsl/learn.comp`.
-pub fn build_cdf(q: &[f32], floor: f32, cdf: &mut [f32]) {
-    let sum: f32 = q.iter().sum();
-    let q_floor = floor * sum / q.len() as f32;
-    let total = sum + q_floor * q.len() as f32;
-    if !(total > 0.0) {
-        cdf.fill(0.0);
-        return;
+/// Guided sampling distributions per cell: one for each class of surface
+/// orientation, so that the cosine at the vertex can weight the bins. A vertex's
+/// class is the signed axis its shading normal is closest to ([`normal_class`]);
+/// the class's distribution weights each bin by the cosine between that axis and
+/// the bin's centre. The class is a function of the vertex alone, so the sampled
+/// directions and the pdf evaluated for MIS always come from the same distribution.
+pub const NORMAL_CLASSES: u32 = crate::shared::NORMAL_CLASSES;
+
+/// The class of a unit normal: `2 * axis + (component < 0)` for the axis of its
+/// largest component (ties go to the lower axis). `glsl/guide.glsl` `normal_class`.
+pub fn normal_class(n: Vec3) -> u32 {
+    let a = n.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    2 * axis + (n[axis as usize] < 0.0) as u32
+}
+
+/// The unit axis of a normal class.
+pub fn class_axis(class: u32) -> Vec3 {
+    let mut v = [0.0f32; 3];
+    v[(class / 2) as usize] = if class % 2 == 0 { 1.0 } else { -1.0 };
+    Vec3::from_array(v)
+}
+
+/// The cosine weight of bin `b` for a class axis: the cosine at the bin's centre,
+/// zero where it is below 1e-6 (so rounding cannot split a bin whose centre lies on
+/// the horizon between CPU and GPU). `glsl/learn.comp` `bin_cosine`. Bins of a `ROWSxCOLS` grid with even rows and columns divisible
+/// by four lie wholly on one side of every axis plane.
+pub fn bin_cosine(bins: &Bins, b: u32, axis: Vec3) -> f32 {
+    let c = bins.center(b).dot(axis);
+    if c > 1e-6 {
+        c
+    } else {
+        0.0
     }
-    let mut acc = 0.0;
-    for (c, &v) in cdf.iter_mut().zip(q) {
-        acc += v + q_floor;
-        *c = acc / total;
-    }
-    // Exactly 1 at the end, whatever the rounding: every uc in [0, 1) finds a bin.
-    if let Some(last) = cdf.last_mut() {
-        *last = 1.0;
+}
+
+/// Builds a cell's sampling CDFs, one row of `q.len()` entries per normal class,
+/// from its Q row: bin b of class c in proportion to `(Q_b + floor * Qbar_c) cos_c(b)`
+/// where `Qbar_c` is the cosine-weighted mean of Q over the class's hemisphere, so a
+/// share `floor / (1 + floor)` of the guided probability is spread like the cosine
+/// and directions not yet learned keep some. A class row is all zero where it has
+/// nothing to sample (no Q above its horizon). `glsl/learn.comp` is the same.
+pub fn build_cdf(bins: &Bins, q: &[f32], floor: f32, cdf: &mut [f32]) {
+    let n = q.len();
+    for (class, row) in cdf.chunks_mut(n).enumerate() {
+        let axis = class_axis(class as u32);
+        let (mut qc, mut c) = (0.0f32, 0.0f32);
+        for (b, &v) in q.iter().enumerate() {
+            let w = bin_cosine(bins, b as u32, axis);
+            qc += v * w;
+            c += w;
+        }
+        let q_floor = if c > 0.0 { floor * qc / c } else { 0.0 };
+        let total = qc + q_floor * c;
+        if !(total > 0.0) {
+            row.fill(0.0);
+            continue;
+        }
+        let mut acc = 0.0;
+        for (b, (r, &v)) in row.iter_mut().zip(q).enumerate() {
+            acc += (v + q_floor) * bin_cosine(bins, b as u32, axis);
+            *r = acc / total;
+        }
+        // Exactly 1 at the last bin with any weight, whatever the rounding: every uc
+        // in [0, 1) finds a bin, and bins of zero weight are never chosen.
+        let last = (0..n).rev().find(|&b| bin_cosine(bins, b as u32, axis) > 0.0 && q[b] + q_floor > 0.0);
+        if let Some(last) = last {
+            row[last..].fill(1.0);
+        }
     }
 }
 
@@ -270,7 +327,7 @@ pub struct QTable {
     pub q: Vec<f32>,
     /// Targets folded into each entry so far.
     pub visits: Vec<u32>,
-    /// Sampling CDF per cell (see [`build_cdf`]), same layout as `q`.
+    /// Sampling CDFs, [`NORMAL_CLASSES`] rows per cell (see [`build_cdf`]).
     pub cdf: Vec<f32>,
 }
 
@@ -302,7 +359,7 @@ impl FrameSums {
 
 impl QTable {
     pub fn new(entries: usize) -> QTable {
-        QTable { q: vec![0.0; entries], visits: vec![0; entries], cdf: vec![0.0; entries] }
+        QTable { q: vec![0.0; entries], visits: vec![0; entries], cdf: vec![0.0; entries * NORMAL_CLASSES as usize] }
     }
 
     /// Folds a frame's targets into the running means, Q <- (Q n + S) / (n + c)
@@ -318,8 +375,8 @@ impl QTable {
             }
         }
         let n = cfg.bins.count() as usize;
-        for (q, cdf) in self.q.chunks(n).zip(self.cdf.chunks_mut(n)) {
-            build_cdf(q, cfg.floor, cdf);
+        for (q, cdf) in self.q.chunks(n).zip(self.cdf.chunks_mut(n * NORMAL_CLASSES as usize)) {
+            build_cdf(&cfg.bins, q, cfg.floor, cdf);
         }
     }
 }

@@ -56,22 +56,27 @@ struct Learning {
     counts: Buffer,
     cdf: Buffer,
     entries: u32,
-    bins: u32,
+    bins: crate::guide::Bins,
     floor: f32,
 }
 
 impl Learning {
     /// Phase 0 of learn.comp: fold the frame's targets into the table.
     fn cmd_fold(&self, cmd: crate::gpu::vk::CommandBuffer) {
-        let push: [u32; 4] = [0, self.entries, self.bins, self.floor.to_bits()];
+        let push = self.push(0);
         self.pipeline.cmd_dispatch(cmd, [self.entries.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
     }
 
-    /// Phase 1 of learn.comp: rebuild each cell's sampling CDF.
+    /// Phase 1 of learn.comp: rebuild the sampling CDF of each cell and normal class.
     fn cmd_build_cdf(&self, cmd: crate::gpu::vk::CommandBuffer) {
-        let push: [u32; 4] = [1, self.entries, self.bins, self.floor.to_bits()];
-        let cells = self.entries / self.bins;
-        self.pipeline.cmd_dispatch(cmd, [cells.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
+        let push = self.push(1);
+        let rows = self.entries / self.bins.count() * shared::NORMAL_CLASSES;
+        self.pipeline.cmd_dispatch(cmd, [rows.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
+    }
+
+    /// learn.comp's push constants for a phase.
+    fn push(&self, phase: u32) -> [u32; 6] {
+        [phase, self.entries, self.bins.count(), self.floor.to_bits(), self.bins.rows, self.bins.cols]
     }
 }
 
@@ -156,14 +161,14 @@ impl GpuRenderer {
                 let entries = cfg.entries() as u32;
                 let size = 4 * entries as u64;
                 let l = Learning {
-                    pipeline: Pipeline::new(ctx, "learn", shader("learn"), &[Binding::Storage; 5], 16)?,
+                    pipeline: Pipeline::new(ctx, "learn", shader("learn"), &[Binding::Storage; 5], 24)?,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
                     sums: Buffer::new(ctx, "frame target sums", size, BufferUsage::Storage)?,
                     counts: Buffer::new(ctx, "frame target counts", size, BufferUsage::Storage)?,
-                    cdf: Buffer::new(ctx, "sampling CDFs", size, BufferUsage::Storage)?,
+                    cdf: Buffer::new(ctx, "sampling CDFs", size * shared::NORMAL_CLASSES as u64, BufferUsage::Storage)?,
                     entries,
-                    bins: cfg.bins.count(),
+                    bins: cfg.bins,
                     floor: cfg.floor,
                 };
                 l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.cdf]);
@@ -245,12 +250,12 @@ impl GpuRenderer {
     /// The learned values Q of every direction bin of voxel `cell` (None without guiding).
     pub fn cell_values(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
-        assert!(cell * l.bins < l.entries, "voxel {cell} is outside the grid");
-        let size = 4 * l.bins as u64;
+        assert!(cell * l.bins.count() < l.entries, "voxel {cell} is outside the grid");
+        let size = 4 * l.bins.count() as u64;
         let rb = Buffer::new(&self.ctx, "Q row readback", size, BufferUsage::Readback)?;
         self.ctx.run_commands("read Q row", |cmd| {
             self.ctx.barrier(cmd);
-            l.q.cmd_copy_range_to(cmd, 4 * (cell * l.bins) as u64, &rb, size);
+            l.q.cmd_copy_range_to(cmd, 4 * (cell * l.bins.count()) as u64, &rb, size);
         })?;
         Ok(Some(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize])))
     }
@@ -408,7 +413,7 @@ impl GpuRenderer {
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
             visits: bytemuck::pod_collect_to_vec(&rv.read()[..n]),
-            cdf: bytemuck::pod_collect_to_vec(&rc.read()[..n]),
+            cdf: bytemuck::pod_collect_to_vec(&rc.read()[..n * shared::NORMAL_CLASSES as usize]),
         }))
     }
 }
