@@ -19,12 +19,18 @@
 //!   chose. A frame's targets are summed per entry and folded in between frames
 //!   ([`QTable::learn`]): the same running mean, taken in batches.
 //! - **Sampling** at a non-delta vertex is a one-sample mixture: with probability
-//!   `fraction` a bin is drawn in proportion to `Q + floor * mean(Q of the cell)`
-//!   (a CDF per cell, rebuilt after each frame; binary search) and a direction
-//!   uniformly inside it; otherwise the BSDF is sampled. The mixture pdf weights
-//!   the path and the MIS with light sampling, so the image stays unbiased, and no
-//!   direction where the BSDF is non-zero gets pdf zero. Cells that have learned
-//!   nothing use BSDF sampling alone.
+//!   `fraction` a bin is drawn from the cell's CDF for the vertex's orientation
+//!   class (the signed axis nearest its shading normal, [`normal_class`]), in
+//!   proportion to `(Q + floor * Qbar) cos(axis, bin)` (rebuilt after each frame;
+//!   binary search), and a direction uniformly inside it; otherwise the BSDF is
+//!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
+//!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
+//!   zero. Cells that have learned nothing use BSDF sampling alone. The cosine is
+//!   that of the class axis, exact on axis-aligned walls; the BSDF's own lobe is
+//!   left to the BSDF half of the mixture.
+//! - **Russian roulette** with guiding keeps a path in proportion to its expected
+//!   contribution, from the learned Q, relative to the pixel's estimate
+//!   ([`crate::cpu::survival_probability`]).
 //!
 //! `glsl/guide.glsl` and `glsl/learn.comp` are the GPU twins.
 
@@ -267,7 +273,7 @@ pub fn normal_class(n: Vec3) -> u32 {
 /// The unit axis of a normal class.
 pub fn class_axis(class: u32) -> Vec3 {
     let mut v = [0.0f32; 3];
-    v[(class / 2) as usize] = if class % 2 == 0 { 1.0 } else { -1.0 };
+    v[(class / 2) as usize] = if class.is_multiple_of(2) { 1.0 } else { -1.0 };
     Vec3::from_array(v)
 }
 
