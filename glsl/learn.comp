@@ -6,8 +6,7 @@
 // phase 1, one invocation per (cell, normal class): rebuilds that sampling CDF,
 // bins in proportion to (Q + floor * Qbar) cos (`build_cdf`).
 #include "common.glsl"
-
-const float PI = 3.14159265358979323846;
+#include "sampling.glsl"
 
 layout(local_size_x = LEARN_GROUP) in;
 layout(std430, set = 0, binding = 0) buffer QTable { float q_table[]; };

@@ -9,7 +9,8 @@ use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
 use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
-    bin_cosine, build_cdf, class_axis, guided_pdf, guided_sample, learned, Bins, GuidingMode, NORMAL_CLASSES,
+    bin_cosine, build_cdf, cdf_row, class_axis, class_cosines, guided_pdf, guided_sample, learned, Bins, GuidingMode,
+    NORMAL_CLASSES,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -77,14 +78,14 @@ fn test_row(bins: Bins, seed: u32, floor: f32) -> (Vec<f32>, Vec<f32>) {
         })
         .collect();
     let mut cdf = vec![0.0; q.len() * NORMAL_CLASSES as usize];
-    build_cdf(&bins, &q, floor, &mut cdf);
+    build_cdf(&class_cosines(&bins), &q, floor, &mut cdf);
     (q, cdf)
 }
 
 /// Row `class` of a cell's CDFs.
 fn class_row(cdf: &[f32], bins: Bins, class: u32) -> &[f32] {
-    let n = bins.count() as usize;
-    &cdf[class as usize * n..(class as usize + 1) * n]
+    let start = cdf_row(0, class, bins.count());
+    &cdf[start..start + bins.count() as usize]
 }
 
 #[test]
@@ -142,7 +143,7 @@ fn cdf_rows_are_distributions_and_unlearned_rows_are_empty() {
         }
     }
     let mut empty = vec![0.0; 8 * NORMAL_CLASSES as usize];
-    build_cdf(&Bins::OCTANT, &[0.0; 8], 0.5, &mut empty);
+    build_cdf(&class_cosines(&Bins::OCTANT), &[0.0; 8], 0.5, &mut empty);
     assert!(!learned(&empty[..8]) && empty.iter().all(|&c| c == 0.0));
 }
 
@@ -161,8 +162,9 @@ fn glsl_learning_builds_the_same_cdfs_as_rust() {
     let n = cfg.bins.count() as usize;
     assert!(t.visits.iter().any(|&v| v > 0), "the GPU learned nothing");
     let mut want = vec![0.0; t.cdf.len()];
+    let cosines = class_cosines(&cfg.bins);
     for (q, cdf) in t.q.chunks(n).zip(want.chunks_mut(n * NORMAL_CLASSES as usize)) {
-        build_cdf(&cfg.bins, q, cfg.floor, cdf);
+        build_cdf(&cosines, q, cfg.floor, cdf);
     }
     let worst = t.cdf.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
     assert!(worst <= 1e-4, "GLSL and Rust CDFs differ by up to {worst}");

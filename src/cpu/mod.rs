@@ -130,7 +130,7 @@ pub fn trace_path(
         if let Some(g) = guide {
             let (cell, bins) = (g.cfg.grid.cell(hit.p), g.cfg.bins.count());
             cell_key = cell * bins;
-            let row = ((cell * guide::NORMAL_CLASSES + guide::normal_class(n)) * bins) as usize;
+            let row = guide::cdf_row(cell, guide::normal_class(n), bins);
             cdf = &g.cdf[row..row + bins as usize];
         }
         if bsdf.kind == MaterialKind::Emissive {

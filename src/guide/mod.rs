@@ -279,8 +279,9 @@ pub fn class_axis(class: u32) -> Vec3 {
 
 /// The cosine weight of bin `b` for a class axis: the cosine at the bin's centre,
 /// zero where it is below 1e-6 (so rounding cannot split a bin whose centre lies on
-/// the horizon between CPU and GPU). `glsl/learn.comp` `bin_cosine`. Bins of a `ROWSxCOLS` grid with even rows and columns divisible
-/// by four lie wholly on one side of every axis plane.
+/// the horizon between CPU and GPU). `glsl/learn.comp` `bin_cosine`. Bins of a
+/// `ROWSxCOLS` grid with even rows and columns divisible by four lie wholly on one
+/// side of every axis plane.
 pub fn bin_cosine(bins: &Bins, b: u32, axis: Vec3) -> f32 {
     let c = bins.center(b).dot(axis);
     if c > 1e-6 {
@@ -290,22 +291,33 @@ pub fn bin_cosine(bins: &Bins, b: u32, axis: Vec3) -> f32 {
     }
 }
 
+/// The cosine weights of every bin for every normal class ([`bin_cosine`]), class
+/// after class: they depend on the bins alone, so [`build_cdf`] takes them
+/// computed once rather than once per cell.
+pub fn class_cosines(bins: &Bins) -> Vec<f32> {
+    (0..NORMAL_CLASSES)
+        .flat_map(|class| (0..bins.count()).map(move |b| bin_cosine(bins, b, class_axis(class))))
+        .collect()
+}
+
+/// Index of the first entry of the CDF row for `cell` and normal `class` in a
+/// table of `bins` bins per row. `glsl/guide.glsl` `cdf_row`.
+pub fn cdf_row(cell: u32, class: u32, bins: u32) -> usize {
+    ((cell * NORMAL_CLASSES + class) * bins) as usize
+}
+
 /// Builds a cell's sampling CDFs, one row of `q.len()` entries per normal class,
-/// from its Q row: bin b of class c in proportion to `(Q_b + floor * Qbar_c) cos_c(b)`
-/// where `Qbar_c` is the cosine-weighted mean of Q over the class's hemisphere, so a
-/// share `floor / (1 + floor)` of the guided probability is spread like the cosine
-/// and directions not yet learned keep some. A class row is all zero where it has
-/// nothing to sample (no Q above its horizon). `glsl/learn.comp` is the same.
-pub fn build_cdf(bins: &Bins, q: &[f32], floor: f32, cdf: &mut [f32]) {
+/// from its Q row and the bins' [`class_cosines`]: bin b of class c in proportion
+/// to `(Q_b + floor * Qbar_c) cos_c(b)` where `Qbar_c` is the cosine-weighted mean
+/// of Q over the class's hemisphere, so a share `floor / (1 + floor)` of the guided
+/// probability is spread like the cosine and directions not yet learned keep some.
+/// A class row is all zero where it has nothing to sample (no Q above its
+/// horizon). `glsl/learn.comp` is the same.
+pub fn build_cdf(cosines: &[f32], q: &[f32], floor: f32, cdf: &mut [f32]) {
     let n = q.len();
-    for (class, row) in cdf.chunks_mut(n).enumerate() {
-        let axis = class_axis(class as u32);
-        let (mut qc, mut c) = (0.0f32, 0.0f32);
-        for (b, &v) in q.iter().enumerate() {
-            let w = bin_cosine(bins, b as u32, axis);
-            qc += v * w;
-            c += w;
-        }
+    for (cos, row) in cosines.chunks(n).zip(cdf.chunks_mut(n)) {
+        let qc: f32 = q.iter().zip(cos).map(|(v, w)| v * w).sum();
+        let c: f32 = cos.iter().sum();
         let q_floor = if c > 0.0 { floor * qc / c } else { 0.0 };
         let total = qc + q_floor * c;
         if !(total > 0.0) {
@@ -313,16 +325,17 @@ pub fn build_cdf(bins: &Bins, q: &[f32], floor: f32, cdf: &mut [f32]) {
             continue;
         }
         let mut acc = 0.0;
-        for (b, (r, &v)) in row.iter_mut().zip(q).enumerate() {
-            acc += (v + q_floor) * bin_cosine(bins, b as u32, axis);
+        let mut last = 0;
+        for (b, ((r, &v), &w)) in row.iter_mut().zip(q).zip(cos).enumerate() {
+            acc += (v + q_floor) * w;
             *r = acc / total;
+            if w > 0.0 && v + q_floor > 0.0 {
+                last = b;
+            }
         }
-        // Exactly 1 at the last bin with any weight, whatever the rounding: every uc
-        // in [0, 1) finds a bin, and bins of zero weight are never chosen.
-        let last = (0..n).rev().find(|&b| bin_cosine(bins, b as u32, axis) > 0.0 && q[b] + q_floor > 0.0);
-        if let Some(last) = last {
-            row[last..].fill(1.0);
-        }
+        // Exactly 1 from the last bin with any weight on, whatever the rounding: every
+        // uc in [0, 1) finds a bin, and bins of zero weight are never chosen.
+        row[last..].fill(1.0);
     }
 }
 
@@ -381,8 +394,9 @@ impl QTable {
             }
         }
         let n = cfg.bins.count() as usize;
+        let cosines = class_cosines(&cfg.bins);
         for (q, cdf) in self.q.chunks(n).zip(self.cdf.chunks_mut(n * NORMAL_CLASSES as usize)) {
-            build_cdf(&cfg.bins, q, cfg.floor, cdf);
+            build_cdf(&cosines, q, cfg.floor, cdf);
         }
     }
 }
