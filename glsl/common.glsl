@@ -43,11 +43,11 @@
 #define BINDING_QUADS 3
 #define BINDING_LIGHTS 4
 #define BINDING_ACCUM 5
-// Learned guiding (pathtrace.comp): the table, this frame's sums, the sampling CDFs.
+// Learned guiding (pathtrace.comp): the table, this frame's sums, the sampling rows (alias tables).
 #define BINDING_Q 6
 #define BINDING_FRAME_SUMS 7
 #define BINDING_FRAME_COUNTS 8
-#define BINDING_CDF 9
+#define BINDING_SAMPLER 9
 // Per-frame counters (pathtrace.comp): [0] paths that carried zero radiance, [1] path segments.
 #define BINDING_COUNTERS 10
 #define COUNTER_ZERO_PATHS 0
@@ -63,6 +63,11 @@
 // estimate), at least RR_MIN_PERCENT / 100 and at most 1.
 #define RR_WINDOW 4
 #define RR_MIN_PERCENT 25
+// Which paths hand their Q-learning targets to the table (src/guide/mod.rs
+// `records`): all of them in the first RECORD_ALL_FRAMES frames, then those of one
+// pixel row in RECORD_ROW_STRIDE, a different row each frame.
+#define RECORD_ALL_FRAMES 8
+#define RECORD_ROW_STRIDE 4
 // tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16

@@ -15,7 +15,8 @@
 layout(std430, set = 0, binding = BINDING_Q) readonly buffer QTable { float q_table[]; };
 layout(std430, set = 0, binding = BINDING_FRAME_SUMS) buffer FrameSums { float frame_sums[]; };
 layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uint frame_counts[]; };
-layout(std430, set = 0, binding = BINDING_CDF) readonly buffer Cdf { float cdf_table[]; };
+// Per bin of each sampling row: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
+layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uvec2 sampler_table[]; };
 
 float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
 
@@ -46,8 +47,8 @@ uint normal_class(vec3 n) {
     return 2u * axis + (n[axis] < 0.0 ? 1u : 0u);
 }
 
-// The first entry of the sampling CDF for a cell and a normal class.
-uint cdf_row(uint cell, uint class_) { return (cell * NORMAL_CLASSES + class_) * params.guide_bins; }
+// The first bin of the sampling row for a cell and a normal class.
+uint sampler_row(uint cell, uint class_) { return (cell * NORMAL_CLASSES + class_) * params.guide_bins; }
 
 uint cell_index(vec3 p) {
     vec3 g = (p - params.guide_min.xyz) * params.guide_inv_cell.xyz;
@@ -57,25 +58,34 @@ uint cell_index(vec3 p) {
     return (z * params.guide_res_y + y) * params.guide_res_x + x;
 }
 
-// src/guide/mod.rs `guided_sample`: bin by binary search in the cell's CDF
-// row (`cdf_row`), direction uniform inside it.
-vec3 guided_sample(uint row, float uc, vec2 u) {
-    uint lo = 0u;
-    uint hi = params.guide_bins - 1u;
-    while (lo < hi) {
-        uint mid = (lo + hi) / 2u;
-        if (uc < cdf_table[row + mid]) hi = mid; else lo = mid + 1u;
+// src/guide/mod.rs `guided_sample`: the column of the row's alias table from
+// uc, the bin by the column's threshold, the direction uniform inside the bin;
+// `pdf` is the guided density of the bin drawn.
+vec3 guided_sample(uint row, float uc, vec2 u, out float pdf) {
+    uint n = params.guide_bins;
+    float x = uc * float(n);
+    uint i = min(uint(x), n - 1u);
+    float rest = x - float(i);
+    uvec2 e = sampler_table[row + i];
+    uint b = i;
+    if (!(rest * 65535.0 < float(e.x >> 16u))) {
+        b = e.x & 0xffffu;
+        e = sampler_table[row + b];
     }
-    return bin_sample(lo, u);
+    pdf = uintBitsToFloat(e.y);
+    return bin_sample(b, u);
 }
 
-float guided_pdf(uint row, vec3 dir) {
-    uint b = bin_index(dir);
-    float below = b == 0u ? 0.0 : cdf_table[row + b - 1u];
-    return (cdf_table[row + b] - below) / params.guide_inv_cell.w;
+float guided_pdf(uint row, vec3 dir) { return uintBitsToFloat(sampler_table[row + bin_index(dir)].y); }
+
+// src/guide/mod.rs `records`: whether the paths of pixel row `y` record their
+// targets in frame `frame`.
+bool records(uint frame, uint y) {
+    return frame < uint(RECORD_ALL_FRAMES) || (y + frame) % uint(RECORD_ROW_STRIDE) == 0u;
 }
 
-bool guide_learned(uint row) { return cdf_table[row + params.guide_bins - 1u] > 0.0; }
+// UNLEARNED (src/guide/mod.rs) marks a row with nothing to sample.
+bool guide_learned(uint row) { return sampler_table[row].x != 0xffffffffu; }
 
 #include "record.glsl"
 

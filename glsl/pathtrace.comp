@@ -71,7 +71,8 @@ float survival_probability(float expected, float pixel_estimate) {
 
 // src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
 // `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
-vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint segments) {
+// `record`: whether the path hands its Q-learning targets to the table.
+vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rng, inout uint segments) {
     bool nee = (params.flags & FLAG_NEE) != 0u && params.num_lights > 0u;
     bool power = (params.flags & FLAG_POWER_HEURISTIC) != 0u;
     bool rr = (params.flags & FLAG_RUSSIAN_ROULETTE) != 0u;
@@ -83,7 +84,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
     uint prev_key = NO_KEY;
     uint depth = 0u;
 #if GUIDED
-    bool learn = (push.ablate & ABLATE_RECORD) == 0u;
+    bool learn = record && (push.ablate & ABLATE_RECORD) == 0u;
     bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
 #endif
     for (;;) {
@@ -113,7 +114,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #if GUIDED
         uint cell = cell_index(hit.p);
         uint qrow = cell * params.guide_bins;
-        uint row = cdf_row(cell, normal_class(n));
+        uint row = sampler_row(cell, normal_class(n));
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
@@ -165,10 +166,11 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         bool ok = false;
         if (u_mix < g_frac) {
 #if GUIDED
-            wi = guided_sample(row, uc, u);
+            float pdf_guided;
+            wi = guided_sample(row, uc, u, pdf_guided);
             vec3 wi_local = to_local(frame, wi);
             vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
-            pdf = (1.0 - g_frac) * bsdf_pdf(bsdf, wo_local, wi_local) + g_frac * guided_pdf(row, wi);
+            pdf = (1.0 - g_frac) * bsdf_pdf(bsdf, wo_local, wi_local) + g_frac * pdf_guided;
             ok = pdf > 0.0 && max_component(f) > 0.0;
             if (ok) weight = f * (abs(wi_local.z) / pdf);
 #endif
@@ -242,7 +244,11 @@ void main() {
         if (push.accum_frames > 0u)
             estimate = mean3(accum[pixel].sum.xyz) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames));
 #endif
-        radiance = trace_path(o, d, estimate, rng, segments);
+        bool record = false;
+#if GUIDED
+        record = records(push.frame, py);
+#endif
+        radiance = trace_path(o, d, estimate, record, rng, segments);
         if (!(max_component(radiance) > 0.0)) zero = 1u;
         // A NaN or infinite sample would poison the pixel for good; it is dropped, as on the CPU.
         if (any(isnan(radiance)) || any(isinf(radiance))) radiance = vec3(0.0);

@@ -43,7 +43,7 @@ pub struct FrameRecord {
     pub frame: u32,
     pub pathtrace_ms: f64,
     pub learn_fold_ms: f64,
-    pub learn_cdf_ms: f64,
+    pub learn_rows_ms: f64,
     pub total_ms: f64,
     pub segments: u64,
     pub zero_paths: u64,
@@ -108,8 +108,8 @@ impl BenchReport {
                 frame: warmup_frames + i as u32 + 1,
                 pathtrace_ms: t.pathtrace_ms,
                 learn_fold_ms: t.learn_fold_ms,
-                learn_cdf_ms: t.learn_cdf_ms,
-                total_ms: t.pathtrace_ms + t.learn_fold_ms + t.learn_cdf_ms,
+                learn_rows_ms: t.learn_rows_ms,
+                total_ms: t.pathtrace_ms + t.learn_fold_ms + t.learn_rows_ms,
                 segments: t.segments,
                 zero_paths: t.zero_paths,
             })
@@ -118,7 +118,7 @@ impl BenchReport {
         let mut passes = vec![Summary::of("pathtrace", &column(|f| f.pathtrace_ms))];
         if guiding != "off" {
             passes.push(Summary::of("learn: fold targets", &column(|f| f.learn_fold_ms)));
-            passes.push(Summary::of("learn: build CDFs", &column(|f| f.learn_cdf_ms)));
+            passes.push(Summary::of("learn: build sampling rows", &column(|f| f.learn_rows_ms)));
         }
         passes.push(Summary::of("frame", &column(|f| f.total_ms)));
         let passes: Vec<Summary> = passes.into_iter().flatten().collect();
@@ -202,7 +202,7 @@ pub fn chrome_trace(device: &str, times: &[PassTimes], first_frame: u32) -> serd
         for (name, ms) in [
             ("pathtrace", t.pathtrace_ms),
             ("learn: fold targets", t.learn_fold_ms),
-            ("learn: build CDFs", t.learn_cdf_ms),
+            ("learn: build sampling rows", t.learn_rows_ms),
         ] {
             if ms <= 0.0 {
                 continue;
@@ -238,7 +238,7 @@ mod tests {
             start_ms: start,
             pathtrace_ms: 2.0,
             learn_fold_ms: 0.5,
-            learn_cdf_ms: 0.25,
+            learn_rows_ms: 0.25,
             zero_paths: 1,
             segments: 10,
         };

@@ -9,8 +9,8 @@ use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
 use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
-    bin_cosine, build_cdf, cdf_row, class_axis, class_cosines, guided_pdf, guided_sample, learned, Bins, GuidingMode,
-    NORMAL_CLASSES,
+    bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_pdf, guided_sample, learned,
+    sampler_row, AliasBin, Bins, GuidingMode, NORMAL_CLASSES, UNLEARNED,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -62,8 +62,8 @@ fn guided_cpu_agrees_with_unguided_gpu() {
     assert_films_agree(&g, &off, 4, K, "seed-exp2: CPU guided sphere NEE off vs GPU unguided");
 }
 
-/// A table row with structure (a few bright bins, many dim, some zero) and its CDF.
-fn test_row(bins: Bins, seed: u32, floor: f32) -> (Vec<f32>, Vec<f32>) {
+/// A table row with structure (a few bright bins, many dim, some zero) and its sampling rows.
+fn test_row(bins: Bins, seed: u32, floor: f32) -> (Vec<f32>, Vec<AliasBin>) {
     let mut rng = Rng::new(seed, 0, 0, 0);
     let q: Vec<f32> = (0..bins.count())
         .map(|_| {
@@ -77,15 +77,28 @@ fn test_row(bins: Bins, seed: u32, floor: f32) -> (Vec<f32>, Vec<f32>) {
             }
         })
         .collect();
-    let mut cdf = vec![0.0; q.len() * NORMAL_CLASSES as usize];
-    build_cdf(&class_cosines(&bins), &q, floor, &mut cdf);
-    (q, cdf)
+    let mut rows = vec![AliasBin::default(); q.len() * NORMAL_CLASSES as usize];
+    build_sampling_rows(&class_cosines(&bins), &q, floor, &mut rows);
+    (q, rows)
 }
 
-/// Row `class` of a cell's CDFs.
-fn class_row(cdf: &[f32], bins: Bins, class: u32) -> &[f32] {
-    let start = cdf_row(0, class, bins.count());
-    &cdf[start..start + bins.count() as usize]
+/// Row `class` of a cell's sampling rows.
+fn class_row(rows: &[AliasBin], bins: Bins, class: u32) -> &[AliasBin] {
+    let start = sampler_row(0, class, bins.count());
+    &rows[start..start + bins.count() as usize]
+}
+
+/// The probability of each bin under a row's alias table, counted from the
+/// columns themselves (not from the densities the row stores).
+fn alias_probabilities(row: &[AliasBin]) -> Vec<f64> {
+    let n = row.len();
+    let mut p = vec![0.0f64; n];
+    for (i, e) in row.iter().enumerate() {
+        let t = (e.column >> 16) as f64 / 65535.0;
+        p[i] += t / n as f64;
+        p[(e.column & 0xffff) as usize] += (1.0 - t) / n as f64;
+    }
+    p
 }
 
 #[test]
@@ -98,57 +111,112 @@ fn guided_sampler_follows_its_pdf_on_the_cpu() {
     ];
     let significance = sidak(0.01, cases.len());
     for (i, (bins, floor)) in cases.into_iter().enumerate() {
-        let (_, cdfs) = test_row(bins, 7 + i as u32, floor);
-        let cdf = class_row(&cdfs, bins, i as u32 % NORMAL_CLASSES);
+        let (_, rows) = test_row(bins, 7 + i as u32, floor);
+        let row = class_row(&rows, bins, i as u32 % NORMAL_CLASSES);
         let mut rng = Rng::new(1, i as u32, 0, 0);
+        let mut pdf_differs = 0;
         let samples: Vec<Option<[f64; 3]>> = (0..1_000_000)
             .map(|_| {
-                let d = guided_sample(&bins, cdf, rng.next_f32(), rng.next_2d());
+                let (d, pdf) = guided_sample(&bins, row, rng.next_f32(), rng.next_2d());
+                if pdf != guided_pdf(&bins, row, d) {
+                    pdf_differs += 1;
+                }
                 Some([d.x as f64, d.y as f64, d.z as f64])
             })
             .collect();
-        let pdf = |d: [f64; 3]| guided_pdf(&bins, cdf, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
+        // The density returned with a sample is the one evaluated at its direction
+        // (but for directions that round onto a neighbouring bin).
+        assert!(pdf_differs <= 100, "bins {bins:?}: {pdf_differs} samples carry another bin's density");
+        let pdf = |d: [f64; 3]| guided_pdf(&bins, row, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
         let r = chi2_sphere(&samples, pdf, &Chi2Options::default());
         assert!(r.passed(significance), "bins {bins:?} floor {floor}: {r:?}");
     }
 }
 
 #[test]
-fn cdf_rows_are_distributions_and_unlearned_rows_are_empty() {
+fn sampling_rows_are_distributions_and_unlearned_rows_are_empty() {
     let bins = Bins::SPHERE_DEFAULT;
+    let omega = bins.solid_angle() as f64;
     for floor in [0.0, 0.5] {
-        let (q, cdfs) = test_row(bins, 3, floor);
+        let (q, rows) = test_row(bins, 3, floor);
         for class in 0..NORMAL_CLASSES {
-            let cdf = class_row(&cdfs, bins, class);
+            let row = class_row(&rows, bins, class);
             let axis = class_axis(class);
-            assert!(learned(cdf), "class {class}");
-            assert_eq!(*cdf.last().unwrap(), 1.0);
-            assert!(cdf.windows(2).all(|w| w[0] <= w[1]), "non-decreasing");
-            for b in 0..q.len() {
-                let below = if b == 0 { 0.0 } else { cdf[b - 1] };
-                let cos = bin_cosine(&bins, b as u32, axis);
+            assert!(learned(row), "class {class}");
+            // The stored densities are the alias table's probabilities, and sum to one.
+            let p = alias_probabilities(row);
+            assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+            for (b, e) in row.iter().enumerate() {
+                assert!((e.pdf as f64 * omega - p[b]).abs() <= 1e-6, "class {class} bin {b}: {} vs {}", e.pdf, p[b]);
                 // A bin behind the class's surface is never chosen; one in front is
                 // chosen when it has learned light, or always with a floor.
-                let chosen = cdf[b] > below;
-                assert_eq!(chosen, cos > 0.0 && (q[b] > 0.0 || floor > 0.0), "floor {floor} class {class} bin {b}");
+                let cos = bin_cosine(&bins, b as u32, axis);
+                assert_eq!(p[b] > 0.0, cos > 0.0 && (q[b] > 0.0 || floor > 0.0), "floor {floor} class {class} bin {b}");
             }
-            // The weights are (Q + floor Qbar) cos: compare two chosen bins' ratio.
-            let w = |b: usize| cdf[b] - if b == 0 { 0.0 } else { cdf[b - 1] };
-            let chosen: Vec<usize> = (0..q.len()).filter(|&b| w(b) > 0.0).collect();
-            let (a, b) = (chosen[0], chosen[chosen.len() - 1]);
-            if floor == 0.0 {
-                let want = (q[a] * bin_cosine(&bins, a as u32, axis)) / (q[b] * bin_cosine(&bins, b as u32, axis));
-                assert!((w(a) / w(b) - want).abs() <= 1e-3 * want, "class {class}: {} vs {want}", w(a) / w(b));
+            // Each bin's probability follows its weight (Q + floor Qbar) cos, up to the
+            // 16-bit thresholds: at most 2^-16 of a column per column that gives to it.
+            let w: Vec<f64> = (0..q.len())
+                .map(|b| {
+                    let cos = bin_cosine(&bins, b as u32, axis) as f64;
+                    let cos_sum: f64 = (0..q.len()).map(|c| bin_cosine(&bins, c as u32, axis) as f64).sum();
+                    let qbar: f64 =
+                        (0..q.len()).map(|c| q[c] as f64 * bin_cosine(&bins, c as u32, axis) as f64).sum::<f64>()
+                            / cos_sum;
+                    (q[b] as f64 + floor as f64 * qbar) * cos
+                })
+                .collect();
+            let total: f64 = w.iter().sum();
+            let n = q.len() as f64;
+            for b in 0..q.len() {
+                let givers = row.iter().filter(|e| (e.column & 0xffff) as usize == b).count() as f64 + 1.0;
+                let bound = givers / 65535.0 / n + 1e-6;
+                assert!(
+                    (p[b] - w[b] / total).abs() <= bound,
+                    "floor {floor} class {class} bin {b}: {} vs {}",
+                    p[b],
+                    w[b] / total
+                );
             }
         }
     }
-    let mut empty = vec![0.0; 8 * NORMAL_CLASSES as usize];
-    build_cdf(&class_cosines(&Bins::OCTANT), &[0.0; 8], 0.5, &mut empty);
-    assert!(!learned(&empty[..8]) && empty.iter().all(|&c| c == 0.0));
+    let mut empty = vec![AliasBin::default(); 8 * NORMAL_CLASSES as usize];
+    build_sampling_rows(&class_cosines(&Bins::OCTANT), &[0.0; 8], 0.5, &mut empty);
+    assert!(!learned(&empty[..8]) && empty.iter().all(|e| e.column == UNLEARNED && e.pdf == 0.0));
 }
 
 #[test]
-fn glsl_learning_builds_the_same_cdfs_as_rust() {
+fn alias_rows_of_extreme_weights_sample_what_they_say() {
+    // One bin with all the weight, one with a vanishing share, and uniform rows:
+    // every bin with weight keeps some probability, none without weight gets any.
+    let cases: Vec<Vec<f32>> = vec![
+        (0..16).map(|b| if b == 5 { 1.0 } else { 0.0 }).collect(),
+        (0..16)
+            .map(|b| {
+                if b == 0 {
+                    1e6
+                } else if b == 15 {
+                    1e-3
+                } else {
+                    0.0
+                }
+            })
+            .collect(),
+        vec![1.0; 128],
+        (0..35).map(|b| (b % 3) as f32).collect(),
+    ];
+    for w in cases {
+        let mut row: Vec<AliasBin> = w.iter().map(|&x| AliasBin { column: 0, pdf: x }).collect();
+        build_alias_row(&mut row);
+        let p = alias_probabilities(&row);
+        for (b, &x) in w.iter().enumerate() {
+            assert_eq!(p[b] > 0.0, x > 0.0, "weights {w:?}: bin {b} has probability {}", p[b]);
+        }
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
     let ctx = gpu();
     let scene = scene("door.toml");
     let mut o = options(&scene, 32, 24, 64);
@@ -161,14 +229,29 @@ fn glsl_learning_builds_the_same_cdfs_as_rust() {
     let t = r.table().unwrap().unwrap();
     let n = cfg.bins.count() as usize;
     assert!(t.visits.iter().any(|&v| v > 0), "the GPU learned nothing");
-    let mut want = vec![0.0; t.cdf.len()];
+    let mut want = vec![AliasBin::default(); t.rows.len()];
     let cosines = class_cosines(&cfg.bins);
-    for (q, cdf) in t.q.chunks(n).zip(want.chunks_mut(n * NORMAL_CLASSES as usize)) {
-        build_cdf(&cosines, q, cfg.floor, cdf);
+    for (q, rows) in t.q.chunks(n).zip(want.chunks_mut(n * NORMAL_CLASSES as usize)) {
+        build_sampling_rows(&cosines, q, cfg.floor, rows);
     }
-    let worst = t.cdf.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
-    assert!(worst <= 1e-4, "GLSL and Rust CDFs differ by up to {worst}");
-    assert!(t.cdf.iter().zip(&want).all(|(a, b)| (*a > 0.0) == (*b > 0.0)), "the same bins are possible");
+    let (mut worst, mut learned_rows) = (0.0f64, 0);
+    for (got, want) in t.rows.chunks(n).zip(want.chunks(n)) {
+        assert_eq!(learned(got), learned(want), "the same rows have learned");
+        if !learned(got) {
+            continue;
+        }
+        learned_rows += 1;
+        // Rounding may pair the columns differently; the distributions must agree.
+        let (pg, pw) = (alias_probabilities(got), alias_probabilities(want));
+        for b in 0..n {
+            assert_eq!(pg[b] > 0.0, pw[b] > 0.0, "the same bins are possible");
+            worst = worst.max((pg[b] - pw[b]).abs());
+            let density = (got[b].pdf as f64 * cfg.bins.solid_angle() as f64 - pg[b]).abs();
+            assert!(density <= 1e-6, "GLSL density of bin {b} is not its alias probability");
+        }
+    }
+    assert!(learned_rows > 0, "no row learned");
+    assert!(worst <= 1e-4, "GLSL and Rust sampling rows differ by up to {worst} in a bin's probability");
     assert_no_validation_messages(&ctx);
 }
 
@@ -193,37 +276,46 @@ fn glsl_guided_sampler_matches_rust_and_follows_its_pdf() {
     let bins = prepared.guide.unwrap().bins;
     let n = 400_000usize;
     for seed in [7u32, 8] {
-        let (_, cdfs) = test_row(bins, seed, 0.1);
-        let cdf = class_row(&cdfs, bins, seed % NORMAL_CLASSES).to_vec();
+        let (_, rows) = test_row(bins, seed, 0.1);
+        let row = class_row(&rows, bins, seed % NORMAL_CLASSES).to_vec();
         let mut rng = Rng::new(2, seed, 0, 0);
         let inputs: Vec<[f32; 4]> = (0..n).map(|_| [rng.next_f32(), rng.next_f32(), rng.next_f32(), 0.0]).collect();
         let params = Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&prepared.params), true).unwrap();
-        let cdf_buf = Buffer::with_data(&ctx, "cdf", bytemuck::cast_slice(&cdf), false).unwrap();
+        let row_buf = Buffer::with_data(&ctx, "sampling row", bytemuck::cast_slice(&row), false).unwrap();
         let input = Buffer::with_data(&ctx, "inputs", bytemuck::cast_slice(&inputs), false).unwrap();
         let output = Buffer::new(&ctx, "outputs", n as u64 * 16, BufferUsage::Storage).unwrap();
+        let pdfs = Buffer::new(&ctx, "pdfs", n as u64 * 4, BufferUsage::Storage).unwrap();
         let p = Pipeline::new_with_numbers(
             &ctx,
             "probe_guide",
             shader("probe_guide"),
-            &[(0, Binding::Uniform), (9, Binding::Storage), (10, Binding::Storage), (11, Binding::Storage)],
+            &[
+                (0, Binding::Uniform),
+                (9, Binding::Storage),
+                (10, Binding::Storage),
+                (11, Binding::Storage),
+                (12, Binding::Storage),
+            ],
             4,
         )
         .unwrap();
-        p.bind(&[&params, &cdf_buf, &input, &output]);
+        p.bind(&[&params, &row_buf, &input, &output, &pdfs]);
         ctx.run_commands("probe guide", |cmd| {
             p.cmd_dispatch(cmd, [(n as u32).div_ceil(64), 1, 1], &(n as u32).to_le_bytes())
         })
         .unwrap();
         let out: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &output));
+        let evaluated: Vec<f32> = bytemuck::pod_collect_to_vec(&readback(&ctx, &pdfs));
         let mut differ = 0;
         let samples: Vec<Option<[f64; 3]>> = out
             .iter()
             .zip(&inputs)
-            .map(|(g, x)| {
-                let d = guided_sample(&bins, &cdf, x[0], [x[1], x[2]]);
+            .zip(&evaluated)
+            .map(|((g, x), &ge)| {
+                let (d, pdf) = guided_sample(&bins, &row, x[0], [x[1], x[2]]);
                 let gd = Vec3::new(g[0], g[1], g[2]);
-                let pdf = guided_pdf(&bins, &cdf, d);
-                if (gd - d).length() > 1e-3 || (g[3] - pdf).abs() > 1e-3 * pdf.max(1.0) {
+                let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * b.max(1.0);
+                if (gd - d).length() > 1e-3 || !close(g[3], pdf) || !close(ge, guided_pdf(&bins, &row, d)) {
                     differ += 1;
                 }
                 Some([gd.x as f64, gd.y as f64, gd.z as f64])
@@ -231,7 +323,7 @@ fn glsl_guided_sampler_matches_rust_and_follows_its_pdf() {
             .collect();
         // A direction on a bin edge may fall into the neighbouring bin after rounding.
         assert!(differ <= n / 10_000, "{differ} GLSL guided samples differ from Rust's");
-        let pdf = |d: [f64; 3]| guided_pdf(&bins, &cdf, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
+        let pdf = |d: [f64; 3]| guided_pdf(&bins, &row, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
         let r = chi2_sphere(&samples, pdf, &Chi2Options::default());
         assert!(r.passed(sidak(0.01, 2)), "GLSL guided sampler: {r:?}");
     }

@@ -55,7 +55,7 @@ fn material_bsdf(scene: &PreparedScene, mat: u32) -> Bsdf {
 pub struct Guide<'a> {
     pub cfg: &'a GuideConfig,
     pub q: &'a [f32],
-    pub cdf: &'a [f32],
+    pub rows: &'a [guide::AliasBin],
 }
 
 /// Russian roulette with guiding: the probability that a path goes on, from its
@@ -124,14 +124,14 @@ pub fn trace_path(
         let frame = Frame::from_normal(n);
         let wo_local = frame.to_local(wo);
 
-        // Guiding at this vertex: its cell's row of the table and sampling CDF.
+        // Guiding at this vertex: its cell's row of the table and sampling row.
         let mut cell_key = 0u32;
-        let mut cdf: &[f32] = &[];
+        let mut sampler: &[guide::AliasBin] = &[];
         if let Some(g) = guide {
             let (cell, bins) = (g.cfg.grid.cell(hit.p), g.cfg.bins.count());
             cell_key = cell * bins;
-            let row = guide::cdf_row(cell, guide::normal_class(n), bins);
-            cdf = &g.cdf[row..row + bins as usize];
+            let row = guide::sampler_row(cell, guide::normal_class(n), bins);
+            sampler = &g.rows[row..row + bins as usize];
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
@@ -142,14 +142,16 @@ pub fn trace_path(
         }
         // Probability of guided sampling here: zero at delta vertices and where nothing is learned.
         let g_frac = match guide {
-            Some(g) if !bsdf.is_delta() && guide::learned(cdf) => g.cfg.fraction,
+            Some(g) if !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
             _ => 0.0,
         };
         // The density of the mixture of BSDF and guided sampling.
         let mix_pdf = |wi_world: Vec3, wi_local: Vec3| {
             let pb = bsdf_pdf(&bsdf, wo_local, wi_local);
             match guide {
-                Some(g) if g_frac > 0.0 => (1.0 - g_frac) * pb + g_frac * guide::guided_pdf(&g.cfg.bins, cdf, wi_world),
+                Some(g) if g_frac > 0.0 => {
+                    (1.0 - g_frac) * pb + g_frac * guide::guided_pdf(&g.cfg.bins, sampler, wi_world)
+                }
                 _ => pb,
             }
         };
@@ -185,10 +187,10 @@ pub fn trace_path(
         let u = rng.next_2d();
         let sampled: Option<(Vec3, Vec3, f32, bool)> = if u_mix < g_frac {
             let g = guide.expect("g_frac > 0 only with guiding");
-            let wi = guide::guided_sample(&g.cfg.bins, cdf, uc, u);
+            let (wi, pdf_guided) = guide::guided_sample(&g.cfg.bins, sampler, uc, u);
             let wi_local = frame.to_local(wi);
             let f = bsdf_eval(&bsdf, wo_local, wi_local);
-            let pdf = mix_pdf(wi, wi_local);
+            let pdf = (1.0 - g_frac) * bsdf_pdf(&bsdf, wo_local, wi_local) + g_frac * pdf_guided;
             (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
         } else {
             bsdf_sample(&bsdf, wo_local, uc, u).map(|s| {
@@ -291,7 +293,7 @@ impl CpuRenderer {
         let frame = self.frames_traced;
         let accum_frames = self.film.frames;
         let scene = &self.scene;
-        let guide = scene.guide.as_ref().zip(self.table.as_ref()).map(|(cfg, t)| Guide { cfg, q: &t.q, cdf: &t.cdf });
+        let guide = scene.guide.as_ref().zip(self.table.as_ref()).map(|(cfg, t)| Guide { cfg, q: &t.q, rows: &t.rows });
         let entries = scene.guide.map_or(0, |g| g.entries());
         let (sums, counters) = self
             .film
@@ -301,6 +303,7 @@ impl CpuRenderer {
             .fold(
                 || (FrameSums::new(entries), FrameCounters::default()),
                 |(mut sums, mut counters), (y, row)| {
+                    let record = guide::records(frame, y as u32);
                     for (x, acc) in row.iter_mut().enumerate() {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
@@ -315,8 +318,11 @@ impl CpuRenderer {
                             let mut rng = Rng::new(p.seed, pixel, frame, sample);
                             let u = pixel_jitter(sample, rng.next_2d());
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                            let (l, segs) =
-                                trace_path(scene, guide, o, d, &mut rng, estimate, &mut |k, t| sums.add(k, t));
+                            let (l, segs) = trace_path(scene, guide, o, d, &mut rng, estimate, &mut |k, t| {
+                                if record {
+                                    sums.add(k, t)
+                                }
+                            });
                             counters.segments += segs as u64;
                             // A NaN or infinite sample would poison the pixel forever; it is dropped
                             // (as on the GPU) and counted as carrying nothing.

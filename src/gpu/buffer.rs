@@ -100,8 +100,13 @@ impl Buffer {
 
     /// Records a fill of the whole buffer with zeros.
     pub fn cmd_clear(&self, cmd: vk::CommandBuffer) {
+        self.cmd_fill(cmd, 0);
+    }
+
+    /// Records filling the whole buffer with copies of the 32-bit word `word`.
+    pub fn cmd_fill(&self, cmd: vk::CommandBuffer, word: u32) {
         // SAFETY: `cmd` is recording; the buffer has TRANSFER_DST usage (Storage).
-        unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.raw, 0, vk::WHOLE_SIZE, 0) };
+        unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.raw, 0, vk::WHOLE_SIZE, word) };
     }
 
     /// Records a copy of `size` bytes of `self`, from byte `offset`, to the start of `dst`.

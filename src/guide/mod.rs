@@ -19,10 +19,11 @@
 //!   chose. A frame's targets are summed per entry and folded in between frames
 //!   ([`QTable::learn`]): the same running mean, taken in batches.
 //! - **Sampling** at a non-delta vertex is a one-sample mixture: with probability
-//!   `fraction` a bin is drawn from the cell's CDF for the vertex's orientation
-//!   class (the signed axis nearest its shading normal, [`normal_class`]), in
-//!   proportion to `(Q + floor * Qbar) cos(axis, bin)` (rebuilt after each frame;
-//!   binary search), and a direction uniformly inside it; otherwise the BSDF is
+//!   `fraction` a bin is drawn from the cell's sampling row for the vertex's
+//!   orientation class (the signed axis nearest its shading normal,
+//!   [`normal_class`]), in proportion to `(Q + floor * Qbar) cos(axis, bin)`
+//!   (rebuilt after each frame as an alias table: one or two loads per sample, one
+//!   per density), and a direction uniformly inside it; otherwise the BSDF is
 //!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
 //!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
 //!   zero. Cells that have learned nothing use BSDF sampling alone. The cosine is
@@ -214,38 +215,139 @@ impl GuideConfig {
     }
 }
 
+/// Whether the paths of pixel row `y` hand their Q-learning targets to the table
+/// in frame `frame` (counted from the first frame traced): all rows in the first
+/// `RECORD_ALL_FRAMES` frames, then one row in `RECORD_ROW_STRIDE`, a different
+/// one each frame. Q is a running mean of its targets, so recording fewer of them
+/// keeps it consistent; it costs learning speed only once the table has seen
+/// thousands of targets per entry, and saves most of the atomics' cost (whole
+/// workgroups skip recording, since a group's pixels share a row).
+/// `glsl/guide.glsl` `records`.
+pub fn records(frame: u32, y: u32) -> bool {
+    frame < crate::shared::RECORD_ALL_FRAMES || (y + frame).is_multiple_of(crate::shared::RECORD_ROW_STRIDE)
+}
+
 /// Mean of the three channels: the scalar Q learns.
 pub fn mean3(v: Vec3) -> f32 {
     (v.x + v.y + v.z) * (1.0 / 3.0)
 }
 
-/// Draws a direction from a cell's CDF row (`cdf[b]` = probability of bins 0..=b;
-/// all zero where the cell has learned nothing): the bin by binary search with
-/// `uc`, the direction uniformly inside it with `u`. `glsl/guide.glsl` `guided_sample`.
-pub fn guided_sample(bins: &Bins, cdf: &[f32], uc: f32, u: [f32; 2]) -> Vec3 {
-    // First bin whose cumulative probability exceeds uc (bins of zero width are never chosen).
-    let (mut lo, mut hi) = (0usize, cdf.len() - 1);
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if uc < cdf[mid] {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    bins.sample(lo as u32, u)
+/// One bin of a guided sampling row: its column of the row's alias table
+/// (Walker's alias method, built by Vose's algorithm) and its density.
+///
+/// Drawing a bin takes one load (and a second where the column passes to its
+/// alias); evaluating the density of a direction takes one. `glsl/guide.glsl`
+/// reads the same 8 bytes as a `uvec2`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct AliasBin {
+    /// `threshold << 16 | alias`: column `i` keeps bin `i` when its uniform
+    /// number is below `threshold / 65535`, else gives `alias`. [`UNLEARNED`] in
+    /// every bin of a row that has nothing to sample.
+    pub column: u32,
+    /// Solid-angle density of guided sampling in this bin: exactly the probability
+    /// the alias table gives the bin (thresholds as stored), over the bin's solid angle.
+    pub pdf: f32,
+}
+
+/// The column of every bin of a row with nothing to sample (no alias index
+/// reaches 65535: rows have at most 1024 bins).
+pub const UNLEARNED: u32 = u32::MAX;
+
+/// Scale of the 16-bit thresholds.
+const THRESHOLD_ONE: f32 = 65535.0;
+
+/// Draws a direction from a sampling row ([`build_alias_rows`]) and returns it
+/// with its guided density: the column from `uc`, the bin by comparing the
+/// remainder with the column's threshold, then a direction uniformly inside the
+/// bin with `u`. `glsl/guide.glsl` `guided_sample`.
+pub fn guided_sample(bins: &Bins, row: &[AliasBin], uc: f32, u: [f32; 2]) -> (Vec3, f32) {
+    let n = row.len();
+    let x = uc * n as f32;
+    let i = (x as usize).min(n - 1);
+    let rest = x - i as f32;
+    let e = row[i];
+    let b = if rest * THRESHOLD_ONE < (e.column >> 16) as f32 { i } else { (e.column & 0xffff) as usize };
+    (bins.sample(b as u32, u), row[b].pdf)
 }
 
 /// Solid-angle density of [`guided_sample`] for direction `dir`.
-pub fn guided_pdf(bins: &Bins, cdf: &[f32], dir: Vec3) -> f32 {
-    let b = bins.index(dir) as usize;
-    let below = if b == 0 { 0.0 } else { cdf[b - 1] };
-    (cdf[b] - below) / bins.solid_angle()
+pub fn guided_pdf(bins: &Bins, row: &[AliasBin], dir: Vec3) -> f32 {
+    row[bins.index(dir) as usize].pdf
 }
 
-/// True when a cell's CDF row holds a distribution (it has learned something).
-pub fn learned(cdf: &[f32]) -> bool {
-    cdf.last().is_some_and(|&c| c > 0.0)
+/// True when a sampling row holds a distribution (its cell has learned something).
+pub fn learned(row: &[AliasBin]) -> bool {
+    row.first().is_some_and(|e| e.column != UNLEARNED)
+}
+
+/// Fills one sampling row from non-negative bin weights (`row[b].pdf` holds the
+/// weights on entry): Vose's alias-table construction, in place and in index
+/// order so that `glsl/learn.comp` makes the same table. Each bin's density is
+/// then read back from the table itself, so sampling and density agree exactly
+/// whatever the rounding. A row whose weights sum to zero is marked [`UNLEARNED`].
+pub fn build_alias_row(row: &mut [AliasBin]) {
+    let n = row.len();
+    let total: f32 = row.iter().map(|e| e.pdf).sum();
+    if !(total > 0.0) {
+        row.fill(AliasBin { column: UNLEARNED, pdf: 0.0 });
+        return;
+    }
+    // Scaled weights (mean 1) in `pdf`; `column` UNLEARNED marks a column not yet set.
+    let scale = n as f32 / total;
+    for e in row.iter_mut() {
+        e.pdf *= scale;
+        e.column = UNLEARNED;
+    }
+    let open = |row: &[AliasBin], from: usize, small: bool| {
+        (from..n).find(|&i| row[i].column == UNLEARNED && (row[i].pdf < 1.0) == small).unwrap_or(n)
+    };
+    // `s`: the small column being set; `next`: the scan for the small columns
+    // of the start; `l`: the large bin that gives its excess to the small ones.
+    let mut next = open(row, 0, true);
+    let mut s = next;
+    let mut l = open(row, 0, false);
+    while s < n && l < n {
+        let p = row[s].pdf;
+        // Rounded up, so that a bin of any weight keeps some probability.
+        let threshold = ((p * THRESHOLD_ONE).ceil() as u32).min(65535);
+        row[s].column = threshold << 16 | l as u32;
+        row[l].pdf = (row[l].pdf + p) - 1.0;
+        if row[l].pdf < 1.0 {
+            // The large bin has become small: its column is the next one to set.
+            s = l;
+            l = open(row, l + 1, false);
+        } else {
+            next = open(row, next + 1, true);
+            s = next;
+        }
+    }
+    // What is left is full (up to rounding): each such column keeps its own bin.
+    for (i, e) in row.iter_mut().enumerate() {
+        if e.column == UNLEARNED {
+            e.column = 65535 << 16 | i as u32;
+        }
+    }
+    alias_densities(row);
+}
+
+/// Sets each bin's density to the probability the row's alias table gives it,
+/// over the bin's solid angle (4 pi / n): `(threshold_b + sum over columns j
+/// aliased to b of (1 - threshold_j)) / n / (4 pi / n)`.
+fn alias_densities(row: &mut [AliasBin]) {
+    let threshold = |c: u32| (c >> 16) as f32 / THRESHOLD_ONE;
+    for e in row.iter_mut() {
+        e.pdf = threshold(e.column);
+    }
+    for i in 0..row.len() {
+        let a = (row[i].column & 0xffff) as usize;
+        if a != i {
+            row[a].pdf += 1.0 - threshold(row[i].column);
+        }
+    }
+    for e in row.iter_mut() {
+        e.pdf *= 1.0 / (4.0 * PI);
+    }
 }
 
 /// Guided sampling distributions per cell: one for each class of surface
@@ -292,7 +394,7 @@ pub fn bin_cosine(bins: &Bins, b: u32, axis: Vec3) -> f32 {
 }
 
 /// The cosine weights of every bin for every normal class ([`bin_cosine`]), class
-/// after class: they depend on the bins alone, so [`build_cdf`] takes them
+/// after class: they depend on the bins alone, so [`build_sampling_rows`] takes them
 /// computed once rather than once per cell.
 pub fn class_cosines(bins: &Bins) -> Vec<f32> {
     (0..NORMAL_CLASSES)
@@ -300,42 +402,30 @@ pub fn class_cosines(bins: &Bins) -> Vec<f32> {
         .collect()
 }
 
-/// Index of the first entry of the CDF row for `cell` and normal `class` in a
-/// table of `bins` bins per row. `glsl/guide.glsl` `cdf_row`.
-pub fn cdf_row(cell: u32, class: u32, bins: u32) -> usize {
+/// Index of the first bin of the sampling row for `cell` and normal `class` in a
+/// table of `bins` bins per row. `glsl/guide.glsl` `sampler_row`.
+pub fn sampler_row(cell: u32, class: u32, bins: u32) -> usize {
     ((cell * NORMAL_CLASSES + class) * bins) as usize
 }
 
-/// Builds a cell's sampling CDFs, one row of `q.len()` entries per normal class,
-/// from its Q row and the bins' [`class_cosines`]: bin b of class c in proportion
-/// to `(Q_b + floor * Qbar_c) cos_c(b)` where `Qbar_c` is the cosine-weighted mean
+/// Builds a cell's sampling rows, one of `q.len()` bins per normal class, from its
+/// Q row and the bins' [`class_cosines`]: bin b of class c in proportion to
+/// `(Q_b + floor * Qbar_c) cos_c(b)` where `Qbar_c` is the cosine-weighted mean
 /// of Q over the class's hemisphere, so a share `floor / (1 + floor)` of the guided
 /// probability is spread like the cosine and directions not yet learned keep some.
-/// A class row is all zero where it has nothing to sample (no Q above its
-/// horizon). `glsl/learn.comp` is the same.
-pub fn build_cdf(cosines: &[f32], q: &[f32], floor: f32, cdf: &mut [f32]) {
+/// A class row is [`UNLEARNED`] where it has nothing to sample (no Q above its
+/// horizon). Each row is an alias table ([`build_alias_row`]). `glsl/learn.comp`
+/// is the same.
+pub fn build_sampling_rows(cosines: &[f32], q: &[f32], floor: f32, rows: &mut [AliasBin]) {
     let n = q.len();
-    for (cos, row) in cosines.chunks(n).zip(cdf.chunks_mut(n)) {
+    for (cos, row) in cosines.chunks(n).zip(rows.chunks_mut(n)) {
         let qc: f32 = q.iter().zip(cos).map(|(v, w)| v * w).sum();
         let c: f32 = cos.iter().sum();
         let q_floor = if c > 0.0 { floor * qc / c } else { 0.0 };
-        let total = qc + q_floor * c;
-        if !(total > 0.0) {
-            row.fill(0.0);
-            continue;
+        for ((e, &v), &w) in row.iter_mut().zip(q).zip(cos) {
+            e.pdf = (v + q_floor) * w;
         }
-        let mut acc = 0.0;
-        let mut last = 0;
-        for (b, ((r, &v), &w)) in row.iter_mut().zip(q).zip(cos).enumerate() {
-            acc += (v + q_floor) * w;
-            *r = acc / total;
-            if w > 0.0 && v + q_floor > 0.0 {
-                last = b;
-            }
-        }
-        // Exactly 1 from the last bin with any weight on, whatever the rounding: every
-        // uc in [0, 1) finds a bin, and bins of zero weight are never chosen.
-        row[last..].fill(1.0);
+        build_alias_row(row);
     }
 }
 
@@ -346,8 +436,8 @@ pub struct QTable {
     pub q: Vec<f32>,
     /// Targets folded into each entry so far.
     pub visits: Vec<u32>,
-    /// Sampling CDFs, [`NORMAL_CLASSES`] rows per cell (see [`build_cdf`]).
-    pub cdf: Vec<f32>,
+    /// Sampling rows, [`NORMAL_CLASSES`] per cell (see [`build_sampling_rows`]).
+    pub rows: Vec<AliasBin>,
 }
 
 /// One frame's targets, summed per entry.
@@ -378,12 +468,16 @@ impl FrameSums {
 
 impl QTable {
     pub fn new(entries: usize) -> QTable {
-        QTable { q: vec![0.0; entries], visits: vec![0; entries], cdf: vec![0.0; entries * NORMAL_CLASSES as usize] }
+        QTable {
+            q: vec![0.0; entries],
+            visits: vec![0; entries],
+            rows: vec![AliasBin { column: UNLEARNED, pdf: 0.0 }; entries * NORMAL_CLASSES as usize],
+        }
     }
 
     /// Folds a frame's targets into the running means, Q <- (Q n + S) / (n + c)
     /// (the learning rate 1/(1 + visits) applied to each target in turn), then
-    /// rebuilds the sampling CDFs. `glsl/learn.comp` is the same.
+    /// rebuilds the sampling rows. `glsl/learn.comp` is the same.
     pub fn learn(&mut self, cfg: &GuideConfig, frame: &FrameSums) {
         for i in 0..self.q.len() {
             let c = frame.counts[i];
@@ -395,8 +489,8 @@ impl QTable {
         }
         let n = cfg.bins.count() as usize;
         let cosines = class_cosines(&cfg.bins);
-        for (q, cdf) in self.q.chunks(n).zip(self.cdf.chunks_mut(n * NORMAL_CLASSES as usize)) {
-            build_cdf(&cosines, q, cfg.floor, cdf);
+        for (q, rows) in self.q.chunks(n).zip(self.rows.chunks_mut(n * NORMAL_CLASSES as usize)) {
+            build_sampling_rows(&cosines, q, cfg.floor, rows);
         }
     }
 }

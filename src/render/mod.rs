@@ -4,7 +4,7 @@
 
 use crate::film::Film;
 use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, PipelineStatistic, Timer};
-use crate::guide::QTable;
+use crate::guide::{AliasBin, QTable};
 use crate::prepared::{AccumPixel, PreparedScene};
 use crate::shared;
 use std::sync::Arc;
@@ -39,8 +39,8 @@ pub struct PassTimes {
     pub pathtrace_ms: f64,
     /// Folding the frame's Q-learning targets into the table (`learn.comp` phase 0), ms.
     pub learn_fold_ms: f64,
-    /// Rebuilding the sampling CDFs (`learn.comp` phase 1), ms.
-    pub learn_cdf_ms: f64,
+    /// Rebuilding the sampling rows, alias tables (`learn.comp` phase 1), ms.
+    pub learn_rows_ms: f64,
     /// Paths that carried zero radiance.
     pub zero_paths: u64,
     /// Rays traced: camera, bounce and shadow rays.
@@ -54,7 +54,7 @@ struct Learning {
     visits: Buffer,
     sums: Buffer,
     counts: Buffer,
-    cdf: Buffer,
+    sampler: Buffer,
     entries: u32,
     bins: crate::guide::Bins,
     floor: f32,
@@ -67,8 +67,8 @@ impl Learning {
         self.pipeline.cmd_dispatch(cmd, [self.entries.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
     }
 
-    /// Phase 1 of learn.comp: rebuild the sampling CDF of each cell and normal class.
-    fn cmd_build_cdf(&self, cmd: crate::gpu::vk::CommandBuffer) {
+    /// Phase 1 of learn.comp: rebuild the sampling row of each cell and normal class.
+    fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(1);
         let rows = self.entries / self.bins.count() * shared::NORMAL_CLASSES;
         self.pipeline.cmd_dispatch(cmd, [rows.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
@@ -166,12 +166,17 @@ impl GpuRenderer {
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
                     sums: Buffer::new(ctx, "frame target sums", size, BufferUsage::Storage)?,
                     counts: Buffer::new(ctx, "frame target counts", size, BufferUsage::Storage)?,
-                    cdf: Buffer::new(ctx, "sampling CDFs", size * shared::NORMAL_CLASSES as u64, BufferUsage::Storage)?,
+                    sampler: Buffer::new(
+                        ctx,
+                        "sampling rows",
+                        (size * shared::NORMAL_CLASSES as u64) * std::mem::size_of::<AliasBin>() as u64 / 4,
+                        BufferUsage::Storage,
+                    )?,
                     entries,
                     bins: cfg.bins,
                     floor: cfg.floor,
                 };
-                l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.cdf]);
+                l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler]);
                 Some(l)
             }
         };
@@ -179,7 +184,7 @@ impl GpuRenderer {
             let mut all: Vec<&Buffer> = scene_buffers.iter().collect();
             all.push(&accum);
             if let Some(l) = &learning {
-                all.extend([&l.q, &l.sums, &l.counts, &l.cdf]);
+                all.extend([&l.q, &l.sums, &l.counts, &l.sampler]);
             }
             all.push(&counters);
             pipeline.bind(&all);
@@ -188,9 +193,11 @@ impl GpuRenderer {
             accum.cmd_clear(cmd);
             counters.cmd_clear(cmd);
             if let Some(l) = &learning {
-                for b in [&l.q, &l.visits, &l.sums, &l.counts, &l.cdf] {
+                for b in [&l.q, &l.visits, &l.sums, &l.counts] {
                     b.cmd_clear(cmd);
                 }
+                // Every row starts with nothing learned (and BSDF sampling alone).
+                l.sampler.cmd_fill(cmd, crate::guide::UNLEARNED);
             }
         })?;
         scene_buffers.shrink_to_fit();
@@ -296,7 +303,7 @@ impl GpuRenderer {
                     self.ctx.barrier(cmd);
                     l.cmd_fold(cmd);
                     self.ctx.barrier(cmd);
-                    l.cmd_build_cdf(cmd);
+                    l.cmd_build_rows(cmd);
                 }
             }
             if timestamps {
@@ -350,7 +357,7 @@ impl GpuRenderer {
                 l.cmd_fold(cmd);
                 self.timer.cmd_stamp(cmd, 2);
                 self.ctx.barrier(cmd);
-                l.cmd_build_cdf(cmd);
+                l.cmd_build_rows(cmd);
                 self.timer.cmd_stamp(cmd, 3);
             }
             self.ctx.barrier(cmd);
@@ -370,7 +377,7 @@ impl GpuRenderer {
         };
         if self.learning.is_some() {
             t.learn_fold_ms = ms(s[1], s[2]);
-            t.learn_cdf_ms = ms(s[2], s[3]);
+            t.learn_rows_ms = ms(s[2], s[3]);
         }
         Ok(t)
     }
@@ -402,18 +409,18 @@ impl GpuRenderer {
         let Some(l) = &self.learning else { return Ok(None) };
         let rq = Buffer::new(&self.ctx, "Q readback", l.q.size, BufferUsage::Readback)?;
         let rv = Buffer::new(&self.ctx, "visits readback", l.visits.size, BufferUsage::Readback)?;
-        let rc = Buffer::new(&self.ctx, "CDF readback", l.cdf.size, BufferUsage::Readback)?;
+        let rc = Buffer::new(&self.ctx, "sampling rows readback", l.sampler.size, BufferUsage::Readback)?;
         self.ctx.run_commands("read Q table", |cmd| {
             self.ctx.barrier(cmd);
             l.q.cmd_copy_to(cmd, &rq);
             l.visits.cmd_copy_to(cmd, &rv);
-            l.cdf.cmd_copy_to(cmd, &rc);
+            l.sampler.cmd_copy_to(cmd, &rc);
         })?;
         let n = l.entries as usize * 4;
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
             visits: bytemuck::pod_collect_to_vec(&rv.read()[..n]),
-            cdf: bytemuck::pod_collect_to_vec(&rc.read()[..n * shared::NORMAL_CLASSES as usize]),
+            rows: bytemuck::pod_collect_to_vec(&rc.read()[..n * shared::NORMAL_CLASSES as usize * 2]),
         }))
     }
 }
