@@ -53,8 +53,9 @@
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4
-// learn.comp
-#define LEARN_GROUP 256
+// learn.comp: invocations per workgroup (phase 1 stages that many rows of up
+// to 128 bins in shared memory, 16 KB)
+#define LEARN_GROUP 16
 // Guiding: sampling distributions per cell, one per class of surface orientation
 // (src/guide/mod.rs `normal_class`).
 #define NORMAL_CLASSES 6

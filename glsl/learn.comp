@@ -40,13 +40,29 @@ float bin_cosine(uint b, uint class_) {
 
 const uint UNLEARNED = 0xffffffffu;
 
-float weight_at(uint i) { return uintBitsToFloat(sampler_table[i].y); }
+// A row is built where loads cost little: in this invocation's slice of shared
+// memory when it has at most SHARED_BINS bins (the sphere default has 128), in
+// the table itself otherwise; Vose's loop is sequential, and its chains of
+// dependent loads from L2 made the pass 7x slower.
+#define SHARED_BINS 128
+shared uvec2 staged[LEARN_GROUP * SHARED_BINS];
+uint row_start;   // first bin of the row in sampler_table
+uint stage_start; // first bin of the row in staged
+bool in_shared;
+
+uvec2 get_bin(uint b) { return in_shared ? staged[stage_start + b] : sampler_table[row_start + b]; }
+void set_bin(uint b, uvec2 v) {
+    if (in_shared) staged[stage_start + b] = v; else sampler_table[row_start + b] = v;
+}
+float weight_at(uint b) { return uintBitsToFloat(get_bin(b).y); }
+void set_weight(uint b, float w) { set_bin(b, uvec2(get_bin(b).x, floatBitsToUint(w))); }
+void set_column(uint b, uint c) { set_bin(b, uvec2(c, get_bin(b).y)); }
 
 // First column at or after `from` not yet set whose scaled weight is small
 // (below 1) or large; n where there is none. src/guide/mod.rs `build_alias_row`.
-uint open_column(uint row, uint from, uint n, bool small) {
+uint open_column(uint from, uint n, bool small) {
     for (uint i = from; i < n; ++i) {
-        uvec2 e = sampler_table[row + i];
+        uvec2 e = get_bin(i);
         if (e.x == UNLEARNED && (uintBitsToFloat(e.y) < 1.0) == small) return i;
     }
     return n;
@@ -54,44 +70,37 @@ uint open_column(uint row, uint from, uint n, bool small) {
 
 // Vose's construction in place over the weights in the density slots, then
 // each bin's density read back from the table (src/guide/mod.rs `build_alias_row`).
-void build_alias_row(uint row, uint n, float total) {
+void build_alias_row(uint n, float total) {
     float scale = float(n) / total;
-    for (uint b = 0u; b < n; ++b) sampler_table[row + b].y = floatBitsToUint(weight_at(row + b) * scale);
-    uint next = open_column(row, 0u, n, true);
+    for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * scale);
+    uint next = open_column(0u, n, true);
     uint s = next;
-    uint l = open_column(row, 0u, n, false);
+    uint l = open_column(0u, n, false);
     while (s < n && l < n) {
-        float p = weight_at(row + s);
+        float p = weight_at(s);
         uint threshold = min(uint(ceil(p * 65535.0)), 65535u);
-        sampler_table[row + s].x = (threshold << 16u) | l;
-        float rest = (weight_at(row + l) + p) - 1.0;
-        sampler_table[row + l].y = floatBitsToUint(rest);
+        set_column(s, (threshold << 16u) | l);
+        float rest = (weight_at(l) + p) - 1.0;
+        set_weight(l, rest);
         if (rest < 1.0) {
             s = l;
-            l = open_column(row, l + 1u, n, false);
+            l = open_column(l + 1u, n, false);
         } else {
-            next = open_column(row, next + 1u, n, true);
+            next = open_column(next + 1u, n, true);
             s = next;
         }
     }
     for (uint b = 0u; b < n; ++b) {
-        if (sampler_table[row + b].x == UNLEARNED) sampler_table[row + b].x = (65535u << 16u) | b;
+        if (get_bin(b).x == UNLEARNED) set_column(b, (65535u << 16u) | b);
     }
     // Densities: the probability of each bin under the table, over 4 pi / n.
+    for (uint b = 0u; b < n; ++b) set_weight(b, float(get_bin(b).x >> 16u) / 65535.0);
     for (uint b = 0u; b < n; ++b) {
-        sampler_table[row + b].y = floatBitsToUint(float(sampler_table[row + b].x >> 16u) / 65535.0);
-    }
-    for (uint b = 0u; b < n; ++b) {
-        uint c = sampler_table[row + b].x;
+        uint c = get_bin(b).x;
         uint a = c & 0xffffu;
-        if (a != b) {
-            float t = float(c >> 16u) / 65535.0;
-            sampler_table[row + a].y = floatBitsToUint(weight_at(row + a) + (1.0 - t));
-        }
+        if (a != b) set_weight(a, weight_at(a) + (1.0 - float(c >> 16u) / 65535.0));
     }
-    for (uint b = 0u; b < n; ++b) {
-        sampler_table[row + b].y = floatBitsToUint(weight_at(row + b) * (1.0 / (4.0 * PI)));
-    }
+    for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * (1.0 / (4.0 * PI)));
 }
 
 void main() {
@@ -112,6 +121,9 @@ void main() {
     uint qrow = cell * push.bins;
     if (qrow >= push.entries) return;
     uint row = i * push.bins;
+    row_start = row;
+    stage_start = gl_LocalInvocationID.x * SHARED_BINS;
+    in_shared = push.bins <= SHARED_BINS;
     float qc = 0.0;
     float c = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
@@ -124,12 +136,15 @@ void main() {
     float total = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
         float w = (q_table[qrow + b] + q_floor) * bin_cosine(b, class_);
-        sampler_table[row + b] = uvec2(UNLEARNED, floatBitsToUint(w));
+        set_bin(b, uvec2(UNLEARNED, floatBitsToUint(w)));
         total += w;
     }
     if (!(total > 0.0)) {
         for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = uvec2(UNLEARNED, 0u);
         return;
     }
-    build_alias_row(row, push.bins, total);
+    build_alias_row(push.bins, total);
+    if (in_shared) {
+        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = staged[stage_start + b];
+    }
 }
