@@ -105,9 +105,6 @@ float one_minus_cos_max(float sin2_max) {
     return sin2_max < 0.00068523 ? 0.5 * sin2_max : 1.0 - sqrt(max(0.0, 1.0 - sin2_max));
 }
 
-// src/math/geometry.rs `visible_cap`: 1 - cos of the cap of the sphere seen from distance dc > r.
-float visible_cap(float dc, float r) { return (dc - r) / dc; }
-
 struct LightSample {
     vec3 wi;
     float dist;
@@ -127,7 +124,6 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     }
     Light light = lights[li];
     vec3 lp, ln;
-    vec3 to_light;  // from p to lp, computed where it is most precise
     float eps, pdf_solid;
     uint mat;
     if (light.kind == LIGHT_SPHERE) {
@@ -157,27 +153,6 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             ln = -to_world(frame, vec3(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha));
             lp = c + r * ln;
             pdf_solid = 1.0 / (2.0 * PI * omc);
-            to_light = lp - p;
-        } else if (dc2 > r * r) {
-            // Just outside: uniform by area over the cap p sees, in the frame of the
-            // axis from the centre to p (src/math/geometry.rs, the same steps).
-            float dc = sqrt(dc2);
-            float h = dc - r;
-            float omc = visible_cap(dc, r);
-            float v = u.x * omc;
-            float z = 1.0 - v;
-            float sin_t = sqrt(max(0.0, v * (2.0 - v)));
-            float phi = 2.0 * PI * u.y;
-            float cp = cos(phi);
-            float sp = sin(phi);
-            mat3 frame = make_frame(-to_c / dc);
-            ln = to_world(frame, vec3(sin_t * cp, sin_t * sp, z));
-            lp = c + r * ln;
-            to_light = to_world(frame, vec3(r * sin_t * cp, r * sin_t * sp, -(h + r * v)));
-            float dl = length(to_light);
-            float cos_l = h * (1.0 - u.x) / dl;
-            if (!(cos_l > 0.0)) return false;
-            pdf_solid = dl * dl / (2.0 * PI * r * r * omc * cos_l);
         } else {
             ln = uniform_sphere(u);
             lp = c + r * ln;
@@ -186,7 +161,6 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             float cos_l = abs(dot(ln, d)) / sqrt(d2);
             if (cos_l <= 0.0) return false;
             pdf_solid = d2 / (4.0 * PI * r * r * cos_l);
-            to_light = d;
         }
         eps = hit_epsilon(lp, sphere_scale(s.center_radius));
         mat = s.material;
@@ -199,13 +173,13 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
         float cos_l = abs(dot(ln, d)) / sqrt(d2);
         if (cos_l <= 0.0) return false;
         pdf_solid = d2 / (q.origin.w * cos_l);
-        to_light = d;
         eps = hit_epsilon(lp, quad_scale(q));
         mat = q.material;
     }
-    float dist = length(to_light);
+    vec3 d = lp - p;
+    float dist = length(d);
     if (!(dist > 0.0)) return false;
-    ls.wi = to_light / dist;
+    ls.wi = d / dist;
     ls.dist = dist;
     ls.p = lp;
     ls.n = ln;
@@ -226,18 +200,6 @@ float light_pdf(uint light_index, vec3 p, vec3 w) {
         float dc2 = dot(f, f);
         if (dc2 > r * r * 1.0001) {
             pdf_solid = 1.0 / (2.0 * PI * one_minus_cos_max(r * r / dc2));
-        } else if (dc2 > r * r) {
-            // Just outside: the near root, on the visible cap (src/math/geometry.rs).
-            float b = -dot(f, w);
-            float dc = sqrt(dc2);
-            float h = dc - r;
-            float k = h * (2.0 * r + h);
-            float sk = sqrt(k);
-            float disc = (b - sk) * (b + sk);
-            if (!(b > 0.0) || !(disc > 0.0)) return 0.0;
-            float sd = sqrt(disc);
-            float t = k / (b + sd);
-            pdf_solid = t * t * r / (2.0 * PI * r * r * visible_cap(dc, r) * sd);
         } else {
             float b = -dot(f, w);
             float l2 = length(f + b * w);

@@ -195,8 +195,7 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
         }
     }
     let light = &scene.lights[li];
-    // `d`: from p to the light point, computed where it is most precise.
-    let (lp, ln, eps, mat, pdf_solid, d) = if light.kind == shared::LIGHT_SPHERE {
+    let (lp, ln, eps, mat, pdf_solid) = if light.kind == shared::LIGHT_SPHERE {
         let s = &scene.spheres[light.index as usize];
         let c = xyz(s.center_radius);
         let r = s.center_radius[3];
@@ -223,33 +222,7 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
             let w = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
             let n = -frame.to_world(w);
             let lp = c + r * n;
-            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, 1.0 / (2.0 * PI * omc), lp - p)
-        } else if dc2 > r * r {
-            // Just outside, where the cone's formulas lose their precision: uniform by
-            // area over the cap of the sphere that p sees (every point of which it sees),
-            // in the frame of the axis from the centre to p, where everything follows
-            // from the height h = |p - c| - r without cancellation.
-            let dc = dc2.sqrt();
-            let h = dc - r;
-            let omc = visible_cap(dc, r);
-            let v = u[0] * omc; // 1 - cos(theta) at the centre
-            let z = 1.0 - v;
-            let sin = (v * (2.0 - v)).max(0.0).sqrt();
-            let phi = 2.0 * PI * u[1];
-            let (cp, sp) = (phi.cos(), phi.sin());
-            let frame = super::Frame::from_normal(-to_c / dc);
-            let n = frame.to_world(Vec3::new(sin * cp, sin * sp, z));
-            let lp = c + r * n;
-            // p to lp: (r sin cos, r sin sin, r z - dc), and r z - dc = -(h + r v).
-            let d = frame.to_world(Vec3::new(r * sin * cp, r * sin * sp, -(h + r * v)));
-            // |n . d| = h (1 - u): the cosine at the light without rounding trouble.
-            let dl = d.length();
-            let cos_l = h * (1.0 - u[0]) / dl;
-            if !(cos_l > 0.0) {
-                return None;
-            }
-            let area = 2.0 * PI * r * r * omc;
-            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, dl * dl / (area * cos_l), d)
+            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, 1.0 / (2.0 * PI * omc))
         } else {
             // Inside (or on) the sphere: uniform by area.
             let n = super::sampling::uniform_sphere(u);
@@ -261,7 +234,7 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
                 return None;
             }
             let area = 4.0 * PI * r * r;
-            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, d2 / (area * cos_l), d)
+            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, d2 / (area * cos_l))
         }
     } else {
         let q = &scene.quads[light.index as usize];
@@ -273,8 +246,9 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
         if cos_l <= 0.0 {
             return None;
         }
-        (lp, n, hit_epsilon(lp, quad_scale(q)), q.material, d2 / (q.origin[3] * cos_l), d)
+        (lp, n, hit_epsilon(lp, quad_scale(q)), q.material, d2 / (q.origin[3] * cos_l))
     };
+    let d = lp - p;
     let dist = d.length();
     if !(dist > 0.0) {
         return None;
@@ -286,13 +260,6 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
         return None;
     }
     Some(LightSample { wi, dist, p: lp, n: ln, eps, le, pdf })
-}
-
-/// 1 - cos of the half-angle, at the centre, of the cap of a sphere of radius `r`
-/// seen from a point at distance `dc > r` from its centre: the cap is the points
-/// whose normal makes a cosine of at least r / dc with the direction to the point.
-fn visible_cap(dc: f32, r: f32) -> f32 {
-    (dc - r) / dc
 }
 
 /// The density with which `sample_light`, called at `p`, picks the direction `w`
@@ -313,24 +280,6 @@ pub fn light_pdf(scene: &PreparedScene, light: u32, p: Vec3, w: Vec3) -> f32 {
         if dc2 > r * r * 1.0001 {
             let sin2_max = r * r / dc2;
             1.0 / (2.0 * PI * one_minus_cos_max(sin2_max))
-        } else if dc2 > r * r {
-            // Just outside: the near root, on the visible cap that `sample_light` samples
-            // by area. With h = |f| - r: |f|^2 - r^2 = h (2r + h), disc = b^2 - h (2r + h)
-            // (the squared distance of the centre to the ray, subtracted from r^2, without
-            // cancellation), t = (|f|^2 - r^2) / (b + sqrt(disc)) (Ray Tracing Gems, ch. 7),
-            // and the cosine at the light is sqrt(disc) / r.
-            let b = -f.dot(w);
-            let dc = dc2.sqrt();
-            let h = dc - r;
-            let k = h * (2.0 * r + h);
-            let sk = k.sqrt();
-            let disc = (b - sk) * (b + sk);
-            if !(b > 0.0) || !(disc > 0.0) {
-                return 0.0;
-            }
-            let sd = disc.sqrt();
-            let t = k / (b + sd);
-            t * t * r / (2.0 * PI * r * r * visible_cap(dc, r) * sd)
         } else {
             // From inside (or on) the sphere: the far root, which is the one point w reaches.
             let b = -f.dot(w);
