@@ -73,6 +73,11 @@
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16
 #define NO_KEY 4294967295
+// Guided sampling rows are alias tables (src/guide/mod.rs `AliasBin`): a column's
+// 16-bit threshold over ALIAS_THRESHOLD_ONE is the chance it keeps its own bin;
+// UNLEARNED in a row's columns marks a row with nothing to sample.
+#define ALIAS_THRESHOLD_ONE 65535
+#define UNLEARNED 4294967295
 
 struct Material {
     vec4 albedo_roughness;   // xyz albedo, w GGX roughness

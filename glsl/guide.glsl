@@ -68,7 +68,7 @@ vec3 guided_sample(uint row, float uc, vec2 u, out float pdf) {
     float rest = x - float(i);
     uvec2 e = sampler_table[row + i];
     uint b = i;
-    if (!(rest * 65535.0 < float(e.x >> 16u))) {
+    if (!(rest * float(ALIAS_THRESHOLD_ONE) < float(e.x >> 16u))) {
         b = e.x & 0xffffu;
         e = sampler_table[row + b];
     }
@@ -84,8 +84,7 @@ bool records(uint frame, uint y) {
     return frame < uint(RECORD_ALL_FRAMES) || (y + frame) % uint(RECORD_ROW_STRIDE) == 0u;
 }
 
-// UNLEARNED (src/guide/mod.rs) marks a row with nothing to sample.
-bool guide_learned(uint row) { return sampler_table[row].x != 0xffffffffu; }
+bool guide_learned(uint row) { return sampler_table[row].x != uint(UNLEARNED); }
 
 #include "record.glsl"
 

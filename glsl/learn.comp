@@ -38,8 +38,6 @@ float bin_cosine(uint b, uint class_) {
     return s > 1e-6 ? s : 0.0;
 }
 
-const uint UNLEARNED = 0xffffffffu;
-
 // A row is built where loads cost little: in this invocation's slice of shared
 // memory when it has at most SHARED_BINS bins (the sphere default has 128), in
 // the table itself otherwise; Vose's loop is sequential, and its chains of
@@ -63,7 +61,7 @@ void set_column(uint b, uint c) { set_bin(b, uvec2(c, get_bin(b).y)); }
 uint open_column(uint from, uint n, bool small) {
     for (uint i = from; i < n; ++i) {
         uvec2 e = get_bin(i);
-        if (e.x == UNLEARNED && (uintBitsToFloat(e.y) < 1.0) == small) return i;
+        if (e.x == uint(UNLEARNED) && (uintBitsToFloat(e.y) < 1.0) == small) return i;
     }
     return n;
 }
@@ -78,7 +76,7 @@ void build_alias_row(uint n, float total) {
     uint l = open_column(0u, n, false);
     while (s < n && l < n) {
         float p = weight_at(s);
-        uint threshold = min(uint(ceil(p * 65535.0)), 65535u);
+        uint threshold = min(uint(ceil(p * float(ALIAS_THRESHOLD_ONE))), uint(ALIAS_THRESHOLD_ONE));
         set_column(s, (threshold << 16u) | l);
         float rest = (weight_at(l) + p) - 1.0;
         set_weight(l, rest);
@@ -91,14 +89,14 @@ void build_alias_row(uint n, float total) {
         }
     }
     for (uint b = 0u; b < n; ++b) {
-        if (get_bin(b).x == UNLEARNED) set_column(b, (65535u << 16u) | b);
+        if (get_bin(b).x == uint(UNLEARNED)) set_column(b, (uint(ALIAS_THRESHOLD_ONE) << 16u) | b);
     }
     // Densities: the probability of each bin under the table, over 4 pi / n.
-    for (uint b = 0u; b < n; ++b) set_weight(b, float(get_bin(b).x >> 16u) / 65535.0);
+    for (uint b = 0u; b < n; ++b) set_weight(b, float(get_bin(b).x >> 16u) / float(ALIAS_THRESHOLD_ONE));
     for (uint b = 0u; b < n; ++b) {
         uint c = get_bin(b).x;
         uint a = c & 0xffffu;
-        if (a != b) set_weight(a, weight_at(a) + (1.0 - float(c >> 16u) / 65535.0));
+        if (a != b) set_weight(a, weight_at(a) + (1.0 - float(c >> 16u) / float(ALIAS_THRESHOLD_ONE)));
     }
     for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * (1.0 / (4.0 * PI)));
 }
@@ -124,23 +122,25 @@ void main() {
     row_start = row;
     stage_start = gl_LocalInvocationID.x * SHARED_BINS;
     in_shared = push.bins <= SHARED_BINS;
+    // Each bin's cosine, computed once, waits in its density slot; then the
+    // weights (Q + floor * Qbar) cos take its place while the table is built.
     float qc = 0.0;
     float c = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
         float w = bin_cosine(b, class_);
+        set_bin(b, uvec2(uint(UNLEARNED), floatBitsToUint(w)));
         qc += q_table[qrow + b] * w;
         c += w;
     }
     float q_floor = c > 0.0 ? push.floor_factor * qc / c : 0.0;
-    // The weights, in the density slots while the table is built.
     float total = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
-        float w = (q_table[qrow + b] + q_floor) * bin_cosine(b, class_);
-        set_bin(b, uvec2(UNLEARNED, floatBitsToUint(w)));
+        float w = (q_table[qrow + b] + q_floor) * weight_at(b);
+        set_weight(b, w);
         total += w;
     }
     if (!(total > 0.0)) {
-        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = uvec2(UNLEARNED, 0u);
+        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = uvec2(uint(UNLEARNED), 0u);
         return;
     }
     build_alias_row(push.bins, total);

@@ -251,13 +251,13 @@ pub struct AliasBin {
 }
 
 /// The column of every bin of a row with nothing to sample (no alias index
-/// reaches 65535: rows have at most 1024 bins).
-pub const UNLEARNED: u32 = u32::MAX;
+/// reaches 65535: rows have at most 1024 bins). `glsl/common.glsl`.
+pub const UNLEARNED: u32 = crate::shared::UNLEARNED;
 
-/// Scale of the 16-bit thresholds.
-const THRESHOLD_ONE: f32 = 65535.0;
+/// Scale of the 16-bit thresholds. `glsl/common.glsl` `ALIAS_THRESHOLD_ONE`.
+const THRESHOLD_ONE: u32 = crate::shared::ALIAS_THRESHOLD_ONE;
 
-/// Draws a direction from a sampling row ([`build_alias_rows`]) and returns it
+/// Draws a direction from a sampling row ([`build_alias_row`]) and returns it
 /// with its guided density: the column from `uc`, the bin by comparing the
 /// remainder with the column's threshold, then a direction uniformly inside the
 /// bin with `u`. `glsl/guide.glsl` `guided_sample`.
@@ -267,7 +267,7 @@ pub fn guided_sample(bins: &Bins, row: &[AliasBin], uc: f32, u: [f32; 2]) -> (Ve
     let i = (x as usize).min(n - 1);
     let rest = x - i as f32;
     let e = row[i];
-    let b = if rest * THRESHOLD_ONE < (e.column >> 16) as f32 { i } else { (e.column & 0xffff) as usize };
+    let b = if rest * (THRESHOLD_ONE as f32) < (e.column >> 16) as f32 { i } else { (e.column & 0xffff) as usize };
     (bins.sample(b as u32, u), row[b].pdf)
 }
 
@@ -310,7 +310,7 @@ pub fn build_alias_row(row: &mut [AliasBin]) {
     while s < n && l < n {
         let p = row[s].pdf;
         // Rounded up, so that a bin of any weight keeps some probability.
-        let threshold = ((p * THRESHOLD_ONE).ceil() as u32).min(65535);
+        let threshold = ((p * THRESHOLD_ONE as f32).ceil() as u32).min(THRESHOLD_ONE);
         row[s].column = threshold << 16 | l as u32;
         row[l].pdf = (row[l].pdf + p) - 1.0;
         if row[l].pdf < 1.0 {
@@ -325,7 +325,7 @@ pub fn build_alias_row(row: &mut [AliasBin]) {
     // What is left is full (up to rounding): each such column keeps its own bin.
     for (i, e) in row.iter_mut().enumerate() {
         if e.column == UNLEARNED {
-            e.column = 65535 << 16 | i as u32;
+            e.column = THRESHOLD_ONE << 16 | i as u32;
         }
     }
     alias_densities(row);
@@ -335,7 +335,7 @@ pub fn build_alias_row(row: &mut [AliasBin]) {
 /// over the bin's solid angle (4 pi / n): `(threshold_b + sum over columns j
 /// aliased to b of (1 - threshold_j)) / n / (4 pi / n)`.
 fn alias_densities(row: &mut [AliasBin]) {
-    let threshold = |c: u32| (c >> 16) as f32 / THRESHOLD_ONE;
+    let threshold = |c: u32| (c >> 16) as f32 / THRESHOLD_ONE as f32;
     for e in row.iter_mut() {
         e.pdf = threshold(e.column);
     }

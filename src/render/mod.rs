@@ -169,7 +169,7 @@ impl GpuRenderer {
                     sampler: Buffer::new(
                         ctx,
                         "sampling rows",
-                        (size * shared::NORMAL_CLASSES as u64) * std::mem::size_of::<AliasBin>() as u64 / 4,
+                        (entries * shared::NORMAL_CLASSES) as u64 * std::mem::size_of::<AliasBin>() as u64,
                         BufferUsage::Storage,
                     )?,
                     entries,
@@ -420,7 +420,7 @@ impl GpuRenderer {
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
             visits: bytemuck::pod_collect_to_vec(&rv.read()[..n]),
-            rows: bytemuck::pod_collect_to_vec(&rc.read()[..n * shared::NORMAL_CLASSES as usize * 2]),
+            rows: bytemuck::pod_collect_to_vec(&rc.read()[..l.sampler.size as usize]),
         }))
     }
 }
