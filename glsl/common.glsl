@@ -90,6 +90,8 @@ struct Material {
 
 struct Sphere {
     vec4 center_radius;      // xyz center, w radius
+    vec4 anchor_radius;      // xyz the point nearest the world origin, w radius
+    vec4 axis;               // xyz unit outward normal at the anchor
     uint material;
     uint light;              // index into lights, or NO_LIGHT
     uint pad0;

@@ -17,18 +17,26 @@ float max_abs(vec3 v) { vec3 a = abs(v); return max(a.x, max(a.y, a.z)); }
 
 float hit_epsilon(vec3 p, float scale) { return 1e-5 * (1.0 + max_abs(p)) + 2.5e-7 * scale; }
 
-float sphere_scale(vec4 cr) { return max_abs(cr.xyz) + cr.w; }
+float sphere_scale(vec4 cr) { return max_abs(cr.xyz) + cr.w; }  // sampled light points
+float sphere_hit_scale(Sphere s) { return max_abs(s.anchor_radius.xyz); }  // intersect_sphere's hits
 float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) + max_abs(q.edge_v.xyz); }
 
-// Ray Tracing Gems ch. 7; returns the nearest root in (0, t_max) or -1.
-float intersect_sphere(vec3 center, float radius, vec3 o, vec3 d, float t_max) {
-    vec3 f = o - center;
-    float b = -dot(f, d);
-    float l = length(f + b * d);
-    float disc = (radius - l) * (radius + l);
+// Ray Tracing Gems ch. 7 with the sphere written as anchor + axis, so that no
+// two numbers of the size of the radius are subtracted (src/math/geometry.rs
+// `intersect_sphere` explains); returns the nearest root in (0, t_max) or -1.
+float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
+    float r = s.anchor_radius.w;
+    vec3 g = o - s.anchor_radius.xyz;
+    float c = dot(g, g) + 2.0 * r * dot(g, s.axis.xyz);
+    float b = -(dot(g, d) + r * dot(s.axis.xyz, d));
+    float disc;
+    if (c < 0.0) {
+        disc = b * b - c;
+    } else {
+        float l = length(g + r * s.axis.xyz + b * d);
+        disc = (r - l) * (r + l);
+    }
     if (disc < 0.0) return -1.0;
-    float fl = length(f);
-    float c = (fl - radius) * (fl + radius);
     float q = b + (b >= 0.0 ? sqrt(disc) : -sqrt(disc));
     if (q == 0.0) return -1.0;
     float a = c / q;
@@ -56,7 +64,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     int found = -1;
     bool is_sphere = false;
     for (uint i = 0u; i < params.num_spheres; ++i) {
-        float t = intersect_sphere(spheres[i].center_radius.xyz, spheres[i].center_radius.w, o, d, best);
+        float t = intersect_sphere(spheres[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
     for (uint i = 0u; i < params.num_quads; ++i) {
@@ -69,7 +77,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     if (is_sphere) {
         Sphere s = spheres[found];
         hit.n = normalize((hit.p - s.center_radius.xyz) / s.center_radius.w);
-        hit.eps = hit_epsilon(hit.p, sphere_scale(s.center_radius));
+        hit.eps = hit_epsilon(hit.p, sphere_hit_scale(s));
         hit.material = s.material;
         hit.light = s.light;
     } else {
@@ -84,7 +92,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 
 bool occluded(vec3 o, vec3 d, float t_max) {
     for (uint i = 0u; i < params.num_spheres; ++i) {
-        if (intersect_sphere(spheres[i].center_radius.xyz, spheres[i].center_radius.w, o, d, t_max) > 0.0) return true;
+        if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
     for (uint i = 0u; i < params.num_quads; ++i) {
         if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;

@@ -16,7 +16,7 @@ void main() {
     Material m = materials[1];
     put4(m.albedo_roughness); put4(m.emission_ior); put(m.kind); put(m.two_sided);
     Sphere s = spheres[1];
-    put4(s.center_radius); put(s.material); put(s.light);
+    put4(s.center_radius); put4(s.anchor_radius); put4(s.axis); put(s.material); put(s.light);
     Quad q = quads[1];
     put4(q.origin); put4(q.edge_u); put4(q.edge_v); put4(q.normal); put4(q.dual_u); put4(q.dual_v);
     put(q.material); put(q.light);

@@ -24,9 +24,35 @@ pub struct GpuMaterial {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuSphere {
     pub center_radius: [f32; 4],
+    /// xyz: the anchor, the point of the sphere nearest the world origin; w: the radius.
+    pub anchor_radius: [f32; 4],
+    /// xyz: the unit outward normal at the anchor (the centre is anchor - radius * axis).
+    pub axis: [f32; 4],
     pub material: u32,
     pub light: u32,
     pub pad: [u32; 2],
+}
+
+impl GpuSphere {
+    /// A sphere with its intersection frame: the anchor and axis are worked out in
+    /// f64 from the f32 centre and radius, so that they describe the same surface
+    /// to within f32 rounding near the anchor (see `math::geometry::intersect_sphere`).
+    pub fn new(center: Vec3, radius: f32, material: u32, light: u32) -> GpuSphere {
+        let c = center.as_dvec3();
+        let len = c.length();
+        // The centre at the origin: any point of the sphere is as near as any other.
+        let axis = if len > 0.0 { -c / len } else { glam::DVec3::Z };
+        let anchor = (c + radius as f64 * axis).as_vec3();
+        let axis = axis.as_vec3();
+        GpuSphere {
+            center_radius: v4(center, radius),
+            anchor_radius: v4(anchor, radius),
+            axis: v4(axis, 0.0),
+            material,
+            light,
+            pad: [0; 2],
+        }
+    }
 }
 
 #[repr(C)]
@@ -117,7 +143,7 @@ pub struct AccumPixel {
 }
 
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuSphere>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
@@ -221,7 +247,7 @@ impl PreparedScene {
                     lights.push(GpuLight { kind: shared::LIGHT_SPHERE, index: i as u32, pmf: 0.0, cdf: 0.0 });
                     powers.push(power(s.material, 4.0 * std::f32::consts::PI * s.radius * s.radius));
                 }
-                GpuSphere { center_radius: v4(s.center, s.radius), material: s.material, light, pad: [0; 2] }
+                GpuSphere::new(s.center, s.radius, s.material, light)
             })
             .collect();
         let quads = scene

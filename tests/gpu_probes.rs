@@ -73,7 +73,8 @@ fn struct_layout_matches_the_rust_mirrors() {
     };
     let mut v4 = || [next(), next(), next(), next()];
     let mat = GpuMaterial { albedo_roughness: v4(), emission_ior: v4(), kind: 101, two_sided: 102, pad: [0; 2] };
-    let sph = GpuSphere { center_radius: v4(), material: 201, light: 202, pad: [0; 2] };
+    let sph =
+        GpuSphere { center_radius: v4(), anchor_radius: v4(), axis: v4(), material: 201, light: 202, pad: [0; 2] };
     let quad = GpuQuad {
         origin: v4(),
         edge_u: v4(),
@@ -139,6 +140,8 @@ fn struct_layout_matches_the_rust_mirrors() {
     want.extend(f(mat.emission_ior));
     want.extend([mat.kind, mat.two_sided]);
     want.extend(f(sph.center_radius));
+    want.extend(f(sph.anchor_radius));
+    want.extend(f(sph.axis));
     want.extend([sph.material, sph.light]);
     for v in [quad.origin, quad.edge_u, quad.edge_v, quad.normal, quad.dual_u, quad.dual_v] {
         want.extend(f(v));

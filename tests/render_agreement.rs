@@ -9,7 +9,6 @@ use common::*;
 use rlpt::cpu::camera_ray;
 use rlpt::film::Film;
 use rlpt::math::geometry::intersect_sphere;
-use rlpt::math::Vec3;
 use rlpt::prepared::PreparedScene;
 
 /// 5 sigma: with a few hundred comparisons per test the chance of a false alarm stays below 1e-3.
@@ -22,7 +21,7 @@ fn check_furnace_open(film: &Film, prepared: &PreparedScene, what: &str) {
             .iter()
             .filter(|u| {
                 let (o, d) = camera_ray(&prepared.params, x, y, **u);
-                intersect_sphere(Vec3::ZERO, 1.0, o, d, f32::INFINITY).is_some()
+                intersect_sphere(&prepared.spheres[0], o, d, f32::INFINITY).is_some()
             })
             .count()
     };
