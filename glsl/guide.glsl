@@ -58,21 +58,16 @@ uint cell_index(vec3 p) {
     return (z * params.guide_res_y + y) * params.guide_res_x + x;
 }
 
-// src/guide/mod.rs `guided_sample`: the column of the row's alias table from
-// uc, the bin by the column's threshold, the direction uniform inside the bin;
-// `pdf` is the guided density of the bin drawn.
-vec3 guided_sample(uint row, float uc, vec2 u, out float pdf) {
+// src/guide/mod.rs `guided_direction`: the column of the row's alias table
+// from uc, the bin by the column's threshold, the direction uniform inside the
+// bin. Its density is `guided_pdf`, a function of the direction alone.
+vec3 guided_direction(uint row, float uc, vec2 u) {
     uint n = params.guide_bins;
     float x = uc * float(n);
     uint i = min(uint(x), n - 1u);
     float rest = x - float(i);
-    uvec2 e = sampler_table[row + i];
-    uint b = i;
-    if (!(rest * float(ALIAS_THRESHOLD_ONE) < float(e.x >> 16u))) {
-        b = e.x & 0xffffu;
-        e = sampler_table[row + b];
-    }
-    pdf = uintBitsToFloat(e.y);
+    uint column = sampler_table[row + i].x;
+    uint b = rest * float(ALIAS_THRESHOLD_ONE) < float(column >> 16u) ? i : column & 0xffffu;
     return bin_sample(b, u);
 }
 

@@ -164,17 +164,16 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
         float pdf = 0.0;
         bool delta = false;
         bool ok = false;
-        if (u_mix < g_frac) {
+        // First the direction, from the table or the BSDF; then, where the two
+        // are mixed, one evaluation of the BSDF and the mixture density for
+        // either choice, so that a warp holding both runs it once.
 #if GUIDED
-            float pdf_guided;
-            wi = guided_sample(row, uc, u, pdf_guided);
-            vec3 wi_local = to_local(frame, wi);
-            vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
-            pdf = (1.0 - g_frac) * bsdf_pdf(bsdf, wo_local, wi_local) + g_frac * pdf_guided;
-            ok = pdf > 0.0 && max_component(f) > 0.0;
-            if (ok) weight = f * (abs(wi_local.z) / pdf);
+        if (u_mix < g_frac) {
+            wi = guided_direction(row, uc, u);
+            ok = true;
+        } else
 #endif
-        } else {
+        {
             BsdfSample s = bsdf_sample(bsdf, wo_local, uc, u);
             ok = s.ok;
             if (ok) {
@@ -182,14 +181,17 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
                 weight = s.weight;
                 pdf = s.pdf;
                 delta = s.delta;
-#if GUIDED
-                if (!s.delta && g_frac > 0.0) {
-                    pdf = (1.0 - g_frac) * s.pdf + g_frac * guided_pdf(row, wi);
-                    weight = s.weight * (s.pdf / pdf);
-                }
-#endif
             }
         }
+#if GUIDED
+        if (ok && g_frac > 0.0 && !delta) {
+            vec3 wi_local = to_local(frame, wi);
+            vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
+            pdf = (1.0 - g_frac) * bsdf_pdf(bsdf, wo_local, wi_local) + g_frac * guided_pdf(row, wi);
+            ok = pdf > 0.0 && max_component(f) > 0.0;
+            weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
+        }
+#endif
 #if GUIDED
         if (learn && prev_key != NO_KEY) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).

@@ -185,24 +185,23 @@ pub fn trace_path(
         let u_mix = rng.next_f32();
         let uc = rng.next_f32();
         let u = rng.next_2d();
-        let sampled: Option<(Vec3, Vec3, f32, bool)> = if u_mix < g_frac {
+        // First the direction, from the table or the BSDF; then, where the two are
+        // mixed, one evaluation of the BSDF and the mixture density for either
+        // choice (the GPU runs it once for a warp that holds both).
+        let chosen: Option<(Vec3, Vec3, f32, bool)> = if u_mix < g_frac {
             let g = guide.expect("g_frac > 0 only with guiding");
-            let (wi, pdf_guided) = guide::guided_sample(&g.cfg.bins, sampler, uc, u);
-            let wi_local = frame.to_local(wi);
-            let f = bsdf_eval(&bsdf, wo_local, wi_local);
-            let pdf = (1.0 - g_frac) * bsdf_pdf(&bsdf, wo_local, wi_local) + g_frac * pdf_guided;
-            (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
+            Some((guide::guided_direction(&g.cfg.bins, sampler, uc, u), Vec3::ZERO, 0.0, false))
         } else {
-            bsdf_sample(&bsdf, wo_local, uc, u).map(|s| {
-                let wi = frame.to_world(s.wi).normalize();
-                if s.delta || g_frac == 0.0 {
-                    (wi, s.weight, s.pdf, s.delta)
-                } else {
-                    // f |cos| = weight * pdf_bsdf; divide by the mixture density instead.
-                    let pdf = mix_pdf(wi, s.wi);
-                    (wi, s.weight * (s.pdf / pdf), pdf, false)
-                }
-            })
+            bsdf_sample(&bsdf, wo_local, uc, u).map(|s| (frame.to_world(s.wi).normalize(), s.weight, s.pdf, s.delta))
+        };
+        let sampled = match chosen {
+            Some((wi, _, _, false)) if g_frac > 0.0 => {
+                let wi_local = frame.to_local(wi);
+                let f = bsdf_eval(&bsdf, wo_local, wi_local);
+                let pdf = mix_pdf(wi, wi_local);
+                (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
+            }
+            other => other,
         };
         if let Some(g) = guide {
             if prev_key != shared::NO_KEY {

@@ -257,21 +257,22 @@ pub const UNLEARNED: u32 = crate::shared::UNLEARNED;
 /// Scale of the 16-bit thresholds. `glsl/common.glsl` `ALIAS_THRESHOLD_ONE`.
 const THRESHOLD_ONE: u32 = crate::shared::ALIAS_THRESHOLD_ONE;
 
-/// Draws a direction from a sampling row ([`build_alias_row`]) and returns it
-/// with its guided density: the column from `uc`, the bin by comparing the
-/// remainder with the column's threshold, then a direction uniformly inside the
-/// bin with `u`. `glsl/guide.glsl` `guided_sample`.
-pub fn guided_sample(bins: &Bins, row: &[AliasBin], uc: f32, u: [f32; 2]) -> (Vec3, f32) {
+/// Draws a direction from a sampling row ([`build_alias_row`]): the column
+/// from `uc`, the bin by comparing the remainder with the column's threshold,
+/// then a direction uniformly inside the bin with `u`. Its density is
+/// [`guided_pdf`], a function of the direction alone, which is what the mixture
+/// with BSDF sampling needs for either choice. `glsl/guide.glsl` `guided_direction`.
+pub fn guided_direction(bins: &Bins, row: &[AliasBin], uc: f32, u: [f32; 2]) -> Vec3 {
     let n = row.len();
     let x = uc * n as f32;
     let i = (x as usize).min(n - 1);
     let rest = x - i as f32;
-    let e = row[i];
-    let b = if rest * (THRESHOLD_ONE as f32) < (e.column >> 16) as f32 { i } else { (e.column & 0xffff) as usize };
-    (bins.sample(b as u32, u), row[b].pdf)
+    let column = row[i].column;
+    let b = if rest * (THRESHOLD_ONE as f32) < (column >> 16) as f32 { i } else { (column & 0xffff) as usize };
+    bins.sample(b as u32, u)
 }
 
-/// Solid-angle density of [`guided_sample`] for direction `dir`.
+/// Solid-angle density of [`guided_direction`] for direction `dir`.
 pub fn guided_pdf(bins: &Bins, row: &[AliasBin], dir: Vec3) -> f32 {
     row[bins.index(dir) as usize].pdf
 }
