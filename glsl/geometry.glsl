@@ -21,22 +21,19 @@ float sphere_scale(vec4 cr) { return max_abs(cr.xyz) + cr.w; }  // sampled light
 float sphere_hit_scale(Sphere s) { return max_abs(s.anchor_radius.xyz); }  // intersect_sphere's hits
 float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) + max_abs(q.edge_v.xyz); }
 
-// Ray Tracing Gems ch. 7 with the sphere written as anchor + axis, so that no
-// two numbers of the size of the radius are subtracted (src/math/geometry.rs
-// `intersect_sphere` explains); returns the nearest root in (0, t_max) or -1.
+// Ray Tracing Gems ch. 7, with the origin's power c taken from the sphere's
+// anchor so that nothing of the size of the radius is subtracted
+// (src/math/geometry.rs `intersect_sphere` explains); misses are rejected
+// first. Returns the nearest root in (0, t_max) or -1.
 float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
     float r = s.anchor_radius.w;
     vec3 g = o - s.anchor_radius.xyz;
-    float c = dot(g, g) + 2.0 * r * dot(g, s.axis.xyz);
     float b = -(dot(g, d) + r * dot(s.axis.xyz, d));
-    float disc;
-    if (c < 0.0) {
-        disc = b * b - c;
-    } else {
-        float l = length(g + r * s.axis.xyz + b * d);
-        disc = (r - l) * (r + l);
-    }
+    float l = length(g + r * s.axis.xyz + b * d);
+    float disc = (r - l) * (r + l);
     if (disc < 0.0) return -1.0;
+    float c = dot(g, g) + 2.0 * r * dot(g, s.axis.xyz);
+    if (c < 0.0) disc = b * b - c;
     float q = b + (b >= 0.0 ? sqrt(disc) : -sqrt(disc));
     if (q == 0.0) return -1.0;
     float a = c / q;

@@ -24,7 +24,7 @@ pub struct GpuMaterial {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuSphere {
     pub center_radius: [f32; 4],
-    /// xyz: the anchor, the point of the sphere nearest the world origin; w: the radius.
+    /// xyz: the anchor, the point of the sphere nearest the world origin; w: the radius again.
     pub anchor_radius: [f32; 4],
     /// xyz: the unit outward normal at the anchor (the centre is anchor - radius * axis).
     pub axis: [f32; 4],

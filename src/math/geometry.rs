@@ -41,35 +41,35 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
 /// discriminants come from the perpendicular distance to the centre, and the
 /// roots from the stable quadratic formula. `d` must be unit length.
 ///
-/// One step more than the chapter: the sphere is described by its anchor A, the
-/// point nearest the world origin, and the unit normal n there, so that the
-/// centre is C = A - r n (see [`GpuSphere::new`]). With g = o - A,
+/// One step more than the chapter, for c = |o - C|^2 - r^2, the power of the
+/// origin: computed as (|o - C| - r)(|o - C| + r), it carries the rounding error
+/// of |o - C|, half an ulp of r (0.004 at r = 1e5), which put smallpt's ceiling
+/// 0.012 units too close on average and hid the rim of its lamp. The sphere
+/// also has an anchor A, its point nearest the world origin, and the unit
+/// normal n there (C = A - r n, see [`GpuSphere::new`]); with g = o - A,
 ///
 /// ```text
-/// c = |o - C|^2 - r^2 = g.g + 2 r (g.n),    b = -(o - C).d = -(g.d + r (n.d))
+/// c = g.g + 2 r (g.n)
 /// ```
 ///
-/// and no two numbers of the size of r or r^2 are subtracted. Computed as
-/// |o - C| - r, the origin's distance from the surface carries the rounding
-/// error of |o - C|, half an ulp of r: 0.004 at r = 1e5, which put smallpt's
-/// ceiling 0.012 units too close on average and hid the rim of its lamp. Here
-/// the error is a few ulps of |o| + |A|, the sizes of the scene around the ray.
-/// With the origin inside (c < 0) the discriminant b^2 - c adds two positive
-/// numbers; outside, the chapter's perpendicular-distance form is used.
+/// subtracts nothing of the size of r or r^2, and its error is a few ulps of
+/// |o| + |A|, the sizes of the scene around the ray; b = -(g.d + r (n.d)) is
+/// accurate relative to its own size. With the origin inside (c < 0) the discriminant is then b^2 - c,
+/// a sum of two positive numbers. Misses, most tests, are rejected first by the
+/// chapter's perpendicular-distance discriminant (precise enough to tell a miss).
 pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     let r = s.anchor_radius[3];
     let axis = xyz(s.axis);
     let g = o - xyz(s.anchor_radius);
-    let c = g.dot(g) + 2.0 * r * g.dot(axis);
     let b = -(g.dot(d) + r * axis.dot(d));
-    let disc = if c < 0.0 {
-        b * b - c
-    } else {
-        let l = (g + r * axis + b * d).length();
-        (r - l) * (r + l)
-    };
+    let l = (g + r * axis + b * d).length();
+    let mut disc = (r - l) * (r + l);
     if disc < 0.0 {
         return None;
+    }
+    let c = g.dot(g) + 2.0 * r * g.dot(axis);
+    if c < 0.0 {
+        disc = b * b - c;
     }
     let q = b + disc.sqrt().copysign(b);
     if q == 0.0 {
