@@ -48,32 +48,35 @@ impl Rng {
     }
 }
 
+/// The nearest hit of the ray (o, d) farther than `t_min`, in f64, smallpt's
+/// way: sphere index and distance.
+fn nearest_hit_f64(scene: &Scene, o: V, d: V, t_min: f64) -> Option<(usize, f64)> {
+    let mut best = None;
+    for (i, s) in scene.spheres.iter().enumerate() {
+        let op = sub(v(s.center), o);
+        let b = dot(op, d);
+        let r = s.radius as f64;
+        let det = b * b - dot(op, op) + r * r;
+        if det < 0.0 {
+            continue;
+        }
+        let det = det.sqrt();
+        if let Some(t) = [b - det, b + det].into_iter().find(|&t| t > t_min) {
+            if best.is_none_or(|(_, tb)| t < tb) {
+                best = Some((i, t));
+            }
+        }
+    }
+    best
+}
+
 fn radiance(scene: &Scene, mut o: V, mut d: V, rng: &mut Rng) -> V {
     let mut l = [0.0; 3];
     let mut beta = [1.0; 3];
     let rr = scene.render.russian_roulette_depth;
     for depth in 0..=scene.render.max_bounces {
         // smallpt's intersection, in f64 with its 1e-4 epsilon.
-        let mut best = f64::INFINITY;
-        let mut hit = None;
-        for (i, s) in scene.spheres.iter().enumerate() {
-            let op = sub(v(s.center), o);
-            let b = dot(op, d);
-            let r = s.radius as f64;
-            let det = b * b - dot(op, op) + r * r;
-            if det < 0.0 {
-                continue;
-            }
-            let det = det.sqrt();
-            for t in [b - det, b + det] {
-                if t > 1e-4 && t < best {
-                    best = t;
-                    hit = Some(i);
-                    break;
-                }
-            }
-        }
-        let Some(i) = hit else {
+        let Some((i, best)) = nearest_hit_f64(scene, o, d, 1e-4) else {
             return add(l, hadamard(beta, v(scene.environment)));
         };
         let s = &scene.spheres[i];
@@ -163,27 +166,6 @@ fn render_reference(scene: &Scene, width: u32, height: u32, frames: u32) -> Film
     film
 }
 
-/// The nearest hit of the ray (o, d) in f64, smallpt's way: sphere index and distance.
-fn nearest_hit_f64(scene: &Scene, o: V, d: V) -> Option<(usize, f64)> {
-    let mut best = None;
-    for (i, s) in scene.spheres.iter().enumerate() {
-        let op = sub(v(s.center), o);
-        let b = dot(op, d);
-        let r = s.radius as f64;
-        let det = b * b - dot(op, op) + r * r;
-        if det < 0.0 {
-            continue;
-        }
-        let det = det.sqrt();
-        if let Some(t) = [b - det, b + det].into_iter().find(|&t| t > 0.0) {
-            if best.is_none_or(|(_, tb)| t < tb) {
-                best = Some((i, t));
-            }
-        }
-    }
-    best
-}
-
 /// rlpt's f32 intersection against f64 arithmetic on the very same f32 inputs
 /// (sphere centres, ray origins and directions), for rays from all over the
 /// room and from the camera. An f32 computation cannot place a point better
@@ -220,7 +202,7 @@ fn f32_intersection_matches_f64_on_the_huge_walls() {
         };
         let hit = rlpt::math::geometry::intersect(&prepared, o, d, f32::INFINITY)
             .unwrap_or_else(|| panic!("a ray from inside smallpt's box escaped: o {o:?} d {d:?}"));
-        let (near, t64) = nearest_hit_f64(&scene, v(o), v(d)).expect("inside the box");
+        let (near, t64) = nearest_hit_f64(&scene, v(o), v(d), 0.0).expect("inside the box");
         let p = add(v(o), mul(v(d), hit.t as f64));
         let off = (0..scene.spheres.len()).map(|i| surface_distance(p, i)).fold(f64::INFINITY, f64::min);
         assert!(off <= bound, "ray o {o:?} d {d:?}: the f32 hit at t = {} is {off:e} off every sphere", hit.t);

@@ -54,9 +54,10 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
 ///
 /// subtracts nothing of the size of r or r^2, and its error is a few ulps of
 /// |o| + |A|, the sizes of the scene around the ray; b = -(g.d + r (n.d)) is
-/// accurate relative to its own size. With the origin inside (c < 0) the discriminant is then b^2 - c,
-/// a sum of two positive numbers. Misses, most tests, are rejected first by the
-/// chapter's perpendicular-distance discriminant (precise enough to tell a miss).
+/// accurate relative to its own size. With the origin inside (c < 0) the
+/// discriminant is then b^2 - c, a sum of two positive numbers. Misses, most
+/// tests, are rejected first by the chapter's perpendicular-distance
+/// discriminant (precise enough to tell a miss).
 pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     let r = s.anchor_radius[3];
     let axis = xyz(s.axis);
