@@ -25,14 +25,14 @@ float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) 
 // anchor so that nothing of the size of the radius is subtracted
 // (src/math/geometry.rs `intersect_sphere` explains); misses are rejected
 // first. Returns the nearest root in (0, t_max) or -1.
-float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
-    float r = s.anchor_radius.w;
-    vec3 g = o - s.anchor_radius.xyz;
-    float b = -(dot(g, d) + r * dot(s.axis.xyz, d));
-    float l = length(g + r * s.axis.xyz + b * d);
+float intersect_sphere_at(vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
+    float r = anchor_radius.w;
+    vec3 g = o - anchor_radius.xyz;
+    float b = -(dot(g, d) + r * dot(axis, d));
+    float l = length(g + r * axis + b * d);
     float disc = (r - l) * (r + l);
     if (disc < 0.0) return -1.0;
-    float c = dot(g, g) + 2.0 * r * dot(g, s.axis.xyz);
+    float c = dot(g, g) + 2.0 * r * dot(g, axis);
     if (c < 0.0) disc = b * b - c;
     float q = b + (b >= 0.0 ? sqrt(disc) : -sqrt(disc));
     if (q == 0.0) return -1.0;
@@ -44,27 +44,94 @@ float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
     return -1.0;
 }
 
-float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
-    float denom = dot(q.normal.xyz, d);
+float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
+    return intersect_sphere_at(s.anchor_radius, s.axis.xyz, o, d, t_max);
+}
+
+// The quad's plane (normal, offset in w), origin and dual edges.
+float intersect_quad_at(vec4 normal, vec3 origin, vec3 dual_u, vec3 dual_v, vec3 o, vec3 d, float t_max) {
+    float denom = dot(normal.xyz, d);
     if (abs(denom) < 1e-12) return -1.0;
-    float t = (q.normal.w - dot(q.normal.xyz, o)) / denom;
+    float t = (normal.w - dot(normal.xyz, o)) / denom;
     if (!(t > 0.0 && t < t_max)) return -1.0;
-    vec3 rel = o + t * d - q.origin.xyz;
-    float s = dot(rel, q.dual_u.xyz);
-    float tt = dot(rel, q.dual_v.xyz);
+    vec3 rel = o + t * d - origin;
+    float s = dot(rel, dual_u);
+    float tt = dot(rel, dual_v);
     if (s >= 0.0 && s <= 1.0 && tt >= 0.0 && tt <= 1.0) return t;
     return -1.0;
 }
+
+float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
+    return intersect_quad_at(q.normal, q.origin.xyz, q.dual_u.xyz, q.dual_v.xyz, o, d, t_max);
+}
+
+#ifdef RLPT_STAGED_SCENE
+// The first STAGED_SPHERES spheres and STAGED_QUADS quads, as far as the hit
+// tests read them, copied into shared memory when the workgroup starts: every
+// lane of a warp reads the same primitive at once, and shared memory serves that
+// faster than the storage buffers (10 to 16 % of an unguided frame on the H200,
+// BENCHMARKS.md). Primitives past the capacity are read from the buffers.
+#define STAGED_SPHERES 64
+#define STAGED_QUADS 64
+shared vec4 staged_spheres[2 * STAGED_SPHERES];  // anchor_radius, axis
+shared vec4 staged_quads[4 * STAGED_QUADS];      // normal, origin, dual_u, dual_v
+
+// Every invocation of the workgroup must call it (it contains a barrier).
+void stage_scene() {
+    uint group = gl_WorkGroupSize.x * gl_WorkGroupSize.y * gl_WorkGroupSize.z;
+    uint ns = min(params.num_spheres, uint(STAGED_SPHERES));
+    for (uint i = gl_LocalInvocationIndex; i < ns; i += group) {
+        staged_spheres[2u * i] = spheres[i].anchor_radius;
+        staged_spheres[2u * i + 1u] = spheres[i].axis;
+    }
+    uint nq = min(params.num_quads, uint(STAGED_QUADS));
+    for (uint i = gl_LocalInvocationIndex; i < nq; i += group) {
+        staged_quads[4u * i] = quads[i].normal;
+        staged_quads[4u * i + 1u] = quads[i].origin;
+        staged_quads[4u * i + 2u] = quads[i].dual_u;
+        staged_quads[4u * i + 3u] = quads[i].dual_v;
+    }
+    barrier();
+}
+
+// The staged primitives [0, n) and the rest from the buffers, as the hit tests read them.
+uint staged_sphere_count() { return min(params.num_spheres, uint(STAGED_SPHERES)); }
+uint staged_quad_count() { return min(params.num_quads, uint(STAGED_QUADS)); }
+float staged_sphere(uint i, vec3 o, vec3 d, float t_max) {
+    return intersect_sphere_at(staged_spheres[2u * i], staged_spheres[2u * i + 1u].xyz, o, d, t_max);
+}
+float staged_quad(uint i, vec3 o, vec3 d, float t_max) {
+    uint k = 4u * i;
+    return intersect_quad_at(staged_quads[k], staged_quads[k + 1u].xyz, staged_quads[k + 2u].xyz,
+                             staged_quads[k + 3u].xyz, o, d, t_max);
+}
+#else
+void stage_scene() {}
+uint staged_sphere_count() { return 0u; }
+uint staged_quad_count() { return 0u; }
+float staged_sphere(uint i, vec3 o, vec3 d, float t_max) { return -1.0; }
+float staged_quad(uint i, vec3 o, vec3 d, float t_max) { return -1.0; }
+#endif
 
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     float best = t_max;
     int found = -1;
     bool is_sphere = false;
-    for (uint i = 0u; i < params.num_spheres; ++i) {
+    uint ns = staged_sphere_count();
+    for (uint i = 0u; i < ns; ++i) {
+        float t = staged_sphere(i, o, d, best);
+        if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
+    }
+    for (uint i = ns; i < params.num_spheres; ++i) {
         float t = intersect_sphere(spheres[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
-    for (uint i = 0u; i < params.num_quads; ++i) {
+    uint nq = staged_quad_count();
+    for (uint i = 0u; i < nq; ++i) {
+        float t = staged_quad(i, o, d, best);
+        if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
+    }
+    for (uint i = nq; i < params.num_quads; ++i) {
         float t = intersect_quad(quads[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
@@ -88,10 +155,18 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 }
 
 bool occluded(vec3 o, vec3 d, float t_max) {
-    for (uint i = 0u; i < params.num_spheres; ++i) {
+    uint ns = staged_sphere_count();
+    for (uint i = 0u; i < ns; ++i) {
+        if (staged_sphere(i, o, d, t_max) > 0.0) return true;
+    }
+    for (uint i = ns; i < params.num_spheres; ++i) {
         if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
-    for (uint i = 0u; i < params.num_quads; ++i) {
+    uint nq = staged_quad_count();
+    for (uint i = 0u; i < nq; ++i) {
+        if (staged_quad(i, o, d, t_max) > 0.0) return true;
+    }
+    for (uint i = nq; i < params.num_quads; ++i) {
         if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;

@@ -4,6 +4,13 @@
 // one pixel, z the pixels; the group covers PIXELS_PER_GROUP pixels of a row.
 // src/cpu/mod.rs (`trace_path`, `render`) is the same algorithm on the CPU.
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#ifndef RLPT_GUIDING
+// Hit tests read the scene from shared memory (geometry.glsl `stage_scene`).
+// Not in the guided pipeline: there the compiler then takes 103 registers
+// instead of 80, a third fewer warps fit an SM, and the frame is 25 % slower
+// (BENCHMARKS.md).
+#define RLPT_STAGED_SCENE
+#endif
 #include "common.glsl"
 #include "rng.glsl"
 #include "bsdf.glsl"
@@ -229,6 +236,7 @@ void main() {
     uint sample_index = gl_LocalInvocationID.x + uint(SAMPLES_X) * gl_LocalInvocationID.y;
     bool inside = px < params.width && py < params.height;
     uint pixel = py * params.width + px;
+    stage_scene();
 
     vec3 radiance = vec3(0.0);
     uint segments = 0u;
