@@ -251,7 +251,8 @@ void main() {
         camera_ray(px, py, u, o, d);
         float estimate = 0.0;
 #if GUIDED
-        if (push.accum_frames > 0u)
+        // src/cpu/mod.rs `roulette_estimate`.
+        if (push.accum_frames >= uint(LEARNED_RR_FRAMES))
             estimate = mean3(accum[pixel].sum.xyz) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames));
 #endif
         bool record = false;

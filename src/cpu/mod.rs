@@ -72,6 +72,19 @@ pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
     (shared::RR_WINDOW as f32 * expected / pixel_estimate).clamp(shared::RR_MIN_PERCENT as f32 / 100.0, 1.0)
 }
 
+/// The pixel estimate learned Russian roulette compares with (the mean3 of the
+/// pixel's accumulated mean), or 0, meaning plain throughput roulette, until the
+/// accumulation holds `LEARNED_RR_FRAMES` frames: before that the table and the
+/// estimate are too noisy, and the 1/q weights of a roulette driven by them put
+/// fireflies into the first frames that the average keeps for a long time.
+/// `glsl/pathtrace.comp` is the same.
+pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32) -> f32 {
+    if accum_frames < shared::LEARNED_RR_FRAMES {
+        return 0.0;
+    }
+    guide::mean3(accumulated_sum) / (shared::SAMPLES_PER_FRAME * accum_frames) as f32
+}
+
 /// Traces one path from the camera ray (o, d) and returns the radiance it
 /// carries and the number of rays it traced. With guiding, every ray that
 /// reaches a surface or escapes hands its Q-learning target to `learn(key, target)`.
@@ -306,12 +319,9 @@ impl CpuRenderer {
                     for (x, acc) in row.iter_mut().enumerate() {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
-                        // The pixel's mean so far (for learned Russian roulette), 0 where none.
-                        let estimate = if accum_frames > 0 && guide.is_some() {
-                            guide::mean3(Vec3::from_slice(&acc.sum[..3]))
-                                / (shared::SAMPLES_PER_FRAME * accum_frames) as f32
-                        } else {
-                            0.0
+                        let estimate = match guide {
+                            Some(_) => roulette_estimate(Vec3::from_slice(&acc.sum[..3]), accum_frames),
+                            None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
                             let mut rng = Rng::new(p.seed, pixel, frame, sample);
@@ -372,4 +382,19 @@ pub fn render(scene: &PreparedScene, film: &mut Film, frames: u32, mut on_frame:
         on_frame(r.film());
     }
     *film = r.film;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn learned_roulette_waits_for_an_estimate_of_several_frames() {
+        let sum = Vec3::new(3.0, 6.0, 9.0) * (shared::SAMPLES_PER_FRAME * shared::LEARNED_RR_FRAMES) as f32;
+        for frames in 0..shared::LEARNED_RR_FRAMES {
+            assert_eq!(roulette_estimate(sum, frames), 0.0, "{frames} frames");
+        }
+        assert_eq!(roulette_estimate(sum, shared::LEARNED_RR_FRAMES), 6.0);
+        assert_eq!(roulette_estimate(sum, 2 * shared::LEARNED_RR_FRAMES), 3.0);
+    }
 }
