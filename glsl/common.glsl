@@ -64,8 +64,9 @@
 // estimate), at least RR_MIN_PERCENT / 100 and at most 1.
 #define RR_WINDOW 4
 #define RR_MIN_PERCENT 25
-// Learned roulette starts once the accumulation holds this many frames; plain
-// throughput roulette before (src/cpu/mod.rs `roulette_estimate`). Started at the
+// Learned roulette starts once the table has learned from this many frames (and
+// the pixel has an estimate); plain throughput roulette before
+// (src/cpu/mod.rs `roulette_estimate`). Started at the
 // second frame, it left door.toml (CPU, 96x64, sphere) at relMSE 0.104 after 2
 // frames and 8.4e-4 after 64; started at the fifth, 0.034 and 6.4e-4.
 #define LEARNED_RR_FRAMES 4

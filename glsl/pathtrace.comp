@@ -252,7 +252,7 @@ void main() {
         float estimate = 0.0;
 #if GUIDED
         // src/cpu/mod.rs `roulette_estimate`.
-        if (push.accum_frames >= uint(LEARNED_RR_FRAMES))
+        if (push.accum_frames > 0u && push.frame >= uint(LEARNED_RR_FRAMES))
             estimate = mean3(accum[pixel].sum.xyz) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames));
 #endif
         bool record = false;

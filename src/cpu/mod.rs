@@ -73,13 +73,14 @@ pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
 }
 
 /// The pixel estimate learned Russian roulette compares with (the mean3 of the
-/// pixel's accumulated mean), or 0, meaning plain throughput roulette, until the
-/// accumulation holds `LEARNED_RR_FRAMES` frames: before that the table and the
-/// estimate are too noisy, and the 1/q weights of a roulette driven by them put
-/// fireflies into the first frames that the average keeps for a long time.
-/// `glsl/pathtrace.comp` is the same.
-pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32) -> f32 {
-    if accum_frames < shared::LEARNED_RR_FRAMES {
+/// pixel's accumulated mean), or 0, meaning plain throughput roulette, where the
+/// accumulation is empty or the table has learned from fewer than
+/// `LEARNED_RR_FRAMES` frames (`frames_traced`, which a restart of the
+/// accumulation keeps): a roulette driven by the first frames' table puts, through
+/// its 1/q weights, fireflies into the image that the average keeps for a long
+/// time. `glsl/pathtrace.comp` is the same.
+pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32, frames_traced: u32) -> f32 {
+    if accum_frames == 0 || frames_traced < shared::LEARNED_RR_FRAMES {
         return 0.0;
     }
     guide::mean3(accumulated_sum) / (shared::SAMPLES_PER_FRAME * accum_frames) as f32
@@ -320,7 +321,7 @@ impl CpuRenderer {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
                         let estimate = match guide {
-                            Some(_) => roulette_estimate(Vec3::from_slice(&acc.sum[..3]), accum_frames),
+                            Some(_) => roulette_estimate(Vec3::from_slice(&acc.sum[..3]), accum_frames, frame),
                             None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
@@ -389,12 +390,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn learned_roulette_waits_for_an_estimate_of_several_frames() {
-        let sum = Vec3::new(3.0, 6.0, 9.0) * (shared::SAMPLES_PER_FRAME * shared::LEARNED_RR_FRAMES) as f32;
-        for frames in 0..shared::LEARNED_RR_FRAMES {
-            assert_eq!(roulette_estimate(sum, frames), 0.0, "{frames} frames");
+    fn learned_roulette_waits_for_a_table_of_several_frames() {
+        let n = shared::LEARNED_RR_FRAMES;
+        let sum = Vec3::new(3.0, 6.0, 9.0) * (shared::SAMPLES_PER_FRAME * n) as f32;
+        for traced in 0..n {
+            assert_eq!(roulette_estimate(sum, traced, traced), 0.0, "{traced} frames");
         }
-        assert_eq!(roulette_estimate(sum, shared::LEARNED_RR_FRAMES), 6.0);
-        assert_eq!(roulette_estimate(sum, 2 * shared::LEARNED_RR_FRAMES), 3.0);
+        assert_eq!(roulette_estimate(sum, n, n), 6.0);
+        assert_eq!(roulette_estimate(sum, 2 * n, 2 * n), 3.0);
+        // After a restart of the accumulation the table is still learned.
+        assert_eq!(roulette_estimate(sum / n as f32, 1, 3 * n), 6.0);
+        assert_eq!(roulette_estimate(Vec3::ZERO, 0, 3 * n), 0.0);
     }
 }
