@@ -198,8 +198,6 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
         }
-#endif
-#if GUIDED
         if (learn && prev_key != NO_KEY) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
             float reflected = ok ? mean3(weight) * q_table[qrow + bin_index(wi)] : 0.0;

@@ -83,7 +83,8 @@ struct Settings {
     /// Scattering events per path (default: the scene's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
     max_bounces: Option<u32>,
-    /// Random seed; the same seed gives the same image on the same device.
+    /// Random seed; the same seed gives the same image on the same device (with
+    /// guiding, to rounding only: learning adds its targets in the order threads finish).
     #[arg(long, default_value_t = 0)]
     seed: u32,
     /// Render on the GPU (Vulkan) or on the CPU (all cores).

@@ -169,6 +169,14 @@ pub fn trace_path(
                 _ => pb,
             }
         };
+        // A direction of the mixture, whichever sampler chose it: (wi, BSDF x cos / pdf,
+        // mixture pdf, not delta), or None where the BSDF or the density is zero.
+        let mixture_sample = |wi: Vec3| {
+            let wi_local = frame.to_local(wi);
+            let f = bsdf_eval(&bsdf, wo_local, wi_local);
+            let pdf = mix_pdf(wi, wi_local);
+            (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
+        };
         let last = depth >= p.max_bounces;
 
         let u_sel = rng.next_f32();
@@ -202,20 +210,18 @@ pub fn trace_path(
         // First the direction, from the table or the BSDF; then, where the two are
         // mixed, one evaluation of the BSDF and the mixture density for either
         // choice (the GPU runs it once for a warp that holds both).
-        let chosen: Option<(Vec3, Vec3, f32, bool)> = if u_mix < g_frac {
+        let sampled = if u_mix < g_frac {
+            // A guided direction: its weight and density are those of the mixture.
             let g = guide.expect("g_frac > 0 only with guiding");
-            Some((guide::guided_direction(&g.cfg.bins, sampler, uc, u), Vec3::ZERO, 0.0, false))
+            let wi = guide::guided_direction(&g.cfg.bins, sampler, uc, u);
+            mixture_sample(wi)
         } else {
-            bsdf_sample(&bsdf, wo_local, uc, u).map(|s| (frame.to_world(s.wi).normalize(), s.weight, s.pdf, s.delta))
-        };
-        let sampled = match chosen {
-            Some((wi, _, _, false)) if g_frac > 0.0 => {
-                let wi_local = frame.to_local(wi);
-                let f = bsdf_eval(&bsdf, wo_local, wi_local);
-                let pdf = mix_pdf(wi, wi_local);
-                (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
+            match bsdf_sample(&bsdf, wo_local, uc, u) {
+                // A BSDF direction at a vertex that mixes: the same evaluation.
+                Some(s) if g_frac > 0.0 && !s.delta => mixture_sample(frame.to_world(s.wi).normalize()),
+                Some(s) => Some((frame.to_world(s.wi).normalize(), s.weight, s.pdf, s.delta)),
+                None => None,
             }
-            other => other,
         };
         if let Some(g) = guide {
             if prev_key != shared::NO_KEY {
