@@ -50,6 +50,25 @@
 #define BINDING_SAMPLER 9
 // Per-frame counters (pathtrace.comp): [0] paths that carried zero radiance, [1] path segments.
 #define BINDING_COUNTERS 10
+// The first primitives of the scene, as the hit tests read them (geometry.glsl):
+// a uniform buffer of CONST_SPHERES spheres and CONST_QUADS quads.
+#define BINDING_SCENE_CONSTANTS 11
+#define CONST_SPHERES 64
+#define CONST_QUADS 64
+// Specialization constants of pathtrace.comp (their constant_id): what a render
+// fixes from start to end, so that the driver compiles the kernel for it (loops
+// of known length, arithmetic by known numbers, switched-off features left out).
+// src/render/mod.rs `specialization` sets them.
+#define SPEC_NUM_SPHERES 0
+#define SPEC_NUM_QUADS 1
+#define SPEC_GUIDE_ROWS 2
+#define SPEC_GUIDE_COLS 3
+#define SPEC_GUIDE_RES_X 4
+#define SPEC_GUIDE_RES_Y 5
+#define SPEC_GUIDE_RES_Z 6
+#define SPEC_FLAGS 7
+#define SPEC_MAX_BOUNCES 8
+#define NUM_SPEC_CONSTANTS 9
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

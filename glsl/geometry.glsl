@@ -65,78 +65,66 @@ float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
     return intersect_quad_at(q.normal, q.origin.xyz, q.dual_u.xyz, q.dual_v.xyz, o, d, t_max);
 }
 
-#ifdef RLPT_STAGED_SCENE
-// The first STAGED_SPHERES spheres and STAGED_QUADS quads, as far as the hit
-// tests read them, copied into shared memory when the workgroup starts: every
-// lane of a warp reads the same primitive at once, and shared memory serves that
-// faster than the storage buffers (10 to 16 % of an unguided frame on the H200,
-// BENCHMARKS.md). Primitives past the capacity are read from the buffers.
-#define STAGED_SPHERES 64
-#define STAGED_QUADS 64
-shared vec4 staged_spheres[2 * STAGED_SPHERES];  // anchor_radius, axis
-shared vec4 staged_quads[4 * STAGED_QUADS];      // normal, origin, dual_u, dual_v
+// The first CONST_SPHERES spheres and CONST_QUADS quads, as far as the hit
+// tests read them, in a uniform buffer (src/prepared.rs `scene_constants`).
+// Every lane of a warp reads the same primitive at once; where the kernel is
+// specialized to the scene (RLPT_SPECIALIZED) the loops over them unroll and the
+// reads become operands from the constant cache: 12 to 23 % of an unguided frame
+// on the H200 against the storage buffers staged in shared memory (BENCHMARKS.md).
+// Primitives past the capacity are read from the storage buffers.
+layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstantsBlock {
+    vec4 const_spheres[2 * CONST_SPHERES];  // anchor_radius, axis
+    vec4 const_quads[4 * CONST_QUADS];      // normal, origin, dual_u, dual_v
+};
 
-// How many spheres and quads are staged: the first ones, up to the capacity.
-uint staged_sphere_count() { return min(params.num_spheres, uint(STAGED_SPHERES)); }
-uint staged_quad_count() { return min(params.num_quads, uint(STAGED_QUADS)); }
-
-// Every invocation of the workgroup must call it (it contains a barrier).
-void stage_scene() {
-    uint group = gl_WorkGroupSize.x * gl_WorkGroupSize.y * gl_WorkGroupSize.z;
-    uint ns = staged_sphere_count();
-    for (uint i = gl_LocalInvocationIndex; i < ns; i += group) {
-        staged_spheres[2u * i] = spheres[i].anchor_radius;
-        staged_spheres[2u * i + 1u] = spheres[i].axis;
-    }
-    uint nq = staged_quad_count();
-    for (uint i = gl_LocalInvocationIndex; i < nq; i += group) {
-        staged_quads[4u * i] = quads[i].normal;
-        staged_quads[4u * i + 1u] = quads[i].origin;
-        staged_quads[4u * i + 2u] = quads[i].dual_u;
-        staged_quads[4u * i + 3u] = quads[i].dual_v;
-    }
-    barrier();
-}
-
-// The hit tests of staged primitive i.
-float staged_sphere(uint i, vec3 o, vec3 d, float t_max) {
-    return intersect_sphere_at(staged_spheres[2u * i], staged_spheres[2u * i + 1u].xyz, o, d, t_max);
-}
-float staged_quad(uint i, vec3 o, vec3 d, float t_max) {
-    uint k = 4u * i;
-    return intersect_quad_at(staged_quads[k], staged_quads[k + 1u].xyz, staged_quads[k + 2u].xyz,
-                             staged_quads[k + 3u].xyz, o, d, t_max);
-}
+#ifdef RLPT_SPECIALIZED
+// The primitive counts as specialization constants: every loop's trip count and
+// every read of the uniform buffer's offset is known when the driver compiles.
+layout(constant_id = SPEC_NUM_SPHERES) const uint SCENE_SPHERES = 0u;
+layout(constant_id = SPEC_NUM_QUADS) const uint SCENE_QUADS = 0u;
+uint sphere_count() { return SCENE_SPHERES; }
+uint quad_count() { return SCENE_QUADS; }
 #else
-void stage_scene() {}
-uint staged_sphere_count() { return 0u; }
-uint staged_quad_count() { return 0u; }
-float staged_sphere(uint i, vec3 o, vec3 d, float t_max) { return -1.0; }
-float staged_quad(uint i, vec3 o, vec3 d, float t_max) { return -1.0; }
+uint sphere_count() { return params.num_spheres; }
+uint quad_count() { return params.num_quads; }
 #endif
 
-// Each kind of primitive is walked in two loops, the staged ones and then the
-// rest from the buffers: one loop that chose the source per primitive cost 3.6 %
-// of an unguided frame (BENCHMARKS.md). Without staging the first loops are empty.
+// How many spheres and quads the uniform buffer holds: the first ones, up to the capacity.
+uint const_sphere_count() { return min(sphere_count(), uint(CONST_SPHERES)); }
+uint const_quad_count() { return min(quad_count(), uint(CONST_QUADS)); }
+
+// The hit tests of primitive i of the uniform buffer.
+float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
+    return intersect_sphere_at(const_spheres[2u * i], const_spheres[2u * i + 1u].xyz, o, d, t_max);
+}
+float const_quad(uint i, vec3 o, vec3 d, float t_max) {
+    uint k = 4u * i;
+    return intersect_quad_at(const_quads[k], const_quads[k + 1u].xyz, const_quads[k + 2u].xyz,
+                             const_quads[k + 3u].xyz, o, d, t_max);
+}
+
+// Each kind of primitive is walked in two loops, those of the uniform buffer and
+// then the rest from the storage buffers: one loop that chose the source per
+// primitive cost 3.6 % of a frame (BENCHMARKS.md).
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     float best = t_max;
     int found = -1;
     bool is_sphere = false;
-    uint ns = staged_sphere_count();
+    uint ns = const_sphere_count();
     for (uint i = 0u; i < ns; ++i) {
-        float t = staged_sphere(i, o, d, best);
+        float t = const_sphere(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
-    for (uint i = ns; i < params.num_spheres; ++i) {
+    for (uint i = ns; i < sphere_count(); ++i) {
         float t = intersect_sphere(spheres[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
-    uint nq = staged_quad_count();
+    uint nq = const_quad_count();
     for (uint i = 0u; i < nq; ++i) {
-        float t = staged_quad(i, o, d, best);
+        float t = const_quad(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
-    for (uint i = nq; i < params.num_quads; ++i) {
+    for (uint i = nq; i < quad_count(); ++i) {
         float t = intersect_quad(quads[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
@@ -160,18 +148,18 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 }
 
 bool occluded(vec3 o, vec3 d, float t_max) {
-    uint ns = staged_sphere_count();
+    uint ns = const_sphere_count();
     for (uint i = 0u; i < ns; ++i) {
-        if (staged_sphere(i, o, d, t_max) > 0.0) return true;
+        if (const_sphere(i, o, d, t_max) > 0.0) return true;
     }
-    for (uint i = ns; i < params.num_spheres; ++i) {
+    for (uint i = ns; i < sphere_count(); ++i) {
         if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
-    uint nq = staged_quad_count();
+    uint nq = const_quad_count();
     for (uint i = 0u; i < nq; ++i) {
-        if (staged_quad(i, o, d, t_max) > 0.0) return true;
+        if (const_quad(i, o, d, t_max) > 0.0) return true;
     }
-    for (uint i = nq; i < params.num_quads; ++i) {
+    for (uint i = nq; i < quad_count(); ++i) {
         if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;

@@ -18,11 +18,29 @@ layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uin
 // Per bin of each sampling row: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
 layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uvec2 sampler_table[]; };
 
+#ifdef RLPT_SPECIALIZED
+// The table's shape as specialization constants: bin and cell arithmetic by
+// known numbers.
+layout(constant_id = SPEC_GUIDE_ROWS) const uint GUIDE_ROWS = 1u;
+layout(constant_id = SPEC_GUIDE_COLS) const uint GUIDE_COLS = 1u;
+layout(constant_id = SPEC_GUIDE_RES_X) const uint GUIDE_RES_X = 1u;
+layout(constant_id = SPEC_GUIDE_RES_Y) const uint GUIDE_RES_Y = 1u;
+layout(constant_id = SPEC_GUIDE_RES_Z) const uint GUIDE_RES_Z = 1u;
+const uint GUIDE_BINS = GUIDE_ROWS * GUIDE_COLS;
+#else
+#define GUIDE_ROWS params.guide_rows
+#define GUIDE_COLS params.guide_cols
+#define GUIDE_RES_X params.guide_res_x
+#define GUIDE_RES_Y params.guide_res_y
+#define GUIDE_RES_Z params.guide_res_z
+#define GUIDE_BINS params.guide_bins
+#endif
+
 float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
 
 uint bin_index(vec3 d) {
-    uint rows = params.guide_rows;
-    uint cols = params.guide_cols;
+    uint rows = GUIDE_ROWS;
+    uint cols = GUIDE_COLS;
     uint row = min(uint((1.0 - d.z) * 0.5 * float(rows)), rows - 1u);
     float phi = atan(d.y, d.x);
     if (phi < 0.0) phi += 2.0 * PI;
@@ -31,10 +49,10 @@ uint bin_index(vec3 d) {
 }
 
 vec3 bin_sample(uint b, vec2 u) {
-    uint cols = params.guide_cols;
+    uint cols = GUIDE_COLS;
     uint row = b / cols;
     uint col = b % cols;
-    float z = 1.0 - 2.0 * (float(row) + u.x) / float(params.guide_rows);
+    float z = 1.0 - 2.0 * (float(row) + u.x) / float(GUIDE_ROWS);
     float phi = 2.0 * PI * (float(col) + u.y) / float(cols);
     float r = sqrt(max(0.0, 1.0 - z * z));
     return vec3(r * cos(phi), r * sin(phi), z);
@@ -48,21 +66,21 @@ uint normal_class(vec3 n) {
 }
 
 // The first bin of the sampling row for a cell and a normal class.
-uint sampler_row(uint cell, uint class_) { return (cell * NORMAL_CLASSES + class_) * params.guide_bins; }
+uint sampler_row(uint cell, uint class_) { return (cell * NORMAL_CLASSES + class_) * GUIDE_BINS; }
 
 uint cell_index(vec3 p) {
     vec3 g = (p - params.guide_min.xyz) * params.guide_inv_cell.xyz;
-    uint x = min(uint(max(g.x, 0.0)), params.guide_res_x - 1u);
-    uint y = min(uint(max(g.y, 0.0)), params.guide_res_y - 1u);
-    uint z = min(uint(max(g.z, 0.0)), params.guide_res_z - 1u);
-    return (z * params.guide_res_y + y) * params.guide_res_x + x;
+    uint x = min(uint(max(g.x, 0.0)), GUIDE_RES_X - 1u);
+    uint y = min(uint(max(g.y, 0.0)), GUIDE_RES_Y - 1u);
+    uint z = min(uint(max(g.z, 0.0)), GUIDE_RES_Z - 1u);
+    return (z * GUIDE_RES_Y + y) * GUIDE_RES_X + x;
 }
 
 // src/guide/mod.rs `guided_direction`: the column of the row's alias table
 // from uc, the bin by the column's threshold, the direction uniform inside the
 // bin. Its density is `guided_pdf`, a function of the direction alone.
 vec3 guided_direction(uint row, float uc, vec2 u) {
-    uint n = params.guide_bins;
+    uint n = GUIDE_BINS;
     float x = uc * float(n);
     uint i = min(uint(x), n - 1u);
     float rest = x - float(i);

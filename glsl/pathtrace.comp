@@ -4,13 +4,8 @@
 // one pixel, z the pixels; the group covers PIXELS_PER_GROUP pixels of a row.
 // src/cpu/mod.rs (`trace_path`, `render`) is the same algorithm on the CPU.
 #extension GL_KHR_shader_subgroup_arithmetic : require
-#ifndef RLPT_GUIDING
-// Hit tests read the scene from shared memory (geometry.glsl `stage_scene`).
-// Not in the guided pipeline: there the compiler then takes 103 registers
-// instead of 80, a third fewer warps fit an SM, and the frame is 25 % slower
-// (BENCHMARKS.md).
-#define RLPT_STAGED_SCENE
-#endif
+// Compiled for the render at hand: the specialization constants of common.glsl.
+#define RLPT_SPECIALIZED
 #include "common.glsl"
 #include "rng.glsl"
 #include "bsdf.glsl"
@@ -19,6 +14,11 @@
 #ifdef RLPT_GUIDING
 #include "guide.glsl"
 #endif
+
+// params.flags and params.max_bounces, fixed for the pipeline (the renderer
+// builds a new one when they change).
+layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
+layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
 
 layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z = PIXELS_PER_GROUP) in;
 
@@ -80,9 +80,9 @@ float survival_probability(float expected, float pixel_estimate) {
 // `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
 // `record`: whether the path hands its Q-learning targets to the table.
 vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rng, inout uint segments) {
-    bool nee = (params.flags & FLAG_NEE) != 0u && params.num_lights > 0u;
-    bool power = (params.flags & FLAG_POWER_HEURISTIC) != 0u;
-    bool rr = (params.flags & FLAG_RUSSIAN_ROULETTE) != 0u;
+    bool nee = (FLAGS & FLAG_NEE) != 0u && params.num_lights > 0u;
+    bool power = (FLAGS & FLAG_POWER_HEURISTIC) != 0u;
+    bool rr = (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
     vec3 radiance = vec3(0.0);
     vec3 beta = vec3(1.0);
     float prev_pdf = 0.0;
@@ -120,7 +120,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
 
 #if GUIDED
         uint cell = cell_index(hit.p);
-        uint qrow = cell * params.guide_bins;
+        uint qrow = cell * GUIDE_BINS;
         uint row = sampler_row(cell, normal_class(n));
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
@@ -133,7 +133,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
 #if GUIDED
         if (guide && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
 #endif
-        bool last = depth >= params.max_bounces;
+        bool last = depth >= MAX_BOUNCES;
 
         float u_sel = rng_next(rng);
         vec2 u_light = rng_next_2d(rng);
@@ -234,7 +234,6 @@ void main() {
     uint sample_index = gl_LocalInvocationID.x + uint(SAMPLES_X) * gl_LocalInvocationID.y;
     bool inside = px < params.width && py < params.height;
     uint pixel = py * params.width + px;
-    stage_scene();
 
     vec3 radiance = vec3(0.0);
     uint segments = 0u;

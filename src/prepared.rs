@@ -216,6 +216,25 @@ fn v4(v: Vec3, w: f32) -> [f32; 4] {
 }
 
 impl PreparedScene {
+    /// The uniform buffer of `glsl/geometry.glsl` (`SceneConstantsBlock`): the
+    /// first `CONST_SPHERES` spheres (anchor_radius, axis) and the first
+    /// `CONST_QUADS` quads (normal, origin, dual_u, dual_v), the data their hit
+    /// tests read, zero-filled past the scene's own.
+    pub fn scene_constants(&self) -> Vec<[f32; 4]> {
+        let ns = shared::CONST_SPHERES as usize;
+        let nq = shared::CONST_QUADS as usize;
+        let mut out = vec![[0.0; 4]; 2 * ns + 4 * nq];
+        for (i, s) in self.spheres.iter().take(ns).enumerate() {
+            out[2 * i] = s.anchor_radius;
+            out[2 * i + 1] = s.axis;
+        }
+        for (i, q) in self.quads.iter().take(nq).enumerate() {
+            let k = 2 * ns + 4 * i;
+            out[k..k + 4].copy_from_slice(&[q.normal, q.origin, q.dual_u, q.dual_v]);
+        }
+        out
+    }
+
     pub fn new(scene: &Scene, opts: &RenderOptions) -> PreparedScene {
         let materials: Vec<GpuMaterial> = scene
             .materials

@@ -10,6 +10,7 @@ use rlpt::cpu::camera_ray;
 use rlpt::film::Film;
 use rlpt::math::geometry::intersect_sphere;
 use rlpt::prepared::PreparedScene;
+use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 
 /// 5 sigma: with a few hundred comparisons per test the chance of a false alarm stays below 1e-3.
@@ -132,10 +133,10 @@ fn same_seed_same_image_on_one_device() {
 }
 
 /// A box lit by a quad lamp, with more spheres and quads than the GPU kernel
-/// stages in shared memory (64 of each, glsl/geometry.glsl): a row of 72 small
-/// balls on the floor and 64 small tiles on the back wall come first, the walls
-/// and the lamp after them, so hits on staged primitives and on primitives read
-/// from the storage buffers both shape the image.
+/// holds in its uniform buffer (64 of each, glsl/geometry.glsl): a row of 72
+/// small balls on the floor and 64 small tiles on the back wall come first, the
+/// walls and the lamp after them, so hits on primitives of the uniform buffer and
+/// on primitives read from the storage buffers both shape the image.
 fn crowded_scene() -> Scene {
     let mut t = String::from(
         r#"
@@ -189,8 +190,10 @@ emission = [10.0, 10.0, 10.0]
     Scene::parse(&t, "crowded").expect("the crowded test scene loads")
 }
 
+/// Both GPU pipelines, unguided and guided, read the uniform buffer and the
+/// storage buffers past it.
 #[test]
-fn gpu_and_cpu_agree_past_the_staged_primitives() {
+fn gpu_and_cpu_agree_past_the_uniform_primitives() {
     let scene = crowded_scene();
     assert!(scene.spheres.len() > 64 && scene.quads.len() > 64);
     let ctx = gpu();
@@ -202,4 +205,35 @@ fn gpu_and_cpu_agree_past_the_staged_primitives() {
     assert!(mean > 0.01, "the crowded scene renders lit (mean {mean})");
     let z = assert_films_agree(&g, &c, 4, K, "crowded scene: GPU vs CPU");
     eprintln!("crowded scene: worst block differs by {z:.2} sigma");
+    opts.seed = 3;
+    opts.guiding = rlpt::guide::GuidingMode::Sphere;
+    let guided = render_gpu(&ctx, &scene, &opts);
+    let z = assert_films_agree(&guided, &c, 4, K, "crowded scene: guided GPU vs CPU");
+    eprintln!("crowded scene, guided: worst block differs by {z:.2} sigma");
+}
+
+/// The kernel is compiled for the render's flags and bounce limit
+/// (specialization constants); a change through `set_params`, as the viewer's
+/// NEE key makes, must reach it. Same seed, same frame: a renderer made with NEE
+/// on and 8 bounces, then set to NEE off and 2 bounces, renders exactly the image
+/// of one made with NEE off and 2 bounces.
+#[test]
+fn set_params_recompiles_the_kernel_for_new_flags() {
+    let ctx = gpu();
+    let scene = scene("seed-exp1.toml");
+    let mut opts = options(&scene, 24, 16, 64);
+    let first = render_gpu(&ctx, &scene, &opts);
+    let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &opts)).expect("renderer");
+    opts.nee = false;
+    opts.max_bounces = 2;
+    let fresh = render_gpu(&ctx, &scene, &opts);
+    assert_ne!(first.pixels, fresh.pixels, "NEE and the bounce limit change the image");
+    let mut p = *r.params();
+    p.set_nee(false);
+    p.max_bounces = 2;
+    r.set_params(&p).expect("set_params");
+    r.render_frames(1).expect("render");
+    let switched = r.film().expect("readback");
+    assert_no_validation_messages(&ctx);
+    assert_eq!(switched.pixels, fresh.pixels, "set_params switched NEE off and the bounces to 2");
 }

@@ -51,6 +51,19 @@ impl Pipeline {
         bindings: &[(u32, Binding)],
         push_size: u32,
     ) -> Result<Pipeline> {
+        Pipeline::new_specialized(ctx, name, spirv, bindings, push_size, &[])
+    }
+
+    /// Bindings with explicit numbers, and `constants[i]` as the value of the
+    /// shader's 32-bit specialization constant `constant_id = i`.
+    pub fn new_specialized(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[(u32, Binding)],
+        push_size: u32,
+        constants: &[u32],
+    ) -> Result<Pipeline> {
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).expect("build.rs wrote valid SPIR-V");
         let dev = &ctx.device;
         let ty = |b: &Binding| match b {
@@ -98,10 +111,17 @@ impl Pipeline {
                     return Err(GpuError::vk("vkCreateShaderModule", e));
                 }
             };
-            let stage = vk::PipelineShaderStageCreateInfo::default()
+            let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+                .map(|i| vk::SpecializationMapEntry { constant_id: i, offset: 4 * i, size: 4 })
+                .collect();
+            let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
+            let mut stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
+            if !constants.is_empty() {
+                stage = stage.specialization_info(&spec);
+            }
             let flags = if ctx.info.pipeline_statistics {
                 vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
             } else {

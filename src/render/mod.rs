@@ -82,10 +82,14 @@ impl Learning {
 
 pub struct GpuRenderer {
     ctx: Arc<Context>,
+    /// The path-tracing kernel's name (`pathtrace`, `pathtrace_guided`...).
+    kernel: &'static str,
     pipeline: Pipeline,
     learning: Option<Learning>,
     // Kept alive while the descriptor set points at them.
     _scene_buffers: Vec<Buffer>,
+    /// The first primitives as the hit tests read them (uniform).
+    scene_constants: Buffer,
     accum: Buffer,
     readback: Buffer,
     counters: Buffer,
@@ -126,21 +130,7 @@ impl GpuRenderer {
             (true, false) => "pathtrace_guided",
             (true, true) => "pathtrace_guided_partitioned",
         };
-        let mut bindings = vec![
-            Binding::Uniform,
-            Binding::Storage,
-            Binding::Storage,
-            Binding::Storage,
-            Binding::Storage,
-            Binding::Storage,
-        ];
-        if guided {
-            bindings.extend([Binding::Storage; 4]);
-        }
-        bindings.push(Binding::Storage);
-        // Bindings must be numbered as in common.glsl: without guiding, 6..9 are absent and
-        // the counters sit at BINDING_COUNTERS all the same.
-        let pipeline = Pipeline::new_with_numbers(ctx, kernel, shader(kernel), &numbered(&bindings, guided), 12)?;
+        let pipeline = path_pipeline(ctx, kernel, guided, p)?;
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -148,6 +138,7 @@ impl GpuRenderer {
             Buffer::with_data(ctx, "quads", bytes(&scene.quads), false)?,
             Buffer::with_data(ctx, "lights", bytes(&scene.lights), false)?,
         ];
+        let scene_constants = Buffer::with_data(ctx, "scene constants", bytes(&scene.scene_constants()), true)?;
         let accum_size = (p.width as u64) * (p.height as u64) * std::mem::size_of::<AccumPixel>() as u64;
         let accum = Buffer::new(ctx, "accumulation", accum_size, BufferUsage::Storage)?;
         let readback = Buffer::new(ctx, "accumulation readback", accum_size, BufferUsage::Readback)?;
@@ -180,15 +171,6 @@ impl GpuRenderer {
                 Some(l)
             }
         };
-        {
-            let mut all: Vec<&Buffer> = scene_buffers.iter().collect();
-            all.push(&accum);
-            if let Some(l) = &learning {
-                all.extend([&l.q, &l.sums, &l.counts, &l.sampler]);
-            }
-            all.push(&counters);
-            pipeline.bind(&all);
-        }
         ctx.run_commands("clear buffers", |cmd| {
             accum.cmd_clear(cmd);
             counters.cmd_clear(cmd);
@@ -201,11 +183,13 @@ impl GpuRenderer {
             }
         })?;
         scene_buffers.shrink_to_fit();
-        Ok(GpuRenderer {
+        let renderer = GpuRenderer {
             ctx: ctx.clone(),
+            kernel,
             pipeline,
             learning,
             _scene_buffers: scene_buffers,
+            scene_constants,
             accum,
             readback,
             counters,
@@ -217,7 +201,22 @@ impl GpuRenderer {
             frames_traced: 0,
             accum_frames: 0,
             ablate: 0,
-        })
+        };
+        renderer.bind_path_pipeline();
+        Ok(renderer)
+    }
+
+    /// Points the path-tracing pipeline's descriptors at the buffers, in the order
+    /// of `numbered`.
+    fn bind_path_pipeline(&self) {
+        let mut all: Vec<&Buffer> = self._scene_buffers.iter().collect();
+        all.push(&self.accum);
+        if let Some(l) = &self.learning {
+            all.extend([&l.q, &l.sums, &l.counts, &l.sampler]);
+        }
+        all.push(&self.counters);
+        all.push(&self.scene_constants);
+        self.pipeline.bind(&all);
     }
 
     pub fn context(&self) -> &Arc<Context> {
@@ -232,16 +231,24 @@ impl GpuRenderer {
     /// Replaces the render parameters (camera, NEE flag...) for the following frames.
     /// The image size and the guiding geometry must stay those the renderer was made
     /// with; restart the accumulation when the image they describe changes.
-    pub fn set_params(&mut self, params: &crate::prepared::RenderParams) {
+    /// Where a change of flags (NEE...) or of the bounce limit changes the kernel's
+    /// specialization constants, the path-tracing pipeline is built anew.
+    pub fn set_params(&mut self, params: &crate::prepared::RenderParams) -> Result<(), GpuError> {
         let p = &self.params;
         assert_eq!(
             (p.width, p.height, p.guide_bins, p.guide_cells),
             (params.width, params.height, params.guide_bins, params.guide_cells),
             "set_params keeps the image size and the guiding geometry"
         );
+        if specialization(params) != specialization(p) {
+            // No frame is in flight: run_commands waits for each submission.
+            self.pipeline = path_pipeline(&self.ctx, self.kernel, self.learning.is_some(), params)?;
+            self.bind_path_pipeline();
+        }
         self.params = *params;
         // The uniform is host-visible; run_commands waited for every frame that read it.
         self._scene_buffers[0].write(bytemuck::bytes_of(params));
+        Ok(())
     }
 
     /// The render parameters in use.
@@ -425,15 +432,42 @@ impl GpuRenderer {
     }
 }
 
-/// Binding numbers for the path-tracing pipeline: 0..=5 scene and accumulation,
-/// 6..=9 guiding (when on), BINDING_COUNTERS the counters.
-fn numbered(bindings: &[Binding], guided: bool) -> Vec<(u32, Binding)> {
-    let mut out: Vec<(u32, Binding)> = bindings.iter().take(6).enumerate().map(|(i, b)| (i as u32, *b)).collect();
+/// The path-tracing pipeline, specialized to the scene and settings of `p`.
+fn path_pipeline(
+    ctx: &Arc<Context>,
+    kernel: &str,
+    guided: bool,
+    p: &crate::prepared::RenderParams,
+) -> Result<Pipeline, GpuError> {
+    let mut bindings = vec![(shared::BINDING_PARAMS, Binding::Uniform)];
+    for b in [shared::BINDING_MATERIALS, shared::BINDING_SPHERES, shared::BINDING_QUADS, shared::BINDING_LIGHTS] {
+        bindings.push((b, Binding::Storage));
+    }
+    bindings.push((shared::BINDING_ACCUM, Binding::Storage));
     if guided {
-        for (k, b) in bindings[6..10].iter().enumerate() {
-            out.push((shared::BINDING_Q + k as u32, *b));
+        for b in [shared::BINDING_Q, shared::BINDING_FRAME_SUMS, shared::BINDING_FRAME_COUNTS, shared::BINDING_SAMPLER]
+        {
+            bindings.push((b, Binding::Storage));
         }
     }
-    out.push((shared::BINDING_COUNTERS, Binding::Storage));
-    out
+    bindings.push((shared::BINDING_COUNTERS, Binding::Storage));
+    bindings.push((shared::BINDING_SCENE_CONSTANTS, Binding::Uniform));
+    Pipeline::new_specialized(ctx, kernel, crate::gpu::shader(kernel), &bindings, 12, &specialization(p))
+}
+
+/// The values of pathtrace.comp's specialization constants (`SPEC_*` of
+/// glsl/common.glsl, by constant_id) for the render `p` describes. Table shapes
+/// are at least 1, also where guiding is off and the kernel does not read them.
+pub fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_CONSTANTS as usize] {
+    let mut c = [0u32; shared::NUM_SPEC_CONSTANTS as usize];
+    c[shared::SPEC_NUM_SPHERES as usize] = p.num_spheres;
+    c[shared::SPEC_NUM_QUADS as usize] = p.num_quads;
+    c[shared::SPEC_GUIDE_ROWS as usize] = p.guide_rows.max(1);
+    c[shared::SPEC_GUIDE_COLS as usize] = p.guide_cols.max(1);
+    c[shared::SPEC_GUIDE_RES_X as usize] = p.guide_res_x.max(1);
+    c[shared::SPEC_GUIDE_RES_Y as usize] = p.guide_res_y.max(1);
+    c[shared::SPEC_GUIDE_RES_Z as usize] = p.guide_res_z.max(1);
+    c[shared::SPEC_FLAGS as usize] = p.flags;
+    c[shared::SPEC_MAX_BOUNCES as usize] = p.max_bounces;
+    c
 }

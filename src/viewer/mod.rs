@@ -417,7 +417,7 @@ impl Viewer {
         let mut p = *r.params();
         p.set_camera(&cam);
         p.set_nee(nee);
-        r.set_params(&p);
+        r.set_params(&p)?;
         self.restart()
     }
 
