@@ -160,9 +160,13 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
             }
         }
 
-        // The continuation: sampled at the last bounce too when guiding learns,
+        // The continuation: sampled at the last bounce too when the path records,
         // since the previous vertex's Q-learning target is estimated from it.
-        if (last && prev_key == NO_KEY) break;
+        bool wants_target = false;
+#if GUIDED
+        wants_target = learn && prev_key != NO_KEY;
+#endif
+        if (last && !wants_target) break;
         float u_mix = rng_next(rng);
         float uc = rng_next(rng);
         vec2 u = rng_next_2d(rng);
@@ -198,7 +202,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
         }
-        if (learn && prev_key != NO_KEY) {
+        if (wants_target) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
             float reflected = ok ? mean3(weight) * q_table[qrow + bin_index(wi)] : 0.0;
             record_target(prev_key, mean3(le) + reflected);

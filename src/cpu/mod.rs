@@ -87,8 +87,9 @@ pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32, frames_traced
 }
 
 /// Traces one path from the camera ray (o, d) and returns the radiance it
-/// carries and the number of rays it traced. With guiding, every ray that
-/// reaches a surface or escapes hands its Q-learning target to `learn(key, target)`.
+/// carries and the number of rays it traced. With guiding and `record`, every
+/// ray that reaches a surface or escapes hands its Q-learning target to
+/// `learn(key, target)`.
 pub fn trace_path(
     scene: &PreparedScene,
     guide: Option<Guide>,
@@ -96,6 +97,7 @@ pub fn trace_path(
     mut d: Vec3,
     rng: &mut Rng,
     pixel_estimate: f32,
+    record: bool,
     learn: &mut impl FnMut(u32, f32),
 ) -> (Vec3, u32) {
     let p = &scene.params;
@@ -116,7 +118,7 @@ pub fn trace_path(
         segments += 1;
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
-            if prev_key != shared::NO_KEY {
+            if record && prev_key != shared::NO_KEY {
                 learn(prev_key, guide::mean3(env));
             }
             radiance += beta * env;
@@ -149,7 +151,7 @@ pub fn trace_path(
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
-            if prev_key != shared::NO_KEY {
+            if record && prev_key != shared::NO_KEY {
                 learn(prev_key, guide::mean3(le));
             }
             break;
@@ -199,9 +201,10 @@ pub fn trace_path(
             }
         }
 
-        // The continuation: sampled even at the last bounce when guiding learns, since
-        // the Q-learning target of the previous vertex is estimated from it.
-        if last && prev_key == shared::NO_KEY {
+        // The continuation: sampled even at the last bounce when the path records,
+        // since the Q-learning target of the previous vertex is estimated from it.
+        let wants_target = record && prev_key != shared::NO_KEY;
+        if last && !wants_target {
             break;
         }
         let u_mix = rng.next_f32();
@@ -224,7 +227,7 @@ pub fn trace_path(
             }
         };
         if let Some(g) = guide {
-            if prev_key != shared::NO_KEY {
+            if wants_target {
                 // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
                 let reflected = match sampled {
                     Some((wi, weight, _, _)) => guide::mean3(weight) * g.q[(cell_key + g.cfg.bins.index(wi)) as usize],
@@ -334,11 +337,8 @@ impl CpuRenderer {
                             let mut rng = Rng::new(p.seed, pixel, frame, sample);
                             let u = pixel_jitter(sample, rng.next_2d());
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                            let (l, segs) = trace_path(scene, guide, o, d, &mut rng, estimate, &mut |k, t| {
-                                if record {
-                                    sums.add(k, t)
-                                }
-                            });
+                            let (l, segs) =
+                                trace_path(scene, guide, o, d, &mut rng, estimate, record, &mut |k, t| sums.add(k, t));
                             counters.segments += segs as u64;
                             // A NaN or infinite sample would poison the pixel forever; it is dropped
                             // (as on the GPU) and counted as carrying nothing.
