@@ -3,6 +3,7 @@
 #define RLPT_GEOMETRY_GLSL
 #include "scene.glsl"
 #include "sampling.glsl"
+#extension GL_EXT_control_flow_attributes : require
 
 struct Hit {
     float t;
@@ -68,9 +69,9 @@ float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
 // The first CONST_SPHERES spheres and CONST_QUADS quads, as far as the hit
 // tests read them, in a uniform buffer (src/prepared.rs `scene_constants`).
 // Every lane of a warp reads the same primitive at once; where the kernel is
-// specialized to the scene (RLPT_SPECIALIZED) the loops over them unroll and the
-// reads become operands from the constant cache: 12 to 23 % of an unguided frame
-// on the H200 against the storage buffers staged in shared memory (BENCHMARKS.md).
+// specialized to the scene (RLPT_SPECIALIZED), the loops' lengths are known when
+// the driver compiles: 12 to 23 % of an unguided frame on the H200 against the
+// storage buffers staged in shared memory (BENCHMARKS.md).
 // Primitives past the capacity are read from the storage buffers.
 layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstantsBlock {
     vec4 const_spheres[2 * CONST_SPHERES];  // anchor_radius, axis
@@ -105,13 +106,15 @@ float const_quad(uint i, vec3 o, vec3 d, float t_max) {
 
 // Each kind of primitive is walked in two loops, those of the uniform buffer and
 // then the rest from the storage buffers: one loop that chose the source per
-// primitive cost 3.6 % of a frame (BENCHMARKS.md).
+// primitive cost 3.6 % of a frame (BENCHMARKS.md). The loops over the uniform
+// buffer stay loops: unrolled (the driver's choice once their length is known)
+// they made frames 2 to 4 % slower.
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     float best = t_max;
     int found = -1;
     bool is_sphere = false;
     uint ns = const_sphere_count();
-    for (uint i = 0u; i < ns; ++i) {
+    [[dont_unroll]] for (uint i = 0u; i < ns; ++i) {
         float t = const_sphere(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
@@ -120,7 +123,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
     uint nq = const_quad_count();
-    for (uint i = 0u; i < nq; ++i) {
+    [[dont_unroll]] for (uint i = 0u; i < nq; ++i) {
         float t = const_quad(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
@@ -149,14 +152,14 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 
 bool occluded(vec3 o, vec3 d, float t_max) {
     uint ns = const_sphere_count();
-    for (uint i = 0u; i < ns; ++i) {
+    [[dont_unroll]] for (uint i = 0u; i < ns; ++i) {
         if (const_sphere(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = ns; i < sphere_count(); ++i) {
         if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
     uint nq = const_quad_count();
-    for (uint i = 0u; i < nq; ++i) {
+    [[dont_unroll]] for (uint i = 0u; i < nq; ++i) {
         if (const_quad(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = nq; i < quad_count(); ++i) {
