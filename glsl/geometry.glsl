@@ -70,8 +70,8 @@ float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
 // tests read them, in a uniform buffer (src/prepared.rs `scene_constants`).
 // Every lane of a warp reads the same primitive at once; where the kernel is
 // specialized to the scene (RLPT_SPECIALIZED), the loops' lengths are known when
-// the driver compiles: 12 to 23 % of an unguided frame on the H200 against the
-// storage buffers staged in shared memory (BENCHMARKS.md).
+// the driver compiles. Against the storage buffers staged in shared memory, an
+// unguided frame on the H200 is 6 (seed-exp3) to 25 % (door) cheaper (BENCHMARKS.md).
 // Primitives past the capacity are read from the storage buffers.
 layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstantsBlock {
     vec4 const_spheres[2 * CONST_SPHERES];  // anchor_radius, axis
