@@ -87,9 +87,9 @@ pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32, frames_traced
 }
 
 /// Traces one path from the camera ray (o, d) and returns the radiance it
-/// carries and the number of rays it traced. With guiding and `record`, every
-/// ray that reaches a surface or escapes hands its Q-learning target to
-/// `learn(key, target)`.
+/// carries and the number of rays it traced. With guiding and a `learn`
+/// (the path records), every ray that reaches a surface or escapes hands its
+/// Q-learning target to `learn(key, target)`.
 pub fn trace_path(
     scene: &PreparedScene,
     guide: Option<Guide>,
@@ -97,9 +97,9 @@ pub fn trace_path(
     mut d: Vec3,
     rng: &mut Rng,
     pixel_estimate: f32,
-    record: bool,
-    learn: &mut impl FnMut(u32, f32),
+    mut learn: Option<&mut dyn FnMut(u32, f32)>,
 ) -> (Vec3, u32) {
+    let record = learn.is_some();
     let p = &scene.params;
     let nee = p.flags & shared::FLAG_NEE != 0 && p.num_lights > 0;
     let power = p.flags & shared::FLAG_POWER_HEURISTIC != 0;
@@ -118,7 +118,7 @@ pub fn trace_path(
         segments += 1;
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
-            if record && prev_key != shared::NO_KEY {
+            if let Some(learn) = learn.as_mut().filter(|_| prev_key != shared::NO_KEY) {
                 learn(prev_key, guide::mean3(env));
             }
             radiance += beta * env;
@@ -151,7 +151,7 @@ pub fn trace_path(
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
-            if record && prev_key != shared::NO_KEY {
+            if let Some(learn) = learn.as_mut().filter(|_| prev_key != shared::NO_KEY) {
                 learn(prev_key, guide::mean3(le));
             }
             break;
@@ -226,15 +226,13 @@ pub fn trace_path(
                 None => None,
             }
         };
-        if let Some(g) = guide {
-            if wants_target {
-                // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
-                let reflected = match sampled {
-                    Some((wi, weight, _, _)) => guide::mean3(weight) * g.q[(cell_key + g.cfg.bins.index(wi)) as usize],
-                    None => 0.0,
-                };
-                learn(prev_key, guide::mean3(le) + reflected);
-            }
+        if let (Some(g), Some(learn)) = (guide, learn.as_mut().filter(|_| wants_target)) {
+            // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
+            let reflected = match sampled {
+                Some((wi, weight, _, _)) => guide::mean3(weight) * g.q[(cell_key + g.cfg.bins.index(wi)) as usize],
+                None => 0.0,
+            };
+            learn(prev_key, guide::mean3(le) + reflected);
         }
         if last {
             break;
@@ -333,12 +331,13 @@ impl CpuRenderer {
                             Some(_) => roulette_estimate(Vec3::from_slice(&acc.sum[..3]), accum_frames, frame),
                             None => 0.0,
                         };
+                        let mut add = |k, t| sums.add(k, t);
                         for sample in 0..shared::SAMPLES_PER_FRAME {
                             let mut rng = Rng::new(p.seed, pixel, frame, sample);
                             let u = pixel_jitter(sample, rng.next_2d());
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                            let (l, segs) =
-                                trace_path(scene, guide, o, d, &mut rng, estimate, record, &mut |k, t| sums.add(k, t));
+                            let learn = record.then_some(&mut add as &mut dyn FnMut(u32, f32));
+                            let (l, segs) = trace_path(scene, guide, o, d, &mut rng, estimate, learn);
                             counters.segments += segs as u64;
                             // A NaN or infinite sample would poison the pixel forever; it is dropped
                             // (as on the GPU) and counted as carrying nothing.
