@@ -207,7 +207,7 @@ impl GpuRenderer {
     }
 
     /// Points the path-tracing pipeline's descriptors at the buffers, in the order
-    /// of `numbered`.
+    /// of the bindings `path_pipeline` declares.
     fn bind_path_pipeline(&self) {
         let mut all: Vec<&Buffer> = self._scene_buffers.iter().collect();
         all.push(&self.accum);
