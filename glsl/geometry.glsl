@@ -68,9 +68,9 @@ float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
 
 // The first CONST_SPHERES spheres and CONST_QUADS quads, as far as the hit
 // tests read them, in a uniform buffer (src/prepared.rs `scene_constants`).
-// Every lane of a warp reads the same primitive at once; where the kernel is
-// specialized to the scene (RLPT_SPECIALIZED), the loops' lengths are known when
-// the driver compiles. Against the storage buffers staged in shared memory, an
+// Every lane of a warp reads the same primitive at once, and the kernel is
+// specialized to the scene, so the loops' lengths are known when the driver
+// compiles. Against the storage buffers staged in shared memory, an
 // unguided frame on the H200 is 6 (seed-exp3) to 25 % (door) cheaper (BENCHMARKS.md).
 // Primitives past the capacity are read from the storage buffers.
 layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstantsBlock {
@@ -78,21 +78,15 @@ layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstant
     vec4 const_quads[4 * CONST_QUADS];      // normal, origin, dual_u, dual_v
 };
 
-#ifdef RLPT_SPECIALIZED
-// The primitive counts as specialization constants: every loop's trip count and
-// every read of the uniform buffer's offset is known when the driver compiles.
+// The primitive counts as specialization constants (params.num_spheres and
+// num_quads; the one includer, pathtrace.comp, is always specialized): every
+// loop's trip count is known when the driver compiles.
 layout(constant_id = SPEC_NUM_SPHERES) const uint SCENE_SPHERES = 0u;
 layout(constant_id = SPEC_NUM_QUADS) const uint SCENE_QUADS = 0u;
-uint sphere_count() { return SCENE_SPHERES; }
-uint quad_count() { return SCENE_QUADS; }
-#else
-uint sphere_count() { return params.num_spheres; }
-uint quad_count() { return params.num_quads; }
-#endif
 
 // How many spheres and quads the uniform buffer holds: the first ones, up to the capacity.
-uint const_sphere_count() { return min(sphere_count(), uint(CONST_SPHERES)); }
-uint const_quad_count() { return min(quad_count(), uint(CONST_QUADS)); }
+uint const_sphere_count() { return min(SCENE_SPHERES, uint(CONST_SPHERES)); }
+uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
 
 // The hit tests of primitive i of the uniform buffer.
 float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
@@ -118,7 +112,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         float t = const_sphere(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
-    for (uint i = ns; i < sphere_count(); ++i) {
+    for (uint i = ns; i < SCENE_SPHERES; ++i) {
         float t = intersect_sphere(spheres[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
@@ -127,7 +121,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         float t = const_quad(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
-    for (uint i = nq; i < quad_count(); ++i) {
+    for (uint i = nq; i < SCENE_QUADS; ++i) {
         float t = intersect_quad(quads[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
@@ -155,14 +149,14 @@ bool occluded(vec3 o, vec3 d, float t_max) {
     [[dont_unroll]] for (uint i = 0u; i < ns; ++i) {
         if (const_sphere(i, o, d, t_max) > 0.0) return true;
     }
-    for (uint i = ns; i < sphere_count(); ++i) {
+    for (uint i = ns; i < SCENE_SPHERES; ++i) {
         if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
     uint nq = const_quad_count();
     [[dont_unroll]] for (uint i = 0u; i < nq; ++i) {
         if (const_quad(i, o, d, t_max) > 0.0) return true;
     }
-    for (uint i = nq; i < quad_count(); ++i) {
+    for (uint i = nq; i < SCENE_QUADS; ++i) {
         if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;

@@ -4,7 +4,8 @@
 // one pixel, z the pixels; the group covers PIXELS_PER_GROUP pixels of a row.
 // src/cpu/mod.rs (`trace_path`, `render`) is the same algorithm on the CPU.
 #extension GL_KHR_shader_subgroup_arithmetic : require
-// Compiled for the render at hand: the specialization constants of common.glsl.
+// Compiled for the render at hand: the specialization constants of common.glsl
+// (guide.glsl takes the table's shape from them instead of params where this is set).
 #define RLPT_SPECIALIZED
 #include "common.glsl"
 #include "rng.glsl"

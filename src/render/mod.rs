@@ -458,7 +458,7 @@ fn path_pipeline(
 /// The values of pathtrace.comp's specialization constants (`SPEC_*` of
 /// glsl/common.glsl, by constant_id) for the render `p` describes. Table shapes
 /// are at least 1, also where guiding is off and the kernel does not read them.
-pub fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_CONSTANTS as usize] {
+fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_CONSTANTS as usize] {
     let mut c = [0u32; shared::NUM_SPEC_CONSTANTS as usize];
     c[shared::SPEC_NUM_SPHERES as usize] = p.num_spheres;
     c[shared::SPEC_NUM_QUADS as usize] = p.num_quads;
