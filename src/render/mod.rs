@@ -86,8 +86,9 @@ pub struct GpuRenderer {
     kernel: &'static str,
     pipeline: Pipeline,
     learning: Option<Learning>,
-    // Kept alive while the descriptor set points at them.
-    _scene_buffers: Vec<Buffer>,
+    /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
+    /// lights, in the order of the pipeline's first bindings.
+    scene_buffers: Vec<Buffer>,
     /// The first primitives as the hit tests read them (uniform).
     scene_constants: Buffer,
     accum: Buffer,
@@ -188,7 +189,7 @@ impl GpuRenderer {
             kernel,
             pipeline,
             learning,
-            _scene_buffers: scene_buffers,
+            scene_buffers,
             scene_constants,
             accum,
             readback,
@@ -209,7 +210,7 @@ impl GpuRenderer {
     /// Points the path-tracing pipeline's descriptors at the buffers, in the order
     /// of the bindings `path_pipeline` declares.
     fn bind_path_pipeline(&self) {
-        let mut all: Vec<&Buffer> = self._scene_buffers.iter().collect();
+        let mut all: Vec<&Buffer> = self.scene_buffers.iter().collect();
         all.push(&self.accum);
         if let Some(l) = &self.learning {
             all.extend([&l.q, &l.sums, &l.counts, &l.sampler]);
@@ -247,7 +248,7 @@ impl GpuRenderer {
         }
         self.params = *params;
         // The uniform is host-visible; run_commands waited for every frame that read it.
-        self._scene_buffers[0].write(bytemuck::bytes_of(params));
+        self.scene_buffers[0].write(bytemuck::bytes_of(params));
         Ok(())
     }
 
