@@ -68,7 +68,11 @@
 #define SPEC_GUIDE_RES_Z 6
 #define SPEC_FLAGS 7
 #define SPEC_MAX_BOUNCES 8
-#define NUM_SPEC_CONSTANTS 9
+// 1: the guided kernel records its paths' Q-learning targets; 0: it has no
+// recording code at all, and a frame's rows that do not record go to it (on the
+// H200 that code's mere presence, never run, cost 0.5 of seed-exp1's 3.0 ms).
+#define SPEC_RECORDING 9
+#define NUM_SPEC_CONSTANTS 10
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4
@@ -94,6 +98,13 @@
 // pixel row in RECORD_ROW_STRIDE, a different row each frame.
 #define RECORD_ALL_FRAMES 8
 #define RECORD_ROW_STRIDE 4
+// Which pixel rows a dispatch of pathtrace.comp traces (push constant `rows`:
+// mode | phase << 8; src/render/mod.rs `frame_dispatches`): all of them; those
+// y with y % RECORD_ROW_STRIDE == phase (workgroup row g traces y = g * stride +
+// phase); or all the others.
+#define ROWS_ALL 0
+#define ROWS_PHASE 1
+#define ROWS_NOT_PHASE 2
 // tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16

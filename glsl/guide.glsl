@@ -91,12 +91,6 @@ vec3 guided_direction(uint row, float uc, vec2 u) {
 
 float guided_pdf(uint row, vec3 dir) { return uintBitsToFloat(sampler_table[row + bin_index(dir)].y); }
 
-// src/guide/mod.rs `records`: whether the paths of pixel row `y` record their
-// targets in frame `frame`.
-bool records(uint frame, uint y) {
-    return frame < uint(RECORD_ALL_FRAMES) || (y + frame) % uint(RECORD_ROW_STRIDE) == 0u;
-}
-
 bool guide_learned(uint row) { return sampler_table[row].x != uint(UNLEARNED); }
 
 #include "record.glsl"

@@ -20,6 +20,7 @@
 // builds a new one when they change).
 layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
+layout(constant_id = SPEC_RECORDING) const bool RECORDING = false;
 
 layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z = PIXELS_PER_GROUP) in;
 
@@ -33,8 +34,19 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 
 // frame: frames traced so far (decorrelates the random numbers);
 // accum_frames: frames in the accumulation buffer (restarts keep learning going);
-// ablate: ABLATE_* bits, parts of guiding left out (profiling only, else 0).
-layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; } push;
+// ablate: ABLATE_* bits, parts of guiding left out (profiling only, else 0);
+// rows: the pixel rows this dispatch traces (ROWS_* | phase << 8).
+layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; uint rows; } push;
+
+// src/render/mod.rs `pixel_row`: the pixel row of workgroup row `g`.
+uint pixel_row(uint g) {
+    uint mode = push.rows & 0xffu;
+    uint phase = push.rows >> 8u;
+    uint stride = uint(RECORD_ROW_STRIDE);
+    if (mode == uint(ROWS_PHASE)) return g * stride + phase;
+    if (mode == uint(ROWS_NOT_PHASE)) return (g / (stride - 1u)) * stride + (phase + 1u + g % (stride - 1u)) % stride;
+    return g;
+}
 
 // src/film.rs `accumulate`.
 void accumulate(uint pixel, vec3 sum) {
@@ -79,8 +91,7 @@ float survival_probability(float expected, float pixel_estimate) {
 
 // src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
 // `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
-// `record`: whether the path hands its Q-learning targets to the table.
-vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rng, inout uint segments) {
+vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint segments) {
     bool nee = (FLAGS & FLAG_NEE) != 0u && params.num_lights > 0u;
     bool power = (FLAGS & FLAG_POWER_HEURISTIC) != 0u;
     bool rr = (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
@@ -92,7 +103,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
     uint prev_key = NO_KEY;
     uint depth = 0u;
 #if GUIDED
-    bool learn = record && (push.ablate & ABLATE_RECORD) == 0u;
+    // The recording kernel traces the rows whose paths record (src/guide/mod.rs
+    // `records`), the other kernel the rest.
+    bool learn = RECORDING && (push.ablate & ABLATE_RECORD) == 0u;
     bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
 #endif
     for (;;) {
@@ -235,7 +248,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, bool record, inout uint rn
 
 void main() {
     uint px = gl_WorkGroupID.x * uint(PIXELS_PER_GROUP) + gl_LocalInvocationID.z;
-    uint py = gl_WorkGroupID.y;
+    uint py = pixel_row(gl_WorkGroupID.y);
     uint sample_index = gl_LocalInvocationID.x + uint(SAMPLES_X) * gl_LocalInvocationID.y;
     bool inside = px < params.width && py < params.height;
     uint pixel = py * params.width + px;
@@ -257,11 +270,7 @@ void main() {
         if (push.accum_frames > 0u && push.frame >= uint(LEARNED_RR_FRAMES))
             estimate = mean3(accum[pixel].sum.xyz) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames));
 #endif
-        bool record = false;
-#if GUIDED
-        record = records(push.frame, py);
-#endif
-        radiance = trace_path(o, d, estimate, record, rng, segments);
+        radiance = trace_path(o, d, estimate, rng, segments);
         if (!(max_component(radiance) > 0.0)) zero = 1u;
         // A NaN or infinite sample would poison the pixel for good; it is dropped, as on the CPU.
         if (any(isnan(radiance)) || any(isinf(radiance))) radiance = vec3(0.0);

@@ -306,7 +306,14 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
     if !subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE) {
         missing.push("subgroup operations in compute shaders".into());
     }
-    for (flag, label) in [(vk::SubgroupFeatureFlags::BASIC, "basic"), (vk::SubgroupFeatureFlags::SHUFFLE, "shuffle")] {
+    // What the kernels use: elect (basic), sums (arithmetic), ballots (ballot)
+    // and the reduction's shuffles.
+    for (flag, label) in [
+        (vk::SubgroupFeatureFlags::BASIC, "basic"),
+        (vk::SubgroupFeatureFlags::ARITHMETIC, "arithmetic"),
+        (vk::SubgroupFeatureFlags::BALLOT, "ballot"),
+        (vk::SubgroupFeatureFlags::SHUFFLE, "shuffle"),
+    ] {
         if !ops.contains(flag) {
             missing.push(format!("subgroup {label} operations"));
         }

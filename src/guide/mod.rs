@@ -222,7 +222,7 @@ impl GuideConfig {
 /// keeps it consistent; it costs learning speed only once the table has seen
 /// thousands of targets per entry, and saves most of the atomics' cost (whole
 /// workgroups skip recording, since a group's pixels share a row).
-/// `glsl/guide.glsl` `records`.
+/// On the GPU, `crate::render::frame_dispatches` gives these rows to the kernel that records.
 pub fn records(frame: u32, y: u32) -> bool {
     frame < crate::shared::RECORD_ALL_FRAMES || (y + frame).is_multiple_of(crate::shared::RECORD_ROW_STRIDE)
 }

@@ -80,11 +80,70 @@ impl Learning {
     }
 }
 
+/// One dispatch of `pathtrace.comp` in a frame: which of the two guided kernels
+/// runs it and which pixel rows it traces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RowDispatch {
+    /// The kernel that records Q-learning targets (else the one without that code).
+    pub recording: bool,
+    /// The kernel's `rows` push constant: `ROWS_*` mode | phase << 8.
+    pub rows: u32,
+    /// Workgroup rows to dispatch.
+    pub groups_y: u32,
+}
+
+/// The dispatches that trace frame `frame` (frames traced before it) of an image
+/// `height` rows high: every row once, the rows whose paths record their targets
+/// (`crate::guide::records`) by the recording kernel, the others by the kernel
+/// without recording. Without guiding, one dispatch of all rows.
+pub fn frame_dispatches(guided: bool, frame: u32, height: u32) -> Vec<RowDispatch> {
+    let all = |recording| vec![RowDispatch { recording, rows: shared::ROWS_ALL, groups_y: height }];
+    if !guided {
+        return all(false);
+    }
+    if frame < shared::RECORD_ALL_FRAMES {
+        return all(true);
+    }
+    let stride = shared::RECORD_ROW_STRIDE;
+    // Rows y with (y + frame) % stride == 0.
+    let phase = (stride - frame % stride) % stride;
+    let blocks = height.div_ceil(stride);
+    let mut d = Vec::with_capacity(2);
+    if height > phase {
+        d.push(RowDispatch {
+            recording: true,
+            rows: shared::ROWS_PHASE | phase << 8,
+            groups_y: (height - phase).div_ceil(stride),
+        });
+    }
+    d.push(RowDispatch {
+        recording: false,
+        rows: shared::ROWS_NOT_PHASE | phase << 8,
+        groups_y: blocks * (stride - 1),
+    });
+    d
+}
+
+/// The pixel row that workgroup row `g` of a dispatch traces (`glsl/pathtrace.comp`
+/// `pixel_row`); rows at or past the image's height trace nothing.
+pub fn pixel_row(g: u32, rows: u32) -> u32 {
+    let (mode, phase) = (rows & 0xff, rows >> 8);
+    let stride = shared::RECORD_ROW_STRIDE;
+    match mode {
+        shared::ROWS_PHASE => g * stride + phase,
+        shared::ROWS_NOT_PHASE => (g / (stride - 1)) * stride + (phase + 1 + g % (stride - 1)) % stride,
+        _ => g,
+    }
+}
+
 pub struct GpuRenderer {
     ctx: Arc<Context>,
     /// The path-tracing kernel's name (`pathtrace`, `pathtrace_guided`...).
     kernel: &'static str,
+    /// The path-tracing pipeline; with guiding, the one that records no targets.
     pipeline: Pipeline,
+    /// With guiding, the path-tracing pipeline that records targets.
+    recording: Option<Pipeline>,
     learning: Option<Learning>,
     /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
     /// lights, in the order of the pipeline's first bindings.
@@ -131,7 +190,8 @@ impl GpuRenderer {
             (true, false) => "pathtrace_guided",
             (true, true) => "pathtrace_guided_partitioned",
         };
-        let pipeline = path_pipeline(ctx, kernel, guided, p)?;
+        let pipeline = path_pipeline(ctx, kernel, guided, false, p)?;
+        let recording = if guided { Some(path_pipeline(ctx, kernel, guided, true, p)?) } else { None };
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -188,6 +248,7 @@ impl GpuRenderer {
             ctx: ctx.clone(),
             kernel,
             pipeline,
+            recording,
             learning,
             scene_buffers,
             scene_constants,
@@ -203,13 +264,13 @@ impl GpuRenderer {
             accum_frames: 0,
             ablate: 0,
         };
-        renderer.bind_path_pipeline();
+        renderer.bind_path_pipelines();
         Ok(renderer)
     }
 
-    /// Points the path-tracing pipeline's descriptors at the buffers, in the order
+    /// Points the path-tracing pipelines' descriptors at the buffers, in the order
     /// of the bindings `path_pipeline` declares.
-    fn bind_path_pipeline(&self) {
+    fn bind_path_pipelines(&self) {
         let mut all: Vec<&Buffer> = self.scene_buffers.iter().collect();
         all.push(&self.accum);
         if let Some(l) = &self.learning {
@@ -218,6 +279,23 @@ impl GpuRenderer {
         all.push(&self.counters);
         all.push(&self.scene_constants);
         self.pipeline.bind(&all);
+        if let Some(r) = &self.recording {
+            r.bind(&all);
+        }
+    }
+
+    /// Records the dispatches of one frame (`frame_dispatches`); `push` is the
+    /// kernel's frame, accumulated frames and ablation bits.
+    fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: [u32; 3]) {
+        let wide = self.width.div_ceil(shared::PIXELS_PER_GROUP);
+        for d in frame_dispatches(self.recording.is_some(), push[0], self.height) {
+            let pipeline = match (&self.recording, d.recording) {
+                (Some(r), true) => r,
+                _ => &self.pipeline,
+            };
+            let push = [push[0], push[1], push[2], d.rows];
+            pipeline.cmd_dispatch(cmd, [wide, d.groups_y, 1], bytemuck::bytes_of(&push));
+        }
     }
 
     pub fn context(&self) -> &Arc<Context> {
@@ -243,8 +321,12 @@ impl GpuRenderer {
         );
         if specialization(params) != specialization(p) {
             // No frame is in flight: run_commands waits for each submission.
-            self.pipeline = path_pipeline(&self.ctx, self.kernel, self.learning.is_some(), params)?;
-            self.bind_path_pipeline();
+            let guided = self.learning.is_some();
+            self.pipeline = path_pipeline(&self.ctx, self.kernel, guided, false, params)?;
+            if guided {
+                self.recording = Some(path_pipeline(&self.ctx, self.kernel, guided, true, params)?);
+            }
+            self.bind_path_pipelines();
         }
         self.params = *params;
         // The uniform is host-visible; run_commands waited for every frame that read it.
@@ -286,7 +368,6 @@ impl GpuRenderer {
     /// guiding is on) and returns what they measured. Times come from timestamp
     /// queries (zero where the queue has none).
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
-        let groups = [self.width.div_ceil(shared::PIXELS_PER_GROUP), self.height, 1];
         let timestamps = self.ctx.info.timestamps;
         let (traced, accumulated) = (self.frames_traced, self.accum_frames);
         self.ctx.run_commands("pathtrace frames", |cmd| {
@@ -302,8 +383,7 @@ impl GpuRenderer {
                 if timestamps && f == 0 {
                     self.timer.cmd_stamp(cmd, 0);
                 }
-                let push: [u32; 3] = [traced + f, accumulated + f, 0];
-                self.pipeline.cmd_dispatch(cmd, groups, bytemuck::bytes_of(&push));
+                self.cmd_trace(cmd, [traced + f, accumulated + f, 0]);
                 if let Some(l) = &self.learning {
                     if timestamps && f + 1 == count {
                         self.timer.cmd_stamp(cmd, 1);
@@ -351,14 +431,13 @@ impl GpuRenderer {
                 missing: "timestamp queries on the compute queue, which GPU timing needs".into(),
             });
         }
-        let groups = [self.width.div_ceil(shared::PIXELS_PER_GROUP), self.height, 1];
-        let push: [u32; 3] = [self.frames_traced, self.accum_frames, self.ablate];
+        let push = [self.frames_traced, self.accum_frames, self.ablate];
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);
             self.ctx.barrier(cmd);
             self.timer.cmd_stamp(cmd, 0);
-            self.pipeline.cmd_dispatch(cmd, groups, bytemuck::bytes_of(&push));
+            self.cmd_trace(cmd, push);
             self.timer.cmd_stamp(cmd, 1);
             if let Some(l) = &self.learning {
                 self.ctx.barrier(cmd);
@@ -394,6 +473,9 @@ impl GpuRenderer {
     /// memory...), by pipeline name; empty where the device cannot say.
     pub fn pipeline_statistics(&self) -> Result<Vec<(String, Vec<PipelineStatistic>)>, GpuError> {
         let mut out = vec![(self.pipeline.name.clone(), self.pipeline.statistics()?)];
+        if let Some(r) = &self.recording {
+            out.push((r.name.clone(), r.statistics()?));
+        }
         if let Some(l) = &self.learning {
             out.push((l.pipeline.name.clone(), l.pipeline.statistics()?));
         }
@@ -433,11 +515,13 @@ impl GpuRenderer {
     }
 }
 
-/// The path-tracing pipeline, specialized to the scene and settings of `p`.
+/// The path-tracing pipeline, specialized to the scene and settings of `p`;
+/// with `recording`, the guided kernel that records Q-learning targets.
 fn path_pipeline(
     ctx: &Arc<Context>,
     kernel: &str,
     guided: bool,
+    recording: bool,
     p: &crate::prepared::RenderParams,
 ) -> Result<Pipeline, GpuError> {
     let mut bindings = vec![(shared::BINDING_PARAMS, Binding::Uniform)];
@@ -453,7 +537,10 @@ fn path_pipeline(
     }
     bindings.push((shared::BINDING_COUNTERS, Binding::Storage));
     bindings.push((shared::BINDING_SCENE_CONSTANTS, Binding::Uniform));
-    Pipeline::new_specialized(ctx, kernel, crate::gpu::shader(kernel), &bindings, 12, &specialization(p))
+    let mut constants = specialization(p);
+    constants[shared::SPEC_RECORDING as usize] = recording as u32;
+    let name = if recording { format!("{kernel} (recording)") } else { kernel.to_string() };
+    Pipeline::new_specialized(ctx, &name, crate::gpu::shader(kernel), &bindings, 16, &constants)
 }
 
 /// The values of pathtrace.comp's specialization constants (`SPEC_*` of
@@ -471,4 +558,40 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_FLAGS as usize] = p.flags;
     c[shared::SPEC_MAX_BOUNCES as usize] = p.max_bounces;
     c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each frame's dispatches trace every pixel row exactly once, the rows that
+    /// record (`guide::records`) by the recording kernel and no others.
+    #[test]
+    fn frame_dispatches_trace_every_row_once() {
+        for guided in [false, true] {
+            for frame in 0..3 * shared::RECORD_ALL_FRAMES {
+                for height in 1..=3 * shared::RECORD_ROW_STRIDE + 1 {
+                    let mut traced = vec![0u32; height as usize];
+                    for d in frame_dispatches(guided, frame, height) {
+                        for g in 0..d.groups_y {
+                            let y = pixel_row(g, d.rows);
+                            if y >= height {
+                                continue;
+                            }
+                            traced[y as usize] += 1;
+                            let records = guided && crate::guide::records(frame, y);
+                            assert_eq!(
+                                d.recording, records,
+                                "guided {guided}, frame {frame}, height {height}, row {y}"
+                            );
+                        }
+                    }
+                    assert!(
+                        traced.iter().all(|&n| n == 1),
+                        "guided {guided}, frame {frame}, height {height}: rows traced {traced:?}"
+                    );
+                }
+            }
+        }
+    }
 }
