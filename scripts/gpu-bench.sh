@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements behind BENCHMARKS.md, in one go on a GPU machine.
 #
-#   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...]
+#   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 8 warm-up frames
@@ -10,6 +10,9 @@
 #             then 10 s of GPU time for each of off / octant / sphere x NEE on /
 #             off with --stats against it (relMSE frame by frame: read at 1 s and
 #             10 s), and a plot.
+# settings:   for each SCENE, a reference (unguided, NEE on, 30 s), then 2 s of
+#             GPU time per guiding setting (guided fraction, bins, and for door
+#             the grid), NEE on, with --stats against it: which settings pay.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -41,8 +44,33 @@ equal-time)
         "$rlpt" plot "${stats[@]}" -o "$out/convergence-$s.png"
     done
     ;;
+settings)
+    for s in "$@"; do
+        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 30 --seed 7
+        run() { # NAME SCENEFILE ARGS...
+            local name=$1 file=$2
+            shift 2
+            "$rlpt" render "$file" -o "$out/out.exr" --spp 100000000 --time 2 --reference "$out/ref-$s.exr" \
+                --stats "$out/settings-$s-$name.json" "$@"
+        }
+        run off-nee-on "scenes/$s.toml" --guiding off --nee on
+        run off-nee-off "scenes/$s.toml" --guiding off --nee off
+        run octant "scenes/$s.toml" --guiding octant
+        run sphere "scenes/$s.toml" --guiding sphere
+        for f in 0.65 0.8 0.9; do run "sphere-f$f" "scenes/$s.toml" --guiding sphere --guided-fraction "$f"; done
+        for b in 4x8 12x24 16x32; do run "sphere-b$b" "scenes/$s.toml" --guiding sphere --bins "$b"; done
+        run sphere-b16x32-f0.8 "scenes/$s.toml" --guiding sphere --bins 16x32 --guided-fraction 0.8
+        if [ "$s" = door ]; then
+            # door's default grid is 16x6x11 cells: about half, 1.5x and 2x that.
+            for r in "8, 3, 5" "24, 8, 16" "32, 11, 21"; do
+                { cat "scenes/$s.toml"; printf '\n[guiding]\nresolution = [%s]\n' "$r"; } >"$out/$s-grid.toml"
+                run "sphere-r${r%%,*}" "$out/$s-grid.toml" --guiding sphere
+            done
+        fi
+    done
+    ;;
 *)
-    echo "unknown stage $stage: timing or equal-time" >&2
+    echo "unknown stage $stage: timing, equal-time or settings" >&2
     exit 2
     ;;
 esac
