@@ -46,6 +46,42 @@ fn guided_and_unguided_renders_agree_in_mean() {
     }
 }
 
+/// After the first frames, a guided frame traces its pixel rows in two dispatches
+/// (`frame_dispatches`: the rows that record targets by one kernel, the others by
+/// another). Every camera ray here escapes to a sky of radiance 1, so each sample
+/// is exactly 1, and a row traced twice or not at all in a frame shows in its
+/// mean exactly. The film is checked after every frame (errors of different
+/// frames could cancel over a cycle of the rows that record); 13 rows is no
+/// multiple of the row stride.
+#[test]
+fn guided_frames_trace_every_pixel_once() {
+    let ctx = gpu();
+    let text = std::fs::read_to_string(format!("{}/scenes/furnace-open.toml", env!("CARGO_MANIFEST_DIR")))
+        .expect("furnace-open.toml");
+    let text = text.replace("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 8.0]");
+    let scene = Scene::parse(&text, "furnace-open.toml, looking away from the ball").expect("scene parses");
+    let mut o = guided(&options(&scene, 9, 13, 64), GuidingMode::Sphere);
+    o.seed = 3;
+    let prepared = PreparedScene::new(&scene, &o);
+    assert!(prepared.guide.is_some(), "the render is guided");
+    let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    let stride = rlpt::shared::RECORD_ROW_STRIDE;
+    for frame in 0..rlpt::shared::RECORD_ALL_FRAMES + 2 * stride {
+        // Both ways of rendering a frame: in a batch, and one per submission.
+        if frame % 2 == 0 {
+            r.render_frames(1).expect("render");
+        } else {
+            r.render_frame_profiled().expect("render, profiled");
+        }
+        let film = r.film().expect("readback");
+        assert_eq!(film.frames, frame + 1);
+        for (i, p) in film.mean().pixels.iter().enumerate() {
+            assert_eq!(*p, [1.0; 3], "pixel ({}, {}) after frame {frame}", i % 9, i / 9);
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 #[test]
 fn guided_cpu_agrees_with_unguided_gpu() {
     let ctx = gpu();
