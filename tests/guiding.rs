@@ -58,7 +58,9 @@ fn guided_frames_trace_every_pixel_once() {
     let ctx = gpu();
     let text = std::fs::read_to_string(format!("{}/scenes/furnace-open.toml", env!("CARGO_MANIFEST_DIR")))
         .expect("furnace-open.toml");
-    let text = text.replace("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 8.0]");
+    let look_at_ball = "look_at = [0.0, 0.0, 0.0]";
+    assert!(text.contains(look_at_ball), "furnace-open.toml's camera looks at the ball");
+    let text = text.replace(look_at_ball, "look_at = [0.0, 0.0, 8.0]");
     let scene = Scene::parse(&text, "furnace-open.toml, looking away from the ball").expect("scene parses");
     let mut o = guided(&options(&scene, 9, 13, 64), GuidingMode::Sphere);
     o.seed = 3;

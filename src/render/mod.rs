@@ -190,8 +190,7 @@ impl GpuRenderer {
             (true, false) => "pathtrace_guided",
             (true, true) => "pathtrace_guided_partitioned",
         };
-        let pipeline = path_pipeline(ctx, kernel, guided, false, p)?;
-        let recording = if guided { Some(path_pipeline(ctx, kernel, guided, true, p)?) } else { None };
+        let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p)?;
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -321,11 +320,7 @@ impl GpuRenderer {
         );
         if specialization(params) != specialization(p) {
             // No frame is in flight: run_commands waits for each submission.
-            let guided = self.learning.is_some();
-            self.pipeline = path_pipeline(&self.ctx, self.kernel, guided, false, params)?;
-            if guided {
-                self.recording = Some(path_pipeline(&self.ctx, self.kernel, guided, true, params)?);
-            }
+            (self.pipeline, self.recording) = path_pipelines(&self.ctx, self.kernel, self.learning.is_some(), params)?;
             self.bind_path_pipelines();
         }
         self.params = *params;
@@ -513,6 +508,19 @@ impl GpuRenderer {
             rows: bytemuck::pod_collect_to_vec(&rc.read()[..l.sampler.size as usize]),
         }))
     }
+}
+
+/// The path-tracing pipelines for the render `p` describes: the one without
+/// recording code and, with guiding, the one that records targets.
+fn path_pipelines(
+    ctx: &Arc<Context>,
+    kernel: &str,
+    guided: bool,
+    p: &crate::prepared::RenderParams,
+) -> Result<(Pipeline, Option<Pipeline>), GpuError> {
+    let plain = path_pipeline(ctx, kernel, guided, false, p)?;
+    let recording = if guided { Some(path_pipeline(ctx, kernel, guided, true, p)?) } else { None };
+    Ok((plain, recording))
 }
 
 /// The path-tracing pipeline, specialized to the scene and settings of `p`;
