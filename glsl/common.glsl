@@ -72,7 +72,8 @@
 // recording code at all, and a frame's rows that do not record go to it (on the
 // H200 that code's mere presence, never run, cost 0.5 of seed-exp1's 3.0 ms).
 #define SPEC_RECORDING 9
-#define NUM_SPEC_CONSTANTS 10
+#define SPEC_GUIDE_VERTICES 10
+#define NUM_SPEC_CONSTANTS 11
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4
@@ -179,7 +180,7 @@ struct RenderParams {
     uint guide_res_z;
     uint guide_cells;
     float guide_floor;       // exploration floor of the guided distribution
-    uint pad0;
+    uint guide_vertices;     // guided sampling at a path's first this many vertices
     uint pad1;
     uint pad2;
 };

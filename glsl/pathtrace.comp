@@ -21,6 +21,8 @@
 layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
 layout(constant_id = SPEC_RECORDING) const bool RECORDING = false;
+// params.guide_vertices: guided sampling at vertices of depth below it.
+layout(constant_id = SPEC_GUIDE_VERTICES) const uint GUIDE_VERTICES = 0u;
 
 layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z = PIXELS_PER_GROUP) in;
 
@@ -145,7 +147,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         }
         float g_frac = 0.0;
 #if GUIDED
-        if (guide && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
+        if (guide && depth < GUIDE_VERTICES && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
 #endif
         bool last = depth >= MAX_BOUNCES;
 

@@ -108,6 +108,11 @@ struct Settings {
     /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF sampling).
     #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
     guided_fraction: f32,
+    /// Guided sampling at the first N vertices of each path (1: the camera ray's hit
+    /// alone); deeper vertices sample the BSDF alone, and still learn. Default: 2 with
+    /// NEE, every vertex without (where only guided sampling aims at the lights).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    guided_vertices: Option<u32>,
 }
 
 impl Settings {
@@ -133,6 +138,7 @@ impl Settings {
         };
         opts.bins = self.bins;
         opts.guided_fraction = self.guided_fraction;
+        opts.guided_vertices = self.guided_vertices;
         opts
     }
 }

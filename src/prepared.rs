@@ -105,7 +105,9 @@ pub struct RenderParams {
     pub guide_res_z: u32,
     pub guide_cells: u32,
     pub guide_floor: f32,
-    pub pad: [u32; 3],
+    /// Vertices of a path that mix guided sampling in: those at depth < this.
+    pub guide_vertices: u32,
+    pub pad: [u32; 2],
 }
 
 impl RenderParams {
@@ -149,6 +151,15 @@ const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 
+/// Guided sampling's default reach with NEE: a path's first two vertices. There,
+/// deeper vertices gained nothing measurable per sample on the seed scenes and
+/// little on door.toml, while their table lookups cost (H200, relMSE at 10 s of
+/// equal time over unguided, guiding every vertex against the first two: 1.51
+/// against 1.27 on seed-exp1, 0.58 against 0.59 on door; BENCHMARKS.md). Without
+/// NEE only guided sampling aims at the lights, at every vertex, and limiting it
+/// costs (door 0.22 against 0.38): then every vertex is guided.
+pub const DEFAULT_GUIDED_VERTICES_NEE: u32 = 2;
+
 /// How to render: the scene's `[render]` table with command-line overrides.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -171,6 +182,10 @@ pub struct RenderOptions {
     pub guided_fraction: f32,
     /// Exploration floor of the guided distribution (see `GuideConfig::floor`).
     pub guide_floor: f32,
+    /// Guided sampling at the first this many vertices of each path (depth 0 is
+    /// the camera ray's hit); deeper vertices sample the BSDF alone, and still learn.
+    /// None: [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without.
+    pub guided_vertices: Option<u32>,
 }
 
 impl RenderOptions {
@@ -190,7 +205,13 @@ impl RenderOptions {
             bins: Bins::SPHERE_DEFAULT,
             guided_fraction: 0.5,
             guide_floor: 0.5,
+            guided_vertices: None,
         }
+    }
+
+    /// The vertices guided sampling reaches: `guided_vertices`, or its default for the NEE setting.
+    pub fn guided_vertices_or_default(&self) -> u32 {
+        self.guided_vertices.unwrap_or(if self.nee { DEFAULT_GUIDED_VERTICES_NEE } else { u32::MAX })
     }
 
     /// Frames of 64 samples per pixel needed for at least `spp` samples.
@@ -344,7 +365,8 @@ impl PreparedScene {
             guide_res_z: 0,
             guide_cells: 0,
             guide_floor: 0.0,
-            pad: [0; 3],
+            guide_vertices: 0,
+            pad: [0; 2],
         };
         params.set_camera(&scene.camera);
         let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
@@ -366,8 +388,40 @@ impl PreparedScene {
             [p.guide_res_x, p.guide_res_y, p.guide_res_z] = grid.res;
             p.guide_cells = grid.cells();
             p.guide_floor = cfg.floor;
+            p.guide_vertices = opts.guided_vertices_or_default();
             prepared.guide = Some(cfg);
         }
         prepared
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guided_vertices_default_to_two_with_nee_and_all_without() {
+        let mut o = RenderOptions {
+            width: 1,
+            height: 1,
+            spp: 64,
+            max_bounces: 8,
+            russian_roulette_depth: None,
+            seed: 0,
+            nee: true,
+            power_heuristic: true,
+            guiding: GuidingMode::Sphere,
+            bins: Bins::SPHERE_DEFAULT,
+            guided_fraction: 0.5,
+            guide_floor: 0.5,
+            guided_vertices: None,
+        };
+        assert_eq!(o.guided_vertices_or_default(), DEFAULT_GUIDED_VERTICES_NEE);
+        o.nee = false;
+        assert_eq!(o.guided_vertices_or_default(), u32::MAX);
+        o.guided_vertices = Some(3);
+        assert_eq!(o.guided_vertices_or_default(), 3);
+        o.nee = true;
+        assert_eq!(o.guided_vertices_or_default(), 3);
     }
 }

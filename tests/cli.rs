@@ -188,3 +188,14 @@ fn bench_ablate_needs_gpu_guiding() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("--ablate") && stderr.contains("--guiding"), "{stderr}");
 }
+
+#[test]
+fn guided_vertices_must_be_at_least_one() {
+    let o = rlpt()
+        .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--guided-vertices", "0"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("--guided-vertices") && stderr.contains("0"), "{stderr}");
+}

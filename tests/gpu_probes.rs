@@ -112,7 +112,8 @@ fn struct_layout_matches_the_rust_mirrors() {
         guide_res_z: 515,
         guide_cells: 516,
         guide_floor: 0.125,
-        pad: [0; 3],
+        guide_vertices: 517,
+        pad: [0; 2],
     };
     let bufs = [
         Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),
@@ -175,6 +176,7 @@ fn struct_layout_matches_the_rust_mirrors() {
         params.guide_res_z,
         params.guide_cells,
         params.guide_floor.to_bits(),
+        params.guide_vertices,
     ]);
     assert_eq!(&got[..want.len()], &want[..]);
     common::assert_no_validation_messages(&ctx);

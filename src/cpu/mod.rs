@@ -156,9 +156,10 @@ pub fn trace_path(
             }
             break;
         }
-        // Probability of guided sampling here: zero at delta vertices and where nothing is learned.
+        // Probability of guided sampling here: zero at delta vertices, past the
+        // guided vertices and where nothing is learned.
         let g_frac = match guide {
-            Some(g) if !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
+            Some(g) if depth < p.guide_vertices && !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
             _ => 0.0,
         };
         // The density of the mixture of BSDF and guided sampling.

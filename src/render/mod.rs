@@ -565,12 +565,51 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_GUIDE_RES_Z as usize] = p.guide_res_z.max(1);
     c[shared::SPEC_FLAGS as usize] = p.flags;
     c[shared::SPEC_MAX_BOUNCES as usize] = p.max_bounces;
+    c[shared::SPEC_GUIDE_VERTICES as usize] = p.guide_vertices;
     c
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every specialization constant carries its own field of the parameters
+    /// (distinct values, so a constant wired to the wrong field shows).
+    #[test]
+    fn specialization_constants_carry_their_fields() {
+        let p = crate::prepared::RenderParams {
+            num_spheres: 11,
+            num_quads: 12,
+            guide_rows: 13,
+            guide_cols: 14,
+            guide_res_x: 15,
+            guide_res_y: 16,
+            guide_res_z: 17,
+            flags: 18,
+            max_bounces: 19,
+            guide_vertices: 20,
+            ..Default::default()
+        };
+        let c = specialization(&p);
+        let want = [
+            (shared::SPEC_NUM_SPHERES, 11),
+            (shared::SPEC_NUM_QUADS, 12),
+            (shared::SPEC_GUIDE_ROWS, 13),
+            (shared::SPEC_GUIDE_COLS, 14),
+            (shared::SPEC_GUIDE_RES_X, 15),
+            (shared::SPEC_GUIDE_RES_Y, 16),
+            (shared::SPEC_GUIDE_RES_Z, 17),
+            (shared::SPEC_FLAGS, 18),
+            (shared::SPEC_MAX_BOUNCES, 19),
+            (shared::SPEC_GUIDE_VERTICES, 20),
+            // Set per pipeline by `path_pipeline`, not from the parameters.
+            (shared::SPEC_RECORDING, 0),
+        ];
+        assert_eq!(want.len(), shared::NUM_SPEC_CONSTANTS as usize);
+        for (id, v) in want {
+            assert_eq!(c[id as usize], v, "specialization constant {id}");
+        }
+    }
 
     /// Each frame's dispatches trace every pixel row exactly once, the rows that
     /// record (`guide::records`) by the recording kernel and no others.
