@@ -3,7 +3,8 @@
 // phase 0, one invocation per entry: folds the frame's Q-learning targets into
 // the running means, Q <- (Q n + S) / (n + c), i.e. learning rate 1 / (1 + visits)
 // for each target, and clears the frame's sums;
-// phase 1, one invocation per (cell, normal class): rebuilds that sampling row,
+// phase 1, one invocation per (cell, normal class), after the frames that
+// src/guide/mod.rs `rebuilds_rows` names (the host dispatches it): rebuilds that sampling row,
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
 #include "common.glsl"

@@ -11,7 +11,8 @@ use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
     bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction, guided_pdf, learned,
-    sampler_row, AliasBin, Bins, GuidingMode, NORMAL_CLASSES, UNLEARNED,
+    rebuilds_rows, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode, QTable, NORMAL_CLASSES, ROW_REBUILD_STRIDE,
+    UNLEARNED,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -341,8 +342,14 @@ fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) {
     let mut r = GpuRenderer::new(ctx, &prepared).unwrap();
     r.render_frames(3).unwrap();
     let t = r.table().unwrap().unwrap();
-    let n = cfg.bins.count() as usize;
     assert!(t.visits.iter().any(|&v| v > 0), "the GPU learned nothing");
+    assert_rows_built_from_table(&t, &cfg, &format!("{bins:?}"));
+}
+
+/// The sampling rows of `t` are those Rust builds from its Q values (to the
+/// rounding of the alias thresholds), and each bin's density is its probability.
+fn assert_rows_built_from_table(t: &QTable, cfg: &GuideConfig, what: &str) {
+    let n = cfg.bins.count() as usize;
     let mut want = vec![AliasBin::default(); t.rows.len()];
     let cosines = class_cosines(&cfg.bins);
     for (q, rows) in t.q.chunks(n).zip(want.chunks_mut(n * NORMAL_CLASSES as usize)) {
@@ -370,8 +377,46 @@ fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) {
             );
         }
     }
-    assert!(learned_rows > 0, "{bins:?}: no row learned");
-    assert!(worst <= 1e-4, "{bins:?}: GLSL and Rust sampling rows differ by up to {worst} in a bin's probability");
+    assert!(learned_rows > 0, "{what}: no row learned");
+    assert!(worst <= 1e-4, "{what}: GLSL and Rust sampling rows differ by up to {worst} in a bin's probability");
+}
+
+/// After the first frames the GPU rebuilds the sampling rows after one frame in
+/// `ROW_REBUILD_STRIDE` (`rebuilds_rows`): after those frames the rows are built
+/// from the table as it stands, after the others they are the previous frame's,
+/// bit for bit, while the table itself goes on learning. Both ways of rendering a
+/// frame (batched and profiled).
+#[test]
+fn sampling_rows_are_rebuilt_on_schedule() {
+    let ctx = gpu();
+    let scene = scene("door.toml");
+    let o = guided(&options(&scene, 32, 24, 64), GuidingMode::Sphere);
+    let prepared = PreparedScene::new(&scene, &o);
+    let cfg = prepared.guide.unwrap();
+    let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
+    let mut before: Option<QTable> = None;
+    let frames = rlpt::shared::RECORD_ALL_FRAMES + 2 * ROW_REBUILD_STRIDE;
+    let (mut rebuilt, mut kept) = (0, 0);
+    for frame in 0..frames {
+        if frame % 2 == 0 {
+            r.render_frames(1).unwrap();
+        } else {
+            r.render_frame_profiled().unwrap();
+        }
+        let t = r.table().unwrap().unwrap();
+        if rebuilds_rows(frame) {
+            assert_rows_built_from_table(&t, &cfg, &format!("after frame {frame}"));
+            rebuilt += 1;
+        } else {
+            let b = before.as_ref().expect("the first frame rebuilds");
+            assert!(t.rows == b.rows, "after frame {frame} the rows changed, though they are not rebuilt then");
+            assert!(t.q != b.q, "after frame {frame} the table learned nothing");
+            kept += 1;
+        }
+        before = Some(t);
+    }
+    assert!(rebuilt > rlpt::shared::RECORD_ALL_FRAMES && kept > 2, "the schedule was exercised: {rebuilt} / {kept}");
+    assert_no_validation_messages(&ctx);
 }
 
 fn readback(ctx: &Arc<Context>, src: &Buffer) -> Vec<u8> {

@@ -367,7 +367,7 @@ impl CpuRenderer {
                 },
             );
         if let (Some(t), Some(cfg)) = (self.table.as_mut(), self.scene.guide.as_ref()) {
-            t.learn(cfg, &sums);
+            t.learn(cfg, &sums, guide::rebuilds_rows(self.frames_traced));
         }
         self.film.frames += 1;
         self.frames_traced += 1;

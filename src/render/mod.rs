@@ -360,7 +360,8 @@ impl GpuRenderer {
     }
 
     /// Renders `count` frames in one submission (each followed by learning when
-    /// guiding is on) and returns what they measured. Times come from timestamp
+    /// guiding is on: the fold always, the rows' rebuild as `guide::rebuilds_rows`
+    /// says) and returns what they measured. Times come from timestamp
     /// queries (zero where the queue has none).
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
         let timestamps = self.ctx.info.timestamps;
@@ -385,8 +386,10 @@ impl GpuRenderer {
                     }
                     self.ctx.barrier(cmd);
                     l.cmd_fold(cmd);
-                    self.ctx.barrier(cmd);
-                    l.cmd_build_rows(cmd);
+                    if crate::guide::rebuilds_rows(traced + f) {
+                        self.ctx.barrier(cmd);
+                        l.cmd_build_rows(cmd);
+                    }
                 }
             }
             if timestamps {
@@ -438,8 +441,10 @@ impl GpuRenderer {
                 self.ctx.barrier(cmd);
                 l.cmd_fold(cmd);
                 self.timer.cmd_stamp(cmd, 2);
-                self.ctx.barrier(cmd);
-                l.cmd_build_rows(cmd);
+                if crate::guide::rebuilds_rows(self.frames_traced) {
+                    self.ctx.barrier(cmd);
+                    l.cmd_build_rows(cmd);
+                }
                 self.timer.cmd_stamp(cmd, 3);
             }
             self.ctx.barrier(cmd);
