@@ -66,7 +66,9 @@ pub struct BenchReport {
     pub frames: Vec<FrameRecord>,
     /// One row per pass, then "frame" (all passes).
     pub passes: Vec<Summary>,
-    /// Samples per pixel per frame times pixels, over the median frame time.
+    /// Samples traced over the total measured time (the mean frame, not the median:
+    /// with guiding the sampling rows are rebuilt after one frame in four, which a
+    /// median frame would leave out).
     pub msamples_per_s: f64,
     /// Rays traced (camera, bounce, shadow) over the total measured time.
     pub msegments_per_s: f64,
@@ -122,7 +124,6 @@ impl BenchReport {
         }
         passes.push(Summary::of("frame", &column(|f| f.total_ms)));
         let passes: Vec<Summary> = passes.into_iter().flatten().collect();
-        let median_frame = passes.last().map(|s| s.median_ms).unwrap_or(f64::NAN);
         let total_ms: f64 = frames.iter().map(|f| f.total_ms).sum();
         let segments: u64 = frames.iter().map(|f| f.segments).sum();
         let zero: u64 = frames.iter().map(|f| f.zero_paths).sum();
@@ -138,7 +139,7 @@ impl BenchReport {
             guiding,
             nee,
             warmup_frames,
-            msamples_per_s: samples_per_frame as f64 / median_frame * 1e-3,
+            msamples_per_s: paths / total_ms * 1e-3,
             msegments_per_s: segments as f64 / total_ms * 1e-3,
             segments_per_path: segments as f64 / paths,
             zero_fraction: zero as f64 / paths,
@@ -171,7 +172,7 @@ impl BenchReport {
             );
         }
         out += &format!(
-            "{:.1} Msamples/s (median frame), {:.1} Msegments/s, {:.2} segments per path, {:.4} of paths carried no radiance\n",
+            "{:.1} Msamples/s (mean frame), {:.1} Msegments/s, {:.2} segments per path, {:.4} of paths carried no radiance\n",
             self.msamples_per_s, self.msegments_per_s, self.segments_per_path, self.zero_fraction
         );
         for p in &self.pipelines {
