@@ -107,7 +107,8 @@ fn guided_cpu_agrees_with_unguided_gpu() {
 /// unbiased: GPU renders guided at the first vertex and at all of them agree
 /// with the unguided render within noise, and so does the CPU's. The setting
 /// is seen to take effect on the CPU, path by path (guided renders do not repeat
-/// bit for bit: learning sums targets in thread order).
+/// bit for bit: learning sums targets in thread order): the paths change, and
+/// only the rays that leave guided vertices record targets.
 #[test]
 fn guiding_limited_to_first_vertices_stays_unbiased() {
     let ctx = gpu();
@@ -124,9 +125,9 @@ fn guiding_limited_to_first_vertices_stays_unbiased() {
         eprintln!("{what}: worst block {z:.2} sigma");
     }
 
-    // On the CPU, paths traced one by one with the same random numbers through
-    // the same learned table: a limit past the bounce limit changes no path, a
-    // limit of 1 changes some.
+    // On the CPU, recording paths traced one by one with the same random numbers
+    // through the same learned table: a limit past the bounce limit changes no
+    // path, a limit of 1 changes some; a path records at most `limit` targets.
     (all.width, all.height, all.spp, all.seed) = (12, 8, 256, 23);
     let mut cpu = CpuRenderer::new(&PreparedScene::new(&scene, &all));
     for _ in 0..4 {
@@ -144,15 +145,21 @@ fn guiding_limited_to_first_vertices_stays_unbiased() {
             for sample in 0..16 {
                 let mut rng = Rng::new(o.seed, pixel, 4, sample);
                 let (ro, rd) = camera_ray(&prepared.params, pixel % o.width, pixel / o.width, rng.next_2d());
-                let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, None);
-                out.push((l.to_array().map(f32::to_bits), segments));
+                let mut records = 0u32;
+                let mut count = |_: u32, _: f32| records += 1;
+                let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut count));
+                out.push((l.to_array().map(f32::to_bits), segments, records));
             }
         }
         out
     };
     let unlimited = paths(u32::MAX);
     assert_eq!(paths(all.max_bounces + 1), unlimited, "CPU: a limit past the bounce limit changes no path");
+    let most_records = |paths: &[([u32; 3], u32, u32)]| paths.iter().map(|p| p.2).max().unwrap_or(0);
+    assert!(most_records(&unlimited) > 2, "CPU: unlimited paths record past the second vertex");
+    assert_eq!(most_records(&paths(2)), 2, "CPU: paths guided at 2 vertices record at most 2 targets");
     let first = paths(1);
+    assert_eq!(most_records(&first), 1, "CPU: paths guided at the first vertex record at most 1 target");
     let changed = first.iter().zip(&unlimited).filter(|(a, b)| a != b).count();
     assert!(
         changed > first.len() / 10,
@@ -171,6 +178,33 @@ fn guiding_limited_to_first_vertices_stays_unbiased() {
         K,
         "door: CPU guided at 1 vertex vs GPU off",
     );
+    assert_no_validation_messages(&ctx);
+}
+
+/// On the GPU too, only the rays that leave guided vertices record targets: in
+/// the first frames every path records, so the table's visits (exact integer
+/// counts) are at most `limit` per path, and past that without a limit.
+#[test]
+fn gpu_paths_record_only_from_guided_vertices() {
+    let ctx = gpu();
+    let scene = scene("door.toml");
+    let mut o = guided(&options(&scene, 16, 8, 64), GuidingMode::Sphere);
+    let frames = 2;
+    assert!(frames <= rlpt::shared::RECORD_ALL_FRAMES, "every path records in these frames");
+    let paths = (frames * o.width * o.height * rlpt::shared::SAMPLES_PER_FRAME) as u64;
+    for limit in [1, 2, u32::MAX] {
+        o.guided_vertices = Some(limit);
+        let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &o)).unwrap();
+        r.render_frames(frames).unwrap();
+        let visits: u64 = r.table().unwrap().unwrap().visits.iter().map(|&v| v as u64).sum();
+        eprintln!("limit {limit}: {:.3} targets per path", visits as f64 / paths as f64);
+        if limit == u32::MAX {
+            assert!(visits > 2 * paths, "unlimited: {visits} targets from {paths} paths");
+        } else {
+            assert!(visits <= limit as u64 * paths, "limit {limit}: {visits} targets from {paths} paths");
+            assert!(visits > (limit as u64 - 1) * paths, "limit {limit}: only {visits} targets from {paths} paths");
+        }
+    }
     assert_no_validation_messages(&ctx);
 }
 
