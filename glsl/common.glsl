@@ -73,7 +73,8 @@
 // H200 that code's mere presence, never run, cost 0.5 of seed-exp1's 3.0 ms).
 #define SPEC_RECORDING 9
 #define SPEC_GUIDE_VERTICES 10
-#define NUM_SPEC_CONSTANTS 11
+#define SPEC_RECORD_VERTICES 11
+#define NUM_SPEC_CONSTANTS 12
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

@@ -21,9 +21,11 @@
 layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
 layout(constant_id = SPEC_RECORDING) const bool RECORDING = false;
-// params.guide_vertices: guided sampling at vertices of depth below it, and
-// the targets of the rays that leave them recorded.
+// params.guide_vertices: guided sampling at vertices of depth below it.
 layout(constant_id = SPEC_GUIDE_VERTICES) const uint GUIDE_VERTICES = 0u;
+// src/guide/mod.rs `record_vertices`: the rays that leave vertices of depth below
+// it record their targets.
+layout(constant_id = SPEC_RECORD_VERTICES) const uint RECORD_VERTICES = 0u;
 
 layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z = PIXELS_PER_GROUP) in;
 
@@ -108,8 +110,8 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #if GUIDED
     // The recording kernel traces the rows whose paths record (src/guide/mod.rs
     // `records`), the other kernel the rest. A path records the targets of the
-    // rays that leave its guided vertices (those of depth < GUIDE_VERTICES), the
-    // ray that arrives at a vertex of depth `depth` having left depth - 1.
+    // rays that leave its vertices of depth < RECORD_VERTICES, the ray that
+    // arrives at a vertex of depth `depth` having left depth - 1.
     bool learn = RECORDING && (push.ablate & ABLATE_RECORD) == 0u;
     bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
 #endif
@@ -118,7 +120,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         Hit hit;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
 #if GUIDED
-            if (learn && depth <= GUIDE_VERTICES && prev_key != NO_KEY) record_target(prev_key, mean3(params.environment.xyz));
+            if (learn && depth <= RECORD_VERTICES && prev_key != NO_KEY) record_target(prev_key, mean3(params.environment.xyz));
 #endif
             radiance += beta * params.environment.xyz;
             break;
@@ -144,7 +146,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
-            if (learn && depth <= GUIDE_VERTICES && prev_key != NO_KEY) record_target(prev_key, mean3(le));
+            if (learn && depth <= RECORD_VERTICES && prev_key != NO_KEY) record_target(prev_key, mean3(le));
 #endif
             break;
         }
@@ -183,7 +185,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         // since the previous vertex's Q-learning target is estimated from it.
         bool wants_target = false;
 #if GUIDED
-        wants_target = learn && depth <= GUIDE_VERTICES && prev_key != NO_KEY;
+        wants_target = learn && depth <= RECORD_VERTICES && prev_key != NO_KEY;
 #endif
         if (last && !wants_target) break;
         float u_mix = rng_next(rng);

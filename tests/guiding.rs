@@ -107,8 +107,7 @@ fn guided_cpu_agrees_with_unguided_gpu() {
 /// unbiased: GPU renders guided at the first vertex and at all of them agree
 /// with the unguided render within noise, and so does the CPU's. The setting
 /// is seen to take effect on the CPU, path by path (guided renders do not repeat
-/// bit for bit: learning sums targets in thread order): the paths change, and
-/// only the rays that leave guided vertices record targets.
+/// bit for bit: learning sums targets in thread order).
 #[test]
 fn guiding_limited_to_first_vertices_stays_unbiased() {
     let ctx = gpu();
@@ -127,45 +126,24 @@ fn guiding_limited_to_first_vertices_stays_unbiased() {
 
     // On the CPU, recording paths traced one by one with the same random numbers
     // through the same learned table: a limit past the bounce limit changes no
-    // path, a limit of 1 changes some; a path records at most `limit` targets.
+    // path, a limit of 1 changes some. door.toml uses Russian roulette, so its
+    // paths record at every vertex whatever the limit.
     (all.width, all.height, all.spp, all.seed) = (12, 8, 256, 23);
-    let mut cpu = CpuRenderer::new(&PreparedScene::new(&scene, &all));
-    for _ in 0..4 {
-        cpu.render_frame();
-    }
-    let table = cpu.table().expect("guided renderer has a table");
-    let paths = |limit: u32| {
-        let mut o = all.clone();
-        o.guided_vertices = Some(limit);
-        let prepared = PreparedScene::new(&scene, &o);
-        let cfg = prepared.guide.expect("guided");
-        let g = Guide { cfg: &cfg, q: &table.q, rows: &table.rows };
-        let mut out = Vec::new();
-        for pixel in 0..o.width * o.height {
-            for sample in 0..16 {
-                let mut rng = Rng::new(o.seed, pixel, 4, sample);
-                let (ro, rd) = camera_ray(&prepared.params, pixel % o.width, pixel / o.width, rng.next_2d());
-                let mut records = 0u32;
-                let mut count = |_: u32, _: f32| records += 1;
-                let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut count));
-                out.push((l.to_array().map(f32::to_bits), segments, records));
-            }
-        }
-        out
-    };
-    let unlimited = paths(u32::MAX);
-    assert_eq!(paths(all.max_bounces + 1), unlimited, "CPU: a limit past the bounce limit changes no path");
-    let most_records = |paths: &[([u32; 3], u32, u32)]| paths.iter().map(|p| p.2).max().unwrap_or(0);
-    assert!(most_records(&unlimited) > 2, "CPU: unlimited paths record past the second vertex");
-    assert_eq!(most_records(&paths(2)), 2, "CPU: paths guided at 2 vertices record at most 2 targets");
-    let first = paths(1);
-    assert_eq!(most_records(&first), 1, "CPU: paths guided at the first vertex record at most 1 target");
+    let table = cpu_table(&scene, &all);
+    let unlimited = cpu_paths(&scene, &all, u32::MAX, &table);
+    assert_eq!(
+        cpu_paths(&scene, &all, all.max_bounces + 1, &table),
+        unlimited,
+        "CPU: a limit past the bounce limit changes no path"
+    );
+    let first = cpu_paths(&scene, &all, 1, &table);
     let changed = first.iter().zip(&unlimited).filter(|(a, b)| a != b).count();
     assert!(
         changed > first.len() / 10,
         "CPU: guiding the first vertex alone changed only {changed} of {} paths",
         first.len()
     );
+    assert!(most_records(&first) > 2, "CPU: with roulette, paths record past their guided vertices");
     let mut first_opts = all.clone();
     first_opts.guided_vertices = Some(1);
     let c_first = render_cpu(&scene, &first_opts);
@@ -181,30 +159,85 @@ fn guiding_limited_to_first_vertices_stays_unbiased() {
     assert_no_validation_messages(&ctx);
 }
 
-/// On the GPU too, only the rays that leave guided vertices record targets: in
-/// the first frames every path records, so the table's visits (exact integer
-/// counts) are at most `limit` per path, and past that without a limit.
-#[test]
-fn gpu_paths_record_only_from_guided_vertices() {
-    let ctx = gpu();
-    let scene = scene("door.toml");
-    let mut o = guided(&options(&scene, 16, 8, 64), GuidingMode::Sphere);
-    let frames = 2;
-    assert!(frames <= rlpt::shared::RECORD_ALL_FRAMES, "every path records in these frames");
-    let paths = (frames * o.width * o.height * rlpt::shared::SAMPLES_PER_FRAME) as u64;
-    for limit in [1, 2, u32::MAX] {
-        o.guided_vertices = Some(limit);
-        let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &o)).unwrap();
-        r.render_frames(frames).unwrap();
-        let visits: u64 = r.table().unwrap().unwrap().visits.iter().map(|&v| v as u64).sum();
-        eprintln!("limit {limit}: {:.3} targets per path", visits as f64 / paths as f64);
-        if limit == u32::MAX {
-            assert!(visits > 2 * paths, "unlimited: {visits} targets from {paths} paths");
-        } else {
-            assert!(visits <= limit as u64 * paths, "limit {limit}: {visits} targets from {paths} paths");
-            assert!(visits > (limit as u64 - 1) * paths, "limit {limit}: only {visits} targets from {paths} paths");
+/// The table a guided CPU render has learned after 4 frames.
+fn cpu_table(scene: &Scene, o: &RenderOptions) -> QTable {
+    let mut cpu = CpuRenderer::new(&PreparedScene::new(scene, o));
+    for _ in 0..4 {
+        cpu.render_frame();
+    }
+    cpu.table().expect("guided renderer has a table").clone()
+}
+
+/// Recording paths of every pixel of `o` (16 each) traced on the CPU through
+/// `table` with guided sampling at `limit` vertices: (radiance bits, rays, targets).
+fn cpu_paths(scene: &Scene, o: &RenderOptions, limit: u32, table: &QTable) -> Vec<([u32; 3], u32, u32)> {
+    let mut o = o.clone();
+    o.guided_vertices = Some(limit);
+    let prepared = PreparedScene::new(scene, &o);
+    let cfg = prepared.guide.expect("guided");
+    let g = Guide { cfg: &cfg, q: &table.q, rows: &table.rows };
+    let mut out = Vec::new();
+    for pixel in 0..o.width * o.height {
+        for sample in 0..16 {
+            let mut rng = Rng::new(o.seed, pixel, 4, sample);
+            let (ro, rd) = camera_ray(&prepared.params, pixel % o.width, pixel / o.width, rng.next_2d());
+            let mut records = 0u32;
+            let mut count = |_: u32, _: f32| records += 1;
+            let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut count));
+            out.push((l.to_array().map(f32::to_bits), segments, records));
         }
     }
+    out
+}
+
+fn most_records(paths: &[([u32; 3], u32, u32)]) -> u32 {
+    paths.iter().map(|p| p.2).max().unwrap_or(0)
+}
+
+/// Without Russian roulette (seed-exp1) only the rays that leave guided vertices
+/// record targets: on the CPU a path guided at N vertices records at most N (and
+/// some exactly N); on the GPU, in the first frames, where every path records, the
+/// table's visits (exact integer counts) are at most N per path. With roulette
+/// (door.toml) every vertex records, since learned roulette reads Q there.
+#[test]
+fn paths_record_only_from_guided_vertices_without_roulette() {
+    let ctx = gpu();
+    let exp1 = scene("seed-exp1.toml");
+    let o = guided(&options(&exp1, 12, 8, 256), GuidingMode::Sphere);
+    assert_eq!(o.russian_roulette_depth, None, "seed-exp1 renders without roulette");
+    let table = cpu_table(&exp1, &o);
+    assert!(most_records(&cpu_paths(&exp1, &o, u32::MAX, &table)) > 2, "CPU: unlimited paths record past 2 vertices");
+    assert_eq!(most_records(&cpu_paths(&exp1, &o, 2, &table)), 2, "CPU: guided at 2 vertices, at most 2 targets");
+    assert_eq!(most_records(&cpu_paths(&exp1, &o, 1, &table)), 1, "CPU: guided at 1 vertex, at most 1 target");
+
+    let frames = 2;
+    assert!(frames <= rlpt::shared::RECORD_ALL_FRAMES, "every path records in these frames");
+    let paths = (frames * 16 * 8 * rlpt::shared::SAMPLES_PER_FRAME) as u64;
+    let per_path = |scene: &Scene, limit: u32| {
+        let mut o = guided(&options(scene, 16, 8, 64), GuidingMode::Sphere);
+        o.guided_vertices = Some(limit);
+        let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(scene, &o)).unwrap();
+        r.render_frames(frames).unwrap();
+        let visits: u64 = r.table().unwrap().unwrap().visits.iter().map(|&v| v as u64).sum();
+        if o.russian_roulette_depth.is_none() {
+            assert!(visits <= limit as u64 * paths, "limit {limit}: {visits} targets from {paths} paths");
+        }
+        let per_path = visits as f64 / paths as f64;
+        eprintln!("limit {limit}: {per_path:.3} targets per path");
+        per_path
+    };
+    // Camera rays that reach the lamp or the sky record nothing, so per path the
+    // counts are below the limits; each limit raised records clearly more.
+    let (one, two, all) = (per_path(&exp1, 1), per_path(&exp1, 2), per_path(&exp1, u32::MAX));
+    assert!(one > 0.3 && two > 1.3 * one && all > 1.3 * two, "seed-exp1: {one:.3}, {two:.3}, {all:.3} per path");
+    let door_scene = scene("door.toml");
+    assert!(door_scene.render.russian_roulette_depth.is_some(), "door.toml renders with roulette");
+    let door = per_path(&door_scene, u32::MAX);
+    let door_one = per_path(&door_scene, 1);
+    assert!(
+        door_one > 0.9 * door,
+        "door (roulette), guided at 1 vertex: {door_one:.3} targets per path, {door:.3} at all"
+    );
     assert_no_validation_messages(&ctx);
 }
 

@@ -88,11 +88,9 @@ pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32, frames_traced
 
 /// Traces one path from the camera ray (o, d) and returns the radiance it
 /// carries and the number of rays it traced. With guiding and a `learn`
-/// (the path records), every ray that leaves a guided vertex (depth below
-/// `guide_vertices`) and reaches a surface or escapes hands its Q-learning target
-/// to `learn(key, target)`. Rays from deeper vertices record nothing: sampling
-/// never draws from their bins there, and (H200) recording them cost 0.1 ms of
-/// seed-exp1's 2.2 and 0.44 of door's 6.8 with no gain per sample measured.
+/// (the path records), every ray that leaves a vertex of depth below
+/// [`guide::record_vertices`] and reaches a surface or escapes hands its
+/// Q-learning target to `learn(key, target)`.
 pub fn trace_path(
     scene: &PreparedScene,
     guide: Option<Guide>,
@@ -104,6 +102,7 @@ pub fn trace_path(
 ) -> (Vec3, u32) {
     let record = learn.is_some();
     let p = &scene.params;
+    let record_vertices = guide::record_vertices(p);
     let nee = p.flags & shared::FLAG_NEE != 0 && p.num_lights > 0;
     let power = p.flags & shared::FLAG_POWER_HEURISTIC != 0;
     let rr = p.flags & shared::FLAG_RUSSIAN_ROULETTE != 0;
@@ -121,7 +120,7 @@ pub fn trace_path(
         segments += 1;
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
-            if let Some(learn) = learn.as_mut().filter(|_| depth <= p.guide_vertices && prev_key != shared::NO_KEY) {
+            if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
                 learn(prev_key, guide::mean3(env));
             }
             radiance += beta * env;
@@ -154,7 +153,7 @@ pub fn trace_path(
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
-            if let Some(learn) = learn.as_mut().filter(|_| depth <= p.guide_vertices && prev_key != shared::NO_KEY) {
+            if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
                 learn(prev_key, guide::mean3(le));
             }
             break;
@@ -207,7 +206,7 @@ pub fn trace_path(
 
         // The continuation: sampled even at the last bounce when the path records,
         // since the Q-learning target of the previous vertex is estimated from it.
-        let wants_target = record && depth <= p.guide_vertices && prev_key != shared::NO_KEY;
+        let wants_target = record && depth <= record_vertices && prev_key != shared::NO_KEY;
         if last && !wants_target {
             break;
         }

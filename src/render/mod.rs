@@ -571,6 +571,7 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_FLAGS as usize] = p.flags;
     c[shared::SPEC_MAX_BOUNCES as usize] = p.max_bounces;
     c[shared::SPEC_GUIDE_VERTICES as usize] = p.guide_vertices;
+    c[shared::SPEC_RECORD_VERTICES as usize] = crate::guide::record_vertices(p);
     c
 }
 
@@ -590,7 +591,7 @@ mod tests {
             guide_res_x: 15,
             guide_res_y: 16,
             guide_res_z: 17,
-            flags: 18,
+            flags: 16 | shared::FLAG_NEE,
             max_bounces: 19,
             guide_vertices: 20,
             ..Default::default()
@@ -604,9 +605,11 @@ mod tests {
             (shared::SPEC_GUIDE_RES_X, 15),
             (shared::SPEC_GUIDE_RES_Y, 16),
             (shared::SPEC_GUIDE_RES_Z, 17),
-            (shared::SPEC_FLAGS, 18),
+            (shared::SPEC_FLAGS, 16 | shared::FLAG_NEE),
             (shared::SPEC_MAX_BOUNCES, 19),
             (shared::SPEC_GUIDE_VERTICES, 20),
+            // No roulette in `flags`: the guided vertices.
+            (shared::SPEC_RECORD_VERTICES, 20),
             // Set per pipeline by `path_pipeline`, not from the parameters.
             (shared::SPEC_RECORDING, 0),
         ];
@@ -614,6 +617,9 @@ mod tests {
         for (id, v) in want {
             assert_eq!(c[id as usize], v, "specialization constant {id}");
         }
+        // With Russian roulette every vertex records (learned roulette reads Q there).
+        let rr = crate::prepared::RenderParams { flags: p.flags | shared::FLAG_RUSSIAN_ROULETTE, ..p };
+        assert_eq!(specialization(&rr)[shared::SPEC_RECORD_VERTICES as usize], u32::MAX);
     }
 
     /// Each frame's dispatches trace every pixel row exactly once, the rows that
