@@ -21,7 +21,7 @@
 layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
 layout(constant_id = SPEC_RECORDING) const bool RECORDING = false;
-// params.guide_vertices: guided sampling at vertices of depth below it.
+// src/guide/mod.rs `guided_vertices`: guided sampling at vertices of depth below it.
 layout(constant_id = SPEC_GUIDE_VERTICES) const uint GUIDE_VERTICES = 0u;
 // src/guide/mod.rs `record_vertices`: the rays that leave vertices of depth below
 // it record their targets.

@@ -109,8 +109,8 @@ struct Settings {
     #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
     guided_fraction: f32,
     /// Guided sampling at the first N vertices of each path (1: the camera ray's hit
-    /// alone); deeper vertices sample the BSDF alone, and still learn. Default: 2 with
-    /// NEE, every vertex without (where only guided sampling aims at the lights).
+    /// alone); deeper vertices sample the BSDF alone. Default: 2 with NEE, every
+    /// vertex without (where only guided sampling aims at the lights).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     guided_vertices: Option<u32>,
 }

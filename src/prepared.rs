@@ -105,7 +105,9 @@ pub struct RenderParams {
     pub guide_res_z: u32,
     pub guide_cells: u32,
     pub guide_floor: f32,
-    /// Vertices of a path that mix guided sampling in: those at depth < this.
+    /// Vertices of a path that mix guided sampling in: those at depth < this; 0 for
+    /// the default of the NEE flag, read through [`crate::guide::guided_vertices`],
+    /// so that switching NEE (`set_nee`, the viewer's N key) switches the default too.
     pub guide_vertices: u32,
     pub pad: [u32; 2],
 }
@@ -182,9 +184,10 @@ pub struct RenderOptions {
     pub guided_fraction: f32,
     /// Exploration floor of the guided distribution (see `GuideConfig::floor`).
     pub guide_floor: f32,
-    /// Guided sampling at the first this many vertices of each path (depth 0 is
-    /// the camera ray's hit); deeper vertices sample the BSDF alone, and still learn.
-    /// None: [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without.
+    /// Guided sampling at the first this many vertices (at least 1) of each path
+    /// (depth 0 is the camera ray's hit); deeper vertices sample the BSDF alone.
+    /// None: [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
+    /// ([`crate::guide::guided_vertices`]).
     pub guided_vertices: Option<u32>,
 }
 
@@ -207,11 +210,6 @@ impl RenderOptions {
             guide_floor: 0.5,
             guided_vertices: None,
         }
-    }
-
-    /// The vertices guided sampling reaches: `guided_vertices`, or its default for the NEE setting.
-    pub fn guided_vertices_or_default(&self) -> u32 {
-        self.guided_vertices.unwrap_or(if self.nee { DEFAULT_GUIDED_VERTICES_NEE } else { u32::MAX })
     }
 
     /// Frames of 64 samples per pixel needed for at least `spp` samples.
@@ -388,7 +386,8 @@ impl PreparedScene {
             [p.guide_res_x, p.guide_res_y, p.guide_res_z] = grid.res;
             p.guide_cells = grid.cells();
             p.guide_floor = cfg.floor;
-            p.guide_vertices = opts.guided_vertices_or_default();
+            // 0: the default for whichever NEE setting the params hold.
+            p.guide_vertices = opts.guided_vertices.unwrap_or(0);
             prepared.guide = Some(cfg);
         }
         prepared
@@ -398,30 +397,19 @@ impl PreparedScene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::guide::guided_vertices;
 
+    /// The default follows the NEE flag of the params, also when it is switched
+    /// after the scene was prepared; an explicit count stays.
     #[test]
     fn guided_vertices_default_to_two_with_nee_and_all_without() {
-        let mut o = RenderOptions {
-            width: 1,
-            height: 1,
-            spp: 64,
-            max_bounces: 8,
-            russian_roulette_depth: None,
-            seed: 0,
-            nee: true,
-            power_heuristic: true,
-            guiding: GuidingMode::Sphere,
-            bins: Bins::SPHERE_DEFAULT,
-            guided_fraction: 0.5,
-            guide_floor: 0.5,
-            guided_vertices: None,
-        };
-        assert_eq!(o.guided_vertices_or_default(), DEFAULT_GUIDED_VERTICES_NEE);
-        o.nee = false;
-        assert_eq!(o.guided_vertices_or_default(), u32::MAX);
-        o.guided_vertices = Some(3);
-        assert_eq!(o.guided_vertices_or_default(), 3);
-        o.nee = true;
-        assert_eq!(o.guided_vertices_or_default(), 3);
+        let mut p = RenderParams { flags: shared::FLAG_NEE, ..Default::default() };
+        assert_eq!(guided_vertices(&p), DEFAULT_GUIDED_VERTICES_NEE);
+        p.set_nee(false);
+        assert_eq!(guided_vertices(&p), u32::MAX);
+        p.guide_vertices = 3;
+        assert_eq!(guided_vertices(&p), 3);
+        p.set_nee(true);
+        assert_eq!(guided_vertices(&p), 3);
     }
 }

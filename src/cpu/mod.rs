@@ -102,6 +102,7 @@ pub fn trace_path(
 ) -> (Vec3, u32) {
     let record = learn.is_some();
     let p = &scene.params;
+    let guided_vertices = guide::guided_vertices(p);
     let record_vertices = guide::record_vertices(p);
     let nee = p.flags & shared::FLAG_NEE != 0 && p.num_lights > 0;
     let power = p.flags & shared::FLAG_POWER_HEURISTIC != 0;
@@ -161,7 +162,7 @@ pub fn trace_path(
         // Probability of guided sampling here: zero at delta vertices, past the
         // guided vertices and where nothing is learned.
         let g_frac = match guide {
-            Some(g) if depth < p.guide_vertices && !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
+            Some(g) if depth < guided_vertices && !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
             _ => 0.0,
         };
         // The density of the mixture of BSDF and guided sampling.

@@ -232,8 +232,21 @@ pub fn records(frame: u32, y: u32) -> bool {
     frame < crate::shared::RECORD_ALL_FRAMES || (y + frame).is_multiple_of(crate::shared::RECORD_ROW_STRIDE)
 }
 
+/// The vertices that mix guided sampling in: those of depth below this. The
+/// params' `guide_vertices` where set (not 0), else the default for their NEE
+/// flag: [`crate::prepared::DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex
+/// without. `glsl/pathtrace.comp` takes it as the specialization constant
+/// `SPEC_GUIDE_VERTICES`.
+pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
+    match p.guide_vertices {
+        0 if p.flags & crate::shared::FLAG_NEE != 0 => crate::prepared::DEFAULT_GUIDED_VERTICES_NEE,
+        0 => u32::MAX,
+        n => n,
+    }
+}
+
 /// The vertices whose outgoing rays record Q-learning targets: those of depth below
-/// this. The guided vertices (`guide_vertices`), since sampling draws from a cell's
+/// this. The guided vertices ([`guided_vertices`]), since sampling draws from a cell's
 /// bins there alone; but every vertex where Russian roulette is on, since learned
 /// roulette reads Q at the deep vertices too, and cells learned only from shallow
 /// ones left it guessing (door.toml on lavapipe, 48x32: the guided relative variance
@@ -244,7 +257,7 @@ pub fn record_vertices(p: &crate::prepared::RenderParams) -> u32 {
     if p.flags & crate::shared::FLAG_RUSSIAN_ROULETTE != 0 {
         u32::MAX
     } else {
-        p.guide_vertices
+        guided_vertices(p)
     }
 }
 

@@ -570,7 +570,7 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_GUIDE_RES_Z as usize] = p.guide_res_z.max(1);
     c[shared::SPEC_FLAGS as usize] = p.flags;
     c[shared::SPEC_MAX_BOUNCES as usize] = p.max_bounces;
-    c[shared::SPEC_GUIDE_VERTICES as usize] = p.guide_vertices;
+    c[shared::SPEC_GUIDE_VERTICES as usize] = crate::guide::guided_vertices(p);
     c[shared::SPEC_RECORD_VERTICES as usize] = crate::guide::record_vertices(p);
     c
 }
@@ -620,6 +620,14 @@ mod tests {
         // With Russian roulette every vertex records (learned roulette reads Q there).
         let rr = crate::prepared::RenderParams { flags: p.flags | shared::FLAG_RUSSIAN_ROULETTE, ..p };
         assert_eq!(specialization(&rr)[shared::SPEC_RECORD_VERTICES as usize], u32::MAX);
+        // guide_vertices 0: the default of the NEE flag, so that switching NEE
+        // (set_params) changes the constants and rebuilds the kernels.
+        let mut d = crate::prepared::RenderParams { guide_vertices: 0, ..p };
+        let c = specialization(&d);
+        let guided = shared::SPEC_GUIDE_VERTICES as usize;
+        assert_eq!(c[guided], crate::prepared::DEFAULT_GUIDED_VERTICES_NEE);
+        d.set_nee(false);
+        assert_eq!(specialization(&d)[guided], u32::MAX);
     }
 
     /// Each frame's dispatches trace every pixel row exactly once, the rows that
