@@ -74,7 +74,8 @@
 #define SPEC_RECORDING 9
 #define SPEC_GUIDE_VERTICES 10
 #define SPEC_RECORD_VERTICES 11
-#define NUM_SPEC_CONSTANTS 12
+#define SPEC_OCCLUDING_QUADS 12
+#define NUM_SPEC_CONSTANTS 13
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4
@@ -182,7 +183,7 @@ struct RenderParams {
     uint guide_cells;
     float guide_floor;       // exploration floor of the guided distribution
     uint guide_vertices;     // guided sampling at a path's first this many vertices
-    uint pad1;
+    uint occluding_quads;    // shadow rays test the first this many quads (src/prepared.rs `occluding_order`)
     uint pad2;
 };
 

@@ -83,6 +83,9 @@ layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstant
 // loop's trip count is known when the driver compiles.
 layout(constant_id = SPEC_NUM_SPHERES) const uint SCENE_SPHERES = 0u;
 layout(constant_id = SPEC_NUM_QUADS) const uint SCENE_QUADS = 0u;
+// params.occluding_quads: the quads a shadow ray tests come first; the rest bound
+// the scene and cannot block one (src/prepared.rs `occluding_order`).
+layout(constant_id = SPEC_OCCLUDING_QUADS) const uint OCCLUDING_QUADS = 0u;
 
 // How many spheres and quads the uniform buffer holds: the first ones, up to the capacity.
 uint const_sphere_count() { return min(SCENE_SPHERES, uint(CONST_SPHERES)); }
@@ -152,11 +155,11 @@ bool occluded(vec3 o, vec3 d, float t_max) {
     for (uint i = ns; i < SCENE_SPHERES; ++i) {
         if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
-    uint nq = const_quad_count();
+    uint nq = min(OCCLUDING_QUADS, uint(CONST_QUADS));
     [[dont_unroll]] for (uint i = 0u; i < nq; ++i) {
         if (const_quad(i, o, d, t_max) > 0.0) return true;
     }
-    for (uint i = nq; i < SCENE_QUADS; ++i) {
+    for (uint i = nq; i < OCCLUDING_QUADS; ++i) {
         if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;

@@ -109,7 +109,10 @@ pub struct RenderParams {
     /// the default of the NEE flag, read through [`crate::guide::guided_vertices`],
     /// so that switching NEE (`set_nee`, the viewer's N key) switches the default too.
     pub guide_vertices: u32,
-    pub pad: [u32; 2],
+    /// Shadow rays test the first this many quads only: the rest bound the scene
+    /// ([`occluding_order`]) and cannot block a segment between two of its points.
+    pub occluding_quads: u32,
+    pub pad: u32,
 }
 
 impl RenderParams {
@@ -288,7 +291,7 @@ impl PreparedScene {
                 GpuSphere::new(s.center, s.radius, s.material, light)
             })
             .collect();
-        let quads = scene
+        let quads: Vec<GpuQuad> = scene
             .quads
             .iter()
             .enumerate()
@@ -316,6 +319,14 @@ impl PreparedScene {
                 }
             })
             .collect();
+        // The quads that can block a shadow ray first; lights follow their quads.
+        let (order, occluding_quads) = occluding_order(scene);
+        let quads: Vec<GpuQuad> = order.iter().map(|&i| quads[i]).collect();
+        for (j, q) in quads.iter().enumerate() {
+            if q.light != shared::NO_LIGHT {
+                lights[q.light as usize].index = j as u32;
+            }
+        }
         let total: f64 = powers.iter().map(|&p| p as f64).sum();
         let mut cdf = 0.0f64;
         for (l, p) in lights.iter_mut().zip(&powers) {
@@ -364,8 +375,10 @@ impl PreparedScene {
             guide_cells: 0,
             guide_floor: 0.0,
             guide_vertices: 0,
-            pad: [0; 2],
+            occluding_quads: 0,
+            pad: 0,
         };
+        params.occluding_quads = occluding_quads;
         params.set_camera(&scene.camera);
         let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
         let bins = match opts.guiding {
@@ -394,6 +407,56 @@ impl PreparedScene {
     }
 }
 
+/// The order of the scene's quads in [`PreparedScene::quads`], and how many of
+/// them come first as the ones a shadow ray must test.
+///
+/// A quad whose plane has every primitive of the scene in one closed half-space
+/// (walls, floor and ceiling of a room; a ground plane) cannot block a shadow
+/// ray: both ends of the segment lie on the scene's surfaces, moved off them to
+/// the side the segment leaves by, so in that half-space, and a half-space is
+/// convex, so the segment never crosses the plane. Only rounding could make it
+/// appear to, at points within the hit epsilon of the plane, which the offset
+/// exists to keep away. Such quads go last and shadow rays skip them; the others
+/// keep their order in front. Touching the plane counts as inside, and so does
+/// crossing it by less than a tenth of the hit epsilon there
+/// (`math::geometry::hit_epsilon`, 1e-5 (1 + |p|)): scene files give coordinates
+/// in decimal, whose f32 values make a wall's edge stick out of the ceiling by
+/// 6e-8 (door.toml), and a segment can then cross the plane only at an end that
+/// lies within that distance of it, inside the band where the answer is rounding.
+pub fn occluding_order(scene: &Scene) -> (Vec<usize>, u32) {
+    let d = |v: Vec3| v.as_dvec3();
+    let bounds_scene = |q: &crate::scene::Quad| {
+        let n = d(q.edge_u).cross(d(q.edge_v)).normalize();
+        let w = n.dot(d(q.origin));
+        let (mut below, mut above) = (false, false);
+        // `dist`: signed distance from the plane of a point of the scene whose
+        // largest coordinate is `scale`.
+        let mut side = |dist: f64, scale: f64| {
+            let touching = 1e-6 * (1.0 + scale);
+            below |= dist < -touching;
+            above |= dist > touching;
+        };
+        for p in &scene.quads {
+            let (o, u, v) = (d(p.origin), d(p.edge_u), d(p.edge_v));
+            for c in [o, o + u, o + v, o + u + v] {
+                side(n.dot(c) - w, c.abs().max_element());
+            }
+        }
+        for s in &scene.spheres {
+            let (c, r) = (d(s.center), s.radius as f64);
+            let scale = c.abs().max_element() + r;
+            side(n.dot(c) - w - r, scale);
+            side(n.dot(c) - w + r, scale);
+        }
+        !(below && above)
+    };
+    let bounding: Vec<bool> = scene.quads.iter().map(bounds_scene).collect();
+    let mut order: Vec<usize> = (0..scene.quads.len()).filter(|&i| !bounding[i]).collect();
+    let occluding = order.len() as u32;
+    order.extend((0..scene.quads.len()).filter(|&i| bounding[i]));
+    (order, occluding)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -411,5 +474,59 @@ mod tests {
         assert_eq!(guided_vertices(&p), 3);
         p.set_nee(true);
         assert_eq!(guided_vertices(&p), 3);
+    }
+
+    fn scene(name: &str) -> Scene {
+        Scene::load(format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    }
+
+    /// door.toml: the partition's three pieces (both rooms lie on both sides of
+    /// their plane) and the lamp under the ceiling can block a shadow ray, in
+    /// their scene order; the six walls of the rooms cannot, and come last. The
+    /// lamp's light follows its quad.
+    #[test]
+    fn shadow_rays_test_the_quads_inside_the_scene_first() {
+        let s = scene("door");
+        let (order, n) = occluding_order(&s);
+        assert_eq!(n, 4);
+        assert_eq!(order, vec![6, 7, 8, 9, 0, 1, 2, 3, 4, 5]);
+        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s));
+        assert_eq!(p.params.occluding_quads, 4);
+        for (j, &i) in order.iter().enumerate() {
+            assert_eq!(p.quads[j].origin[..3], s.quads[i].origin.to_array());
+        }
+        assert_eq!(p.lights.len(), 1);
+        assert_eq!(p.lights[0].index, 3);
+        assert_eq!(p.quads[3].light, 0);
+        // The seed's boxes: the lamp alone (the ceiling is above it, the rest below).
+        for name in ["seed-exp1", "seed-exp2", "seed-exp3"] {
+            let (order, n) = occluding_order(&scene(name));
+            assert_eq!((n, order[0]), (1, 5), "{name}");
+        }
+        // smallpt has no quads; the furnaces' spheres bound nothing.
+        assert_eq!(occluding_order(&scene("smallpt")), (vec![], 0));
+    }
+
+    /// Touching the plane counts as inside it; crossing it by more than rounding
+    /// (here by 0.001) keeps the quad among the occluders, for spheres and quads alike.
+    #[test]
+    fn a_quad_bounds_the_scene_only_if_nothing_crosses_its_plane() {
+        let text = |sphere_y: f32, panel_y: f32| {
+            format!(
+                "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 1, 0]\nvfov = 40\n\
+                 [[material]]\nname = \"m\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [[quad]]\norigin = [-5, 0, -5]\nedge_u = [0, 0, 10]\nedge_v = [10, 0, 0]\nmaterial = \"m\"\n\
+                 [[quad]]\norigin = [-1, {panel_y}, -1]\nedge_u = [2, 1, 0]\nedge_v = [0, 0, 2]\nmaterial = \"m\"\n\
+                 [[sphere]]\ncenter = [2, {sphere_y}, 0]\nradius = 1\nmaterial = \"m\"\n"
+            )
+        };
+        let order = |sy: f32, py: f32| occluding_order(&Scene::parse(&text(sy, py), "t.toml").unwrap());
+        // The floor (y = 0) bounds the scene: the ball rests on it, the tilted panel
+        // starts on it. The panel's own plane has the floor on both sides.
+        assert_eq!(order(1.0, 0.0), (vec![1, 0], 1));
+        // The ball sinks into the floor by a little: the floor could block.
+        assert_eq!(order(0.999, 0.0), (vec![0, 1], 2));
+        // The panel dips below the floor.
+        assert_eq!(order(1.0, -0.001), (vec![0, 1], 2));
     }
 }

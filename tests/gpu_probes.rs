@@ -113,7 +113,8 @@ fn struct_layout_matches_the_rust_mirrors() {
         guide_cells: 516,
         guide_floor: 0.125,
         guide_vertices: 517,
-        pad: [0; 2],
+        occluding_quads: 518,
+        pad: 0,
     };
     let bufs = [
         Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),
@@ -177,6 +178,7 @@ fn struct_layout_matches_the_rust_mirrors() {
         params.guide_cells,
         params.guide_floor.to_bits(),
         params.guide_vertices,
+        params.occluding_quads,
     ]);
     assert_eq!(&got[..want.len()], &want[..]);
     common::assert_no_validation_messages(&ctx);

@@ -156,10 +156,13 @@ pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<
     })
 }
 
-/// True if anything blocks the segment from `o` along unit `d` up to `t_max`.
+/// True if anything blocks the segment from `o` along unit `d` up to `t_max`,
+/// both ends on the scene's surfaces (a shadow ray): the quads that bound the
+/// scene cannot, and are not tested (`crate::prepared::occluding_order`).
 pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> bool {
+    let quads = &scene.quads[..scene.params.occluding_quads as usize];
     scene.spheres.iter().any(|s| intersect_sphere(s, o, d, t_max).is_some())
-        || scene.quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
+        || quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
 }
 
 /// Moves `p` off its surface (normal `n`, error bound `eps`) to the side `w` points to.

@@ -572,6 +572,7 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_MAX_BOUNCES as usize] = p.max_bounces;
     c[shared::SPEC_GUIDE_VERTICES as usize] = crate::guide::guided_vertices(p);
     c[shared::SPEC_RECORD_VERTICES as usize] = crate::guide::record_vertices(p);
+    c[shared::SPEC_OCCLUDING_QUADS as usize] = p.occluding_quads;
     c
 }
 
@@ -594,6 +595,7 @@ mod tests {
             flags: 16 | shared::FLAG_NEE,
             max_bounces: 19,
             guide_vertices: 20,
+            occluding_quads: 21,
             ..Default::default()
         };
         let c = specialization(&p);
@@ -610,6 +612,7 @@ mod tests {
             (shared::SPEC_GUIDE_VERTICES, 20),
             // No roulette in `flags`: the guided vertices.
             (shared::SPEC_RECORD_VERTICES, 20),
+            (shared::SPEC_OCCLUDING_QUADS, 21),
             // Set per pipeline by `path_pipeline`, not from the parameters.
             (shared::SPEC_RECORDING, 0),
         ];
