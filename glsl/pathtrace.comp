@@ -140,9 +140,17 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         vec3 wo_local = to_local(frame, wo);
 
 #if GUIDED
-        uint cell = cell_index(hit.p);
-        uint qrow = cell * GUIDE_BINS;
-        uint row = sampler_row(cell, normal_class(n));
+        // The vertex's cell, where something reads it: guided sampling (the first
+        // GUIDE_VERTICES vertices), the target of the ray arriving here and the key
+        // of the one leaving (recording), learned roulette (every vertex). Deeper
+        // vertices of the seed's scenes skip the lookups.
+        uint qrow = NO_KEY;
+        uint row = 0u;
+        if (depth < GUIDE_VERTICES || (learn && depth <= RECORD_VERTICES) || rr) {
+            uint cell = cell_index(hit.p);
+            qrow = cell * GUIDE_BINS;
+            row = sampler_row(cell, normal_class(n));
+        }
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
@@ -235,7 +243,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         prev_delta = delta;
         prev_p = hit.p;
 #if GUIDED
-        prev_key = qrow + bin_index(wi);
+        prev_key = qrow == NO_KEY ? NO_KEY : qrow + bin_index(wi);
 #endif
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
