@@ -291,7 +291,7 @@ impl PreparedScene {
                 GpuSphere::new(s.center, s.radius, s.material, light)
             })
             .collect();
-        let quads: Vec<GpuQuad> = scene
+        let quads: Vec<_> = scene
             .quads
             .iter()
             .enumerate()
@@ -375,10 +375,9 @@ impl PreparedScene {
             guide_cells: 0,
             guide_floor: 0.0,
             guide_vertices: 0,
-            occluding_quads: 0,
+            occluding_quads,
             pad: 0,
         };
-        params.occluding_quads = occluding_quads;
         params.set_camera(&scene.camera);
         let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
         let bins = match opts.guiding {

@@ -196,8 +196,11 @@ emission = [10.0, 10.0, 10.0]
 fn gpu_and_cpu_agree_past_the_uniform_primitives() {
     let scene = crowded_scene();
     assert!(scene.spheres.len() > 64 && scene.quads.len() > 64);
-    let ctx = gpu();
     let mut opts = options(&scene, 32, 24, 512);
+    // Shadow rays walk both loops too: 64 panels and the lamp can block them, the
+    // room's five walls cannot (`prepared::occluding_order`).
+    assert_eq!(PreparedScene::new(&scene, &opts).params.occluding_quads, 65);
+    let ctx = gpu();
     let g = render_gpu(&ctx, &scene, &opts);
     opts.seed = 99;
     let c = render_cpu(&scene, &opts);
