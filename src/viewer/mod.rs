@@ -173,13 +173,45 @@ struct ModeRenderer {
     renderer: GpuRenderer,
 }
 
-/// Timings of the last frame.
-#[derive(Clone, Copy, Default)]
-struct LastFrame {
+/// Timings of one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct FrameTime {
     pathtrace_ms: f64,
     learn_ms: f64,
     /// From timestamps; false: wall clock.
     gpu: bool,
+}
+
+/// How many frames the title's timings average: two cycles of the sampling rows'
+/// rebuild, which runs after one guided frame in `ROW_REBUILD_STRIDE` and makes
+/// that frame longer (`guide::rebuilds_rows`), so that the readout holds still.
+const RECENT_FRAMES: usize = 2 * crate::guide::ROW_REBUILD_STRIDE as usize;
+
+/// The timings of the last `RECENT_FRAMES` frames since the accumulation restarted.
+#[derive(Default)]
+struct RecentFrames(std::collections::VecDeque<FrameTime>);
+
+impl RecentFrames {
+    fn push(&mut self, t: FrameTime) {
+        if self.0.len() == RECENT_FRAMES {
+            self.0.pop_front();
+        }
+        self.0.push_back(t);
+    }
+
+    fn clear(&mut self) {
+        self.0.clear();
+    }
+
+    /// The mean of the frames held (zero where there are none); `gpu` as the newest says.
+    fn mean(&self) -> FrameTime {
+        let n = self.0.len().max(1) as f64;
+        FrameTime {
+            pathtrace_ms: self.0.iter().map(|t| t.pathtrace_ms).sum::<f64>() / n,
+            learn_ms: self.0.iter().map(|t| t.learn_ms).sum::<f64>() / n,
+            gpu: self.0.back().is_some_and(|t| t.gpu),
+        }
+    }
 }
 
 struct Viewer {
@@ -204,7 +236,7 @@ struct Viewer {
     inset_checked: Instant,
     cursor: Option<(f64, f64)>,
     drag_from: Option<(f64, f64)>,
-    last: LastFrame,
+    recent: RecentFrames,
     /// Frames rendered in this window (all modes), for the scripted mode.
     rendered: u32,
     resize_requested: bool,
@@ -269,7 +301,7 @@ impl Viewer {
             inset_checked: Instant::now(),
             cursor: None,
             drag_from: None,
-            last: LastFrame::default(),
+            recent: RecentFrames::default(),
             rendered: 0,
             resize_requested: false,
             resized_at: None,
@@ -423,6 +455,7 @@ impl Viewer {
 
     fn restart(&mut self) -> Result<()> {
         self.renderers[self.current].renderer.reset_accumulation()?;
+        self.recent.clear();
         self.inset_shown = None;
         self.window.request_redraw();
         Ok(())
@@ -547,11 +580,11 @@ impl Viewer {
             let start = Instant::now();
             let t = self.renderers[self.current].renderer.render_frames(1)?;
             let gpu = self.ctx.info.timestamps;
-            self.last = LastFrame {
+            self.recent.push(FrameTime {
                 pathtrace_ms: if gpu { t.pathtrace_ms } else { start.elapsed().as_secs_f64() * 1e3 },
                 learn_ms: if gpu { t.learn_ms } else { 0.0 },
                 gpu,
-            };
+            });
             self.rendered += 1;
         }
         if self.inset_on {
@@ -603,11 +636,11 @@ impl Viewer {
         let mr = self.renderer();
         let spp = mr.renderer.frames() * shared::SAMPLES_PER_FRAME;
         let (w, h) = self.display.size();
-        let ms = self.last.pathtrace_ms + self.last.learn_ms;
+        let last = self.recent.mean();
+        let ms = last.pathtrace_ms + last.learn_ms;
         let msps = if ms > 0.0 { (w as f64 * h as f64 * shared::SAMPLES_PER_FRAME as f64) / (ms * 1e3) } else { 0.0 };
-        let clock = if self.last.gpu { "GPU" } else { "wall" };
-        let learn =
-            if mr.mode == GuidingMode::Off { String::new() } else { format!(" (learn {:.2})", self.last.learn_ms) };
+        let clock = if last.gpu { "GPU" } else { "wall" };
+        let learn = if mr.mode == GuidingMode::Off { String::new() } else { format!(" (learn {:.2})", last.learn_ms) };
         self.window.set_title(&format!(
             "rlpt: {} | {spp} spp | {ms:.2} ms/frame {clock}{learn} | {msps:.1} Msamples/s | guiding {} | NEE {}{}",
             self.scene_name,
@@ -654,4 +687,40 @@ fn make_renderer(ctx: &Arc<Context>, scene: &Scene, base: &RenderOptions, mode: 
     let prepared = PreparedScene::new(scene, &opts);
     let renderer = GpuRenderer::new(ctx, &prepared)?;
     Ok(ModeRenderer { mode, prepared, renderer })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(pathtrace_ms: f64, learn_ms: f64) -> FrameTime {
+        FrameTime { pathtrace_ms, learn_ms, gpu: true }
+    }
+
+    /// The title's timings: a mean over the last RECENT_FRAMES frames, which holds
+    /// still while every fourth frame rebuilds the sampling rows.
+    #[test]
+    fn title_timings_average_the_recent_frames() {
+        let mut r = RecentFrames::default();
+        assert_eq!(r.mean(), FrameTime::default());
+        r.push(frame(2.0, 0.5));
+        assert_eq!(r.mean(), frame(2.0, 0.5));
+        // Frames as guided rendering makes them after its first ones: the rows'
+        // rebuild (0.4 ms here) after one frame in ROW_REBUILD_STRIDE.
+        let stride = crate::guide::ROW_REBUILD_STRIDE as usize;
+        let mut means = Vec::new();
+        for i in 0..5 * RECENT_FRAMES {
+            r.push(frame(1.0, if i % stride == stride - 1 { 0.4 } else { 0.0 }));
+            means.push(r.mean());
+        }
+        // Once the window holds only such frames, every frame shows the same figure.
+        for m in &means[RECENT_FRAMES..] {
+            assert_eq!(m.pathtrace_ms, 1.0);
+            assert!((m.learn_ms - 0.4 / stride as f64).abs() < 1e-12, "{m:?}");
+        }
+        r.clear();
+        assert_eq!(r.mean(), FrameTime::default());
+        r.push(FrameTime { gpu: false, ..frame(3.0, 0.0) });
+        assert!(!r.mean().gpu);
+    }
 }
