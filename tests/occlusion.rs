@@ -1,9 +1,10 @@
 //! Shadow rays skip the quads that bound the scene (`rlpt::prepared::occluding_order`).
 //! On every shipped scene, for shadow rays built as the renderers build them, the
 //! culled test must give the answer of the test against every primitive, except
-//! where a skipped quad blocks the segment at one of its ends, within that end's
-//! hit epsilon of the quad's plane: there the full test's answer is rounding, which the offset of the ends
-//! exists to avoid, and the points are measure zero.
+//! where a skipped quad blocks the segment at one of its ends, within twice that
+//! end's hit epsilon of the quad's plane (the offset of an end moves it by one):
+//! there the full test's answer is rounding, which the offset exists to avoid,
+//! and such points are measure zero.
 
 use rlpt::math::geometry::{intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light};
 use rlpt::math::rng::Rng;
