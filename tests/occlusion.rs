@@ -52,15 +52,14 @@ fn shadow_rays_skip_only_quads_that_cannot_block_them() {
                     let target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
                     let seg = target - origin;
                     let len = seg.length();
-                    let (culled, full) = (
-                        occluded(&prepared, origin, seg / len, len),
-                        occluded_by_all(&prepared, origin, seg / len, len),
-                    );
+                    let dir = seg / len;
+                    let (culled, full) =
+                        (occluded(&prepared, origin, dir, len), occluded_by_all(&prepared, origin, dir, len));
                     rays += 1;
                     blocked += full as u32;
                     if culled != full {
                         // Each skipped quad that blocks the segment has an end of it at its plane.
-                        for q in bounding.iter().filter(|q| intersect_quad(q, origin, seg / len, len).is_some()) {
+                        for q in bounding.iter().filter(|q| intersect_quad(q, origin, dir, len).is_some()) {
                             assert!(
                                 plane_distance(q, origin) <= 2.0 * hit.eps || plane_distance(q, target) <= 2.0 * ls.eps,
                                 "{}: the skipped quad at {:?} blocks the segment {origin} -> {target}, \

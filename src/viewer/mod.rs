@@ -636,11 +636,11 @@ impl Viewer {
         let mr = self.renderer();
         let spp = mr.renderer.frames() * shared::SAMPLES_PER_FRAME;
         let (w, h) = self.display.size();
-        let last = self.recent.mean();
-        let ms = last.pathtrace_ms + last.learn_ms;
+        let mean = self.recent.mean();
+        let ms = mean.pathtrace_ms + mean.learn_ms;
         let msps = if ms > 0.0 { (w as f64 * h as f64 * shared::SAMPLES_PER_FRAME as f64) / (ms * 1e3) } else { 0.0 };
-        let clock = if last.gpu { "GPU" } else { "wall" };
-        let learn = if mr.mode == GuidingMode::Off { String::new() } else { format!(" (learn {:.2})", last.learn_ms) };
+        let clock = if mean.gpu { "GPU" } else { "wall" };
+        let learn = if mr.mode == GuidingMode::Off { String::new() } else { format!(" (learn {:.2})", mean.learn_ms) };
         self.window.set_title(&format!(
             "rlpt: {} | {spp} spp | {ms:.2} ms/frame {clock}{learn} | {msps:.1} Msamples/s | guiding {} | NEE {}{}",
             self.scene_name,
