@@ -19,7 +19,11 @@ struct BsdfSample {
     bool ok;
 };
 
-bool bsdf_is_delta(Bsdf b) { return b.kind == MAT_SPECULAR || b.kind == MAT_DIELECTRIC; }
+// b.kind == kind, known false when the kernel is specialized to a scene without
+// that kind: the BSDFs' code is compiled for the scene's kinds alone.
+bool is_kind(Bsdf b, uint kind) { return scene_has_material(kind) && b.kind == kind; }
+
+bool bsdf_is_delta(Bsdf b) { return is_kind(b, MAT_SPECULAR) || is_kind(b, MAT_DIELECTRIC); }
 
 float ggx_d(float cos_h, float alpha) {
     if (cos_h <= 0.0) return 0.0;
@@ -63,24 +67,37 @@ float fresnel_dielectric(float cos_i, float eta) {
     return 0.5 * (r_parl * r_parl + r_perp * r_perp);
 }
 
-vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
+// src/math/bsdf.rs `bsdf_eval_pdf`: f(wo, wi) without the cosine, and in `pdf`
+// the density with which bsdf_sample picks wi; the glossy lobe's half vector,
+// distribution and masking computed once for both.
+vec3 bsdf_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
-    if (b.kind == MAT_DIFFUSE) return b.albedo / PI;
-    if (b.kind == MAT_GLOSSY) {
+    if (is_kind(b, MAT_DIFFUSE)) {
+        pdf = cosine_hemisphere_pdf(wi.z);
+        return b.albedo / PI;
+    }
+    if (is_kind(b, MAT_GLOSSY)) {
         vec3 h = normalize(wo + wi);
-        return b.albedo * (ggx_d(h.z, b.alpha) * ggx_g2(wo.z, wi.z, b.alpha) / (4.0 * wo.z * wi.z));
+        float d = ggx_d(h.z, b.alpha);
+        float lambda_o = ggx_lambda(wo.z, b.alpha);
+        float g1 = 1.0 / (1.0 + lambda_o);
+        float g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+        pdf = g1 * d / (4.0 * wo.z);
+        return b.albedo * (d * g2 / (4.0 * wo.z * wi.z));
     }
     return vec3(0.0);
 }
 
+vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
+    float pdf;
+    return bsdf_eval_pdf(b, wo, wi, pdf);
+}
+
 float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
-    if (b.kind == MAT_DIFFUSE) return cosine_hemisphere_pdf(wi.z);
-    if (b.kind == MAT_GLOSSY) {
-        vec3 h = normalize(wo + wi);
-        return ggx_g1(wo.z, b.alpha) * ggx_d(h.z, b.alpha) / (4.0 * wo.z);
-    }
-    return 0.0;
+    float pdf;
+    bsdf_eval_pdf(b, wo, wi, pdf);
+    return pdf;
 }
 
 BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
@@ -90,20 +107,20 @@ BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
     s.pdf = 0.0;
     s.delta = false;
     s.ok = false;
-    if (b.kind == MAT_DIFFUSE) {
+    if (is_kind(b, MAT_DIFFUSE)) {
         if (wo.z <= 0.0) return s;
         s.wi = cosine_hemisphere(u);
         s.pdf = cosine_hemisphere_pdf(s.wi.z);
         s.weight = b.albedo;
         s.ok = s.pdf > 0.0;
-    } else if (b.kind == MAT_SPECULAR) {
+    } else if (is_kind(b, MAT_SPECULAR)) {
         if (wo.z <= 0.0) return s;
         s.wi = vec3(-wo.x, -wo.y, wo.z);
         s.weight = b.albedo;
         s.pdf = 1.0;
         s.delta = true;
         s.ok = true;
-    } else if (b.kind == MAT_GLOSSY) {
+    } else if (is_kind(b, MAT_GLOSSY)) {
         if (wo.z <= 0.0) return s;
         vec3 h = ggx_sample_vndf(wo, b.alpha, u);
         s.wi = 2.0 * dot(wo, h) * h - wo;
@@ -111,7 +128,7 @@ BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
         s.pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h.z, b.alpha) / (4.0 * wo.z);
         s.weight = b.albedo * (ggx_g2(wo.z, s.wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
         s.ok = s.pdf > 0.0;
-    } else if (b.kind == MAT_DIELECTRIC) {
+    } else if (is_kind(b, MAT_DIELECTRIC)) {
         float f = fresnel_dielectric(wo.z, b.ior);
         s.delta = true;
         if (uc < f) {

@@ -25,6 +25,9 @@
 #define LIGHT_SPHERE 0
 #define LIGHT_QUAD 1
 #define NO_LIGHT 4294967295
+// RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
+// bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light.
+#define SCENE_KIND_LIGHT_SHIFT 8
 
 // RenderParams.flags bits.
 #define FLAG_NEE 1
@@ -75,7 +78,10 @@
 #define SPEC_GUIDE_VERTICES 10
 #define SPEC_RECORD_VERTICES 11
 #define SPEC_OCCLUDING_QUADS 12
-#define NUM_SPEC_CONSTANTS 13
+// params.scene_kinds: the kernel leaves out the code of the material and light
+// kinds the scene lacks (src/prepared.rs `scene_kinds`).
+#define SPEC_SCENE_KINDS 13
+#define NUM_SPEC_CONSTANTS 14
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4
@@ -184,7 +190,20 @@ struct RenderParams {
     float guide_floor;       // exploration floor of the guided distribution
     uint guide_vertices;     // guided sampling at a path's first this many vertices
     uint occluding_quads;    // shadow rays test the first this many quads (src/prepared.rs `occluding_order`)
-    uint pad2;
+    uint scene_kinds;        // SCENE_KIND_* bits: the material and light kinds the scene has
 };
+
+// The material and light kinds (SCENE_KIND_* bits) the including kernel is
+// compiled for: all of them, unless it is specialized to a scene
+// (pathtrace.comp), when the code of kinds the scene lacks is left out.
+#ifdef RLPT_SPECIALIZED
+layout(constant_id = SPEC_SCENE_KINDS) const uint SCENE_KINDS = 0xffffffffu;
+#else
+const uint SCENE_KINDS = 0xffffffffu;
+#endif
+// Whether the scene may have a material of kind MAT_*.
+bool scene_has_material(uint kind) { return (SCENE_KINDS & (1u << kind)) != 0u; }
+// Whether the scene may have a light of kind LIGHT_*.
+bool scene_has_light(uint kind) { return (SCENE_KINDS & (1u << (uint(SCENE_KIND_LIGHT_SHIFT) + kind))) != 0u; }
 
 #endif

@@ -188,6 +188,14 @@ struct LightSample {
     float pdf;
 };
 
+// Whether a light is a sphere (else a quad); known where the kernel is
+// specialized to a scene with lights of one kind, so the other's code goes.
+bool is_sphere_light(Light l) {
+    if (!scene_has_light(LIGHT_QUAD)) return true;
+    if (!scene_has_light(LIGHT_SPHERE)) return false;
+    return l.kind == LIGHT_SPHERE;
+}
+
 bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     uint n_lights = params.num_lights;
     if (n_lights == 0u) return false;
@@ -199,7 +207,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     vec3 lp, ln;
     float eps, pdf_solid;
     uint mat;
-    if (light.kind == LIGHT_SPHERE) {
+    if (is_sphere_light(light)) {
         Sphere s = spheres[light.index];
         vec3 c = s.center_radius.xyz;
         float r = s.center_radius.w;
@@ -266,7 +274,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
 float light_pdf(uint light_index, vec3 p, vec3 w) {
     Light l = lights[light_index];
     float pdf_solid;
-    if (l.kind == LIGHT_SPHERE) {
+    if (is_sphere_light(l)) {
         vec4 cr = spheres[l.index].center_radius;
         float r = cr.w;
         vec3 f = p - cr.xyz;

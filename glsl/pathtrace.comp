@@ -135,7 +135,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             radiance += beta * le * w;
         }
         Bsdf bsdf = material_bsdf(hit.material);
-        vec3 n = (bsdf.kind == MAT_DIELECTRIC || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
+        vec3 n = (is_kind(bsdf, MAT_DIELECTRIC) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
         mat3 frame = make_frame(n);
         vec3 wo_local = to_local(frame, wo);
 
@@ -170,7 +170,8 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             LightSample ls;
             if (sample_light(hit.p, u_sel, u_light, ls)) {
                 vec3 wi_local = to_local(frame, ls.wi);
-                vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
+                float pdf_bsdf;
+                vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
                 if (max_component(ls.le) > 0.0 && max_component(f) > 0.0) {
                     vec3 origin = offset_origin(hit.p, hit.n, hit.eps, ls.wi);
                     vec3 target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
@@ -178,7 +179,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                     float len = length(seg);
                     segments += 1u;
                     if (!occluded(origin, seg / len, len)) {
-                        float pdf_mix = bsdf_pdf(bsdf, wo_local, wi_local);
+                        float pdf_mix = pdf_bsdf;
 #if GUIDED
                         if (g_frac > 0.0) pdf_mix = (1.0 - g_frac) * pdf_mix + g_frac * guided_pdf(row, ls.wi);
 #endif
@@ -226,8 +227,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #if GUIDED
         if (ok && g_frac > 0.0 && !delta) {
             vec3 wi_local = to_local(frame, wi);
-            vec3 f = bsdf_eval(bsdf, wo_local, wi_local);
-            pdf = (1.0 - g_frac) * bsdf_pdf(bsdf, wo_local, wi_local) + g_frac * guided_pdf(row, wi);
+            float pdf_bsdf;
+            vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
+            pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * guided_pdf(row, wi);
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
         }

@@ -29,5 +29,5 @@ void main() {
     put(params.guide_bins); put(params.guide_rows); put(params.guide_cols);
     put4(params.guide_min); put4(params.guide_inv_cell);
     put(params.guide_res_x); put(params.guide_res_y); put(params.guide_res_z); put(params.guide_cells);
-    putf(params.guide_floor); put(params.guide_vertices); put(params.occluding_quads);
+    putf(params.guide_floor); put(params.guide_vertices); put(params.occluding_quads); put(params.scene_kinds);
 }

@@ -112,7 +112,9 @@ pub struct RenderParams {
     /// Shadow rays test the first this many quads only: the rest bound the scene
     /// ([`occluding_order`]) and cannot block a segment between two of its points.
     pub occluding_quads: u32,
-    pub pad: u32,
+    /// The material and light kinds of the scene ([`scene_kinds`]): the kernel is
+    /// specialized to them and leaves out the code of the others.
+    pub scene_kinds: u32,
 }
 
 impl RenderParams {
@@ -376,7 +378,7 @@ impl PreparedScene {
             guide_floor: 0.0,
             guide_vertices: 0,
             occluding_quads,
-            pad: 0,
+            scene_kinds: scene_kinds(&materials, &lights),
         };
         params.set_camera(&scene.camera);
         let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
@@ -404,6 +406,17 @@ impl PreparedScene {
         }
         prepared
     }
+}
+
+/// The kinds of material and light the scene has, as `RenderParams.scene_kinds`
+/// bits: `1 << kind` for each material kind (`MAT_*`, every material of the scene
+/// file, used or not) and `1 << (SCENE_KIND_LIGHT_SHIFT + kind)` for each light
+/// kind (`LIGHT_*`). pathtrace.comp is specialized to them (`SPEC_SCENE_KINDS`)
+/// and compiles the BSDFs and light samplers of these kinds alone: a kind with no
+/// material or light in the scene is never asked for, so its code only took room.
+pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
+    let m = materials.iter().fold(0, |k, m| k | 1 << m.kind);
+    lights.iter().fold(m, |k, l| k | 1 << (shared::SCENE_KIND_LIGHT_SHIFT + l.kind))
 }
 
 /// The order of the scene's quads in [`PreparedScene::quads`], and how many of
@@ -483,6 +496,25 @@ mod tests {
     /// their plane) and the lamp under the ceiling can block a shadow ray, in
     /// their scene order; the six walls of the rooms cannot, and come last. The
     /// lamp's light follows its quad.
+    #[test]
+    fn scene_kinds_name_the_materials_and_lights_of_the_scene() {
+        let kinds = |name: &str| {
+            let s = scene(name);
+            PreparedScene::new(&s, &RenderOptions::from_scene(&s)).params.scene_kinds
+        };
+        let mat = |k: u32| 1u32 << k;
+        let light = |k: u32| 1u32 << (shared::SCENE_KIND_LIGHT_SHIFT + k);
+        let quad_lit = mat(shared::MAT_DIFFUSE) | mat(shared::MAT_EMISSIVE) | light(shared::LIGHT_QUAD);
+        assert_eq!(kinds("seed-exp1"), quad_lit);
+        assert_eq!(kinds("door"), quad_lit);
+        let all_materials = (0..=shared::MAT_EMISSIVE).fold(0, |k, m| k | mat(m));
+        assert_eq!(kinds("seed-exp2"), all_materials | light(shared::LIGHT_QUAD));
+        assert_eq!(kinds("seed-exp3"), all_materials | light(shared::LIGHT_QUAD) | light(shared::LIGHT_SPHERE));
+        assert_eq!(kinds("smallpt"), all_materials & !mat(shared::MAT_GLOSSY) | light(shared::LIGHT_SPHERE));
+        // No lights at all (the furnace lights the ball from the environment).
+        assert_eq!(kinds("furnace-open"), mat(shared::MAT_DIFFUSE));
+    }
+
     #[test]
     fn shadow_rays_test_the_quads_inside_the_scene_first() {
         let s = scene("door");

@@ -114,7 +114,7 @@ fn struct_layout_matches_the_rust_mirrors() {
         guide_floor: 0.125,
         guide_vertices: 517,
         occluding_quads: 518,
-        pad: 0,
+        scene_kinds: 519,
     };
     let bufs = [
         Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),
@@ -179,6 +179,7 @@ fn struct_layout_matches_the_rust_mirrors() {
         params.guide_floor.to_bits(),
         params.guide_vertices,
         params.occluding_quads,
+        params.scene_kinds,
     ]);
     assert_eq!(&got[..want.len()], &want[..]);
     common::assert_no_validation_messages(&ctx);

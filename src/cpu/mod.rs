@@ -4,7 +4,7 @@
 
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable};
-use crate::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
+use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
 use crate::math::geometry::{emitted, intersect, light_pdf, occluded, offset_origin, sample_light};
 use crate::math::rng::Rng;
 use crate::math::sampling::mis_weight;
@@ -165,22 +165,18 @@ pub fn trace_path(
             Some(g) if depth < guided_vertices && !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
             _ => 0.0,
         };
-        // The density of the mixture of BSDF and guided sampling.
-        let mix_pdf = |wi_world: Vec3, wi_local: Vec3| {
-            let pb = bsdf_pdf(&bsdf, wo_local, wi_local);
-            match guide {
-                Some(g) if g_frac > 0.0 => {
-                    (1.0 - g_frac) * pb + g_frac * guide::guided_pdf(&g.cfg.bins, sampler, wi_world)
-                }
-                _ => pb,
-            }
+        // The density of the mixture of BSDF and guided sampling, from the BSDF's
+        // density `pb` at the direction.
+        let mix_pdf = |wi_world: Vec3, pb: f32| match guide {
+            Some(g) if g_frac > 0.0 => (1.0 - g_frac) * pb + g_frac * guide::guided_pdf(&g.cfg.bins, sampler, wi_world),
+            _ => pb,
         };
         // A direction of the mixture, whichever sampler chose it: (wi, BSDF x cos / pdf,
         // mixture pdf, not delta), or None where the BSDF or the density is zero.
         let mixture_sample = |wi: Vec3| {
             let wi_local = frame.to_local(wi);
-            let f = bsdf_eval(&bsdf, wo_local, wi_local);
-            let pdf = mix_pdf(wi, wi_local);
+            let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
+            let pdf = mix_pdf(wi, pb);
             (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
         };
         let last = depth >= p.max_bounces;
@@ -190,7 +186,7 @@ pub fn trace_path(
         if nee && !last && !bsdf.is_delta() {
             if let Some(ls) = sample_light(scene, hit.p, u_sel, u_light) {
                 let wi_local = frame.to_local(ls.wi);
-                let f = bsdf_eval(&bsdf, wo_local, wi_local);
+                let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
                 if ls.le.max_element() > 0.0 && f.max_element() > 0.0 {
                     let origin = offset_origin(hit.p, hit.n, hit.eps, ls.wi);
                     let target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
@@ -198,7 +194,7 @@ pub fn trace_path(
                     let len = seg.length();
                     segments += 1;
                     if !occluded(scene, origin, seg / len, len) {
-                        let w = mis_weight(ls.pdf, mix_pdf(ls.wi, wi_local), power);
+                        let w = mis_weight(ls.pdf, mix_pdf(ls.wi, pb), power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                     }
                 }

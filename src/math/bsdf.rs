@@ -39,28 +39,35 @@ impl Bsdf {
     }
 }
 
-/// f(wo, wi), without the cosine. Zero for delta BSDFs.
-pub fn bsdf_eval(b: &Bsdf, wo: Vec3, wi: Vec3) -> Vec3 {
+/// f(wo, wi), without the cosine, and the solid-angle density with which
+/// `bsdf_sample` picks `wi`: both zero for delta BSDFs. One function, so that the
+/// glossy lobe's half vector, distribution and masking are computed once where a
+/// vertex needs both (light samples and guided directions); on the GPU the code
+/// of one call site instead of two.
+pub fn bsdf_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
     match b.kind {
-        MaterialKind::Diffuse if wo.z > 0.0 && wi.z > 0.0 => b.albedo / PI,
+        MaterialKind::Diffuse if wo.z > 0.0 && wi.z > 0.0 => (b.albedo / PI, cosine_hemisphere_pdf(wi.z)),
         MaterialKind::Glossy if wo.z > 0.0 && wi.z > 0.0 => {
             let h = (wo + wi).normalize();
-            b.albedo * (ggx_d(h.z, b.alpha) * ggx_g2(wo.z, wi.z, b.alpha) / (4.0 * wo.z * wi.z))
+            let d = ggx_d(h.z, b.alpha);
+            let lambda_o = ggx_lambda(wo.z, b.alpha);
+            // ggx_g1(wo) and ggx_g2(wo, wi), sharing Lambda(wo).
+            let g1 = 1.0 / (1.0 + lambda_o);
+            let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+            (b.albedo * (d * g2 / (4.0 * wo.z * wi.z)), g1 * d / (4.0 * wo.z))
         }
-        _ => Vec3::ZERO,
+        _ => (Vec3::ZERO, 0.0),
     }
+}
+
+/// f(wo, wi), without the cosine. Zero for delta BSDFs.
+pub fn bsdf_eval(b: &Bsdf, wo: Vec3, wi: Vec3) -> Vec3 {
+    bsdf_eval_pdf(b, wo, wi).0
 }
 
 /// Solid-angle density with which `bsdf_sample` picks `wi`. Zero for delta BSDFs.
 pub fn bsdf_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> f32 {
-    match b.kind {
-        MaterialKind::Diffuse if wo.z > 0.0 && wi.z > 0.0 => cosine_hemisphere_pdf(wi.z),
-        MaterialKind::Glossy if wo.z > 0.0 && wi.z > 0.0 => {
-            let h = (wo + wi).normalize();
-            ggx_g1(wo.z, b.alpha) * ggx_d(h.z, b.alpha) / (4.0 * wo.z)
-        }
-        _ => 0.0,
-    }
+    bsdf_eval_pdf(b, wo, wi).1
 }
 
 /// Samples an incident direction; `uc` chooses between lobes (dielectric), `u` the direction.

@@ -573,6 +573,7 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_GUIDE_VERTICES as usize] = crate::guide::guided_vertices(p);
     c[shared::SPEC_RECORD_VERTICES as usize] = crate::guide::record_vertices(p);
     c[shared::SPEC_OCCLUDING_QUADS as usize] = p.occluding_quads;
+    c[shared::SPEC_SCENE_KINDS as usize] = p.scene_kinds;
     c
 }
 
@@ -596,6 +597,7 @@ mod tests {
             max_bounces: 19,
             guide_vertices: 20,
             occluding_quads: 21,
+            scene_kinds: 22,
             ..Default::default()
         };
         let c = specialization(&p);
@@ -613,6 +615,7 @@ mod tests {
             // No roulette in `flags`: the guided vertices.
             (shared::SPEC_RECORD_VERTICES, 20),
             (shared::SPEC_OCCLUDING_QUADS, 21),
+            (shared::SPEC_SCENE_KINDS, 22),
             // Set per pipeline by `path_pipeline`, not from the parameters.
             (shared::SPEC_RECORDING, 0),
         ];
