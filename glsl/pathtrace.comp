@@ -114,13 +114,21 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
     // arrives at a vertex of depth `depth` having left depth - 1.
     bool learn = RECORDING && (push.ablate & ABLATE_RECORD) == 0u;
     bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
+    // The target of the ray that ends the path (it escapes or meets a light),
+    // recorded after the loop: one call site of record_target fewer inside it
+    // made guided frames 0.7 (door) to 2.7 % (seed-exp2) faster on the H200.
+    uint end_key = NO_KEY;
+    float end_target = 0.0;
 #endif
     for (;;) {
         segments += 1u;
         Hit hit;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
 #if GUIDED
-            if (learn && depth <= RECORD_VERTICES && prev_key != NO_KEY) record_target(prev_key, mean3(params.environment.xyz));
+            if (learn && depth <= RECORD_VERTICES && prev_key != NO_KEY) {
+                end_key = prev_key;
+                end_target = mean3(params.environment.xyz);
+            }
 #endif
             radiance += beta * params.environment.xyz;
             break;
@@ -154,7 +162,10 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
-            if (learn && depth <= RECORD_VERTICES && prev_key != NO_KEY) record_target(prev_key, mean3(le));
+            if (learn && depth <= RECORD_VERTICES && prev_key != NO_KEY) {
+                end_key = prev_key;
+                end_target = mean3(le);
+            }
 #endif
             break;
         }
@@ -260,6 +271,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         }
         if (max_component(beta) <= 0.0) break;
     }
+#if GUIDED
+    if (end_key != NO_KEY) record_target(end_key, end_target);
+#endif
     return radiance;
 }
 
