@@ -81,7 +81,9 @@
 // params.scene_kinds: the kernel leaves out the code of the material and light
 // kinds the scene lacks (src/prepared.rs `scene_kinds`).
 #define SPEC_SCENE_KINDS 13
-#define NUM_SPEC_CONSTANTS 14
+// params.num_lights: a scene with one light skips choosing one (geometry.glsl).
+#define SPEC_NUM_LIGHTS 14
+#define NUM_SPEC_CONSTANTS 15
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

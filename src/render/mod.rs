@@ -574,6 +574,7 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_C
     c[shared::SPEC_RECORD_VERTICES as usize] = crate::guide::record_vertices(p);
     c[shared::SPEC_OCCLUDING_QUADS as usize] = p.occluding_quads;
     c[shared::SPEC_SCENE_KINDS as usize] = p.scene_kinds;
+    c[shared::SPEC_NUM_LIGHTS as usize] = p.num_lights;
     c
 }
 
@@ -598,6 +599,7 @@ mod tests {
             guide_vertices: 20,
             occluding_quads: 21,
             scene_kinds: 22,
+            num_lights: 23,
             ..Default::default()
         };
         let c = specialization(&p);
@@ -616,6 +618,7 @@ mod tests {
             (shared::SPEC_RECORD_VERTICES, 20),
             (shared::SPEC_OCCLUDING_QUADS, 21),
             (shared::SPEC_SCENE_KINDS, 22),
+            (shared::SPEC_NUM_LIGHTS, 23),
             // Set per pipeline by `path_pipeline`, not from the parameters.
             (shared::SPEC_RECORDING, 0),
         ];
