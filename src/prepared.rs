@@ -492,10 +492,9 @@ mod tests {
         Scene::load(format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
     }
 
-    /// door.toml: the partition's three pieces (both rooms lie on both sides of
-    /// their plane) and the lamp under the ceiling can block a shadow ray, in
-    /// their scene order; the six walls of the rooms cannot, and come last. The
-    /// lamp's light follows its quad.
+    /// Every material of the scene file sets its kind's bit, every light its
+    /// kind's; the seed's diffuse box and door have diffuse, emissive and quad
+    /// lights only, seed-exp3 everything.
     #[test]
     fn scene_kinds_name_the_materials_and_lights_of_the_scene() {
         let kinds = |name: &str| {
@@ -515,6 +514,10 @@ mod tests {
         assert_eq!(kinds("furnace-open"), mat(shared::MAT_DIFFUSE));
     }
 
+    /// door.toml: the partition's three pieces (both rooms lie on both sides of
+    /// their plane) and the lamp under the ceiling can block a shadow ray, in
+    /// their scene order; the six walls of the rooms cannot, and come last. The
+    /// lamp's light follows its quad.
     #[test]
     fn shadow_rays_test_the_quads_inside_the_scene_first() {
         let s = scene("door");
