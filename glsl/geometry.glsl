@@ -87,7 +87,44 @@ layout(constant_id = SPEC_NUM_QUADS) const uint SCENE_QUADS = 0u;
 // the scene and cannot block one (src/prepared.rs `occluding_order`).
 layout(constant_id = SPEC_OCCLUDING_QUADS) const uint OCCLUDING_QUADS = 0u;
 
-// How many spheres and quads the uniform buffer holds: the first ones, up to the capacity.
+// The first SPEC_SPHERES spheres and SPEC_QUADS quads as specialization
+// constants, one float each (common.glsl: SPEC_QUAD_BASE, SPEC_SPHERE_BASE):
+// their tests are written out once per slot below, so every operand is a number
+// the driver knows, and an axis-aligned quad's test keeps only the arithmetic of
+// its one axis (a wall of the seed's rooms: a division and two multiply-adds).
+// Slots past the scene's count are left out when the kernel is specialized.
+#define SPEC_QUAD_F(i, k) layout(constant_id = SPEC_QUAD_BASE + SPEC_QUAD_FLOATS * i + k) const float sq##i##_##k = 0.0;
+#define SPEC_QUAD_DECL(i) \
+    SPEC_QUAD_F(i, 0) SPEC_QUAD_F(i, 1) SPEC_QUAD_F(i, 2) SPEC_QUAD_F(i, 3) SPEC_QUAD_F(i, 4) \
+    SPEC_QUAD_F(i, 5) SPEC_QUAD_F(i, 6) SPEC_QUAD_F(i, 7) SPEC_QUAD_F(i, 8) SPEC_QUAD_F(i, 9) \
+    SPEC_QUAD_F(i, 10) SPEC_QUAD_F(i, 11) SPEC_QUAD_F(i, 12)
+#define SPEC_SPHERE_F(i, k) layout(constant_id = SPEC_SPHERE_BASE + SPEC_SPHERE_FLOATS * i + k) const float ss##i##_##k = 0.0;
+#define SPEC_SPHERE_DECL(i) \
+    SPEC_SPHERE_F(i, 0) SPEC_SPHERE_F(i, 1) SPEC_SPHERE_F(i, 2) SPEC_SPHERE_F(i, 3) \
+    SPEC_SPHERE_F(i, 4) SPEC_SPHERE_F(i, 5) SPEC_SPHERE_F(i, 6)
+SPEC_QUAD_DECL(0) SPEC_QUAD_DECL(1) SPEC_QUAD_DECL(2) SPEC_QUAD_DECL(3)
+SPEC_QUAD_DECL(4) SPEC_QUAD_DECL(5) SPEC_QUAD_DECL(6) SPEC_QUAD_DECL(7)
+SPEC_QUAD_DECL(8) SPEC_QUAD_DECL(9) SPEC_QUAD_DECL(10) SPEC_QUAD_DECL(11)
+SPEC_QUAD_DECL(12) SPEC_QUAD_DECL(13) SPEC_QUAD_DECL(14) SPEC_QUAD_DECL(15)
+SPEC_SPHERE_DECL(0) SPEC_SPHERE_DECL(1) SPEC_SPHERE_DECL(2) SPEC_SPHERE_DECL(3)
+SPEC_SPHERE_DECL(4) SPEC_SPHERE_DECL(5) SPEC_SPHERE_DECL(6) SPEC_SPHERE_DECL(7)
+SPEC_SPHERE_DECL(8) SPEC_SPHERE_DECL(9) SPEC_SPHERE_DECL(10) SPEC_SPHERE_DECL(11)
+SPEC_SPHERE_DECL(12) SPEC_SPHERE_DECL(13) SPEC_SPHERE_DECL(14) SPEC_SPHERE_DECL(15)
+
+// The hit test of specialized quad or sphere slot i (a literal).
+#define SPEC_QUAD_HIT(i, o, d, t_max) \
+    intersect_quad_at(vec4(sq##i##_0, sq##i##_1, sq##i##_2, sq##i##_3), vec3(sq##i##_4, sq##i##_5, sq##i##_6), \
+                      vec3(sq##i##_7, sq##i##_8, sq##i##_9), vec3(sq##i##_10, sq##i##_11, sq##i##_12), o, d, t_max)
+#define SPEC_SPHERE_HIT(i, o, d, t_max) \
+    intersect_sphere_at(vec4(ss##i##_0, ss##i##_1, ss##i##_2, ss##i##_3), vec3(ss##i##_4, ss##i##_5, ss##i##_6), o, d, t_max)
+// A statement per slot, for the slots 0 to 15 (SPEC_QUADS, SPEC_SPHERES).
+#define FOR_SPEC_SLOTS(S) \
+    S(0) S(1) S(2) S(3) S(4) S(5) S(6) S(7) S(8) S(9) S(10) S(11) S(12) S(13) S(14) S(15)
+
+// How many spheres and quads are specialization constants, and how many more the
+// uniform buffer holds: the first ones, up to the capacities.
+uint spec_sphere_count() { return min(SCENE_SPHERES, uint(SPEC_SPHERES)); }
+uint spec_quad_count() { return min(SCENE_QUADS, uint(SPEC_QUADS)); }
 uint const_sphere_count() { return min(SCENE_SPHERES, uint(CONST_SPHERES)); }
 uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
 
@@ -101,17 +138,23 @@ float const_quad(uint i, vec3 o, vec3 d, float t_max) {
                              const_quads[k + 3u].xyz, o, d, t_max);
 }
 
-// Each kind of primitive is walked in two loops, those of the uniform buffer and
-// then the rest from the storage buffers: one loop that chose the source per
-// primitive cost 3.6 % of a frame (BENCHMARKS.md). The loops over the uniform
-// buffer stay loops: unrolled (the driver's choice once their length is known)
-// they made frames 2 to 4 % slower.
+// Each kind of primitive is walked in three runs: the specialized slots, the
+// uniform buffer, then the rest from the storage buffers: one loop that chose the
+// source per primitive cost 3.6 % of a frame (BENCHMARKS.md). The loops over the
+// uniform buffer stay loops: unrolled (the driver's choice once their length is
+// known) they made frames 2 to 4 % slower.
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     float best = t_max;
     int found = -1;
     bool is_sphere = false;
+#define NEAREST_SPEC_SPHERE(i) \
+    if (i < spec_sphere_count()) { \
+        float t = SPEC_SPHERE_HIT(i, o, d, best); \
+        if (t > 0.0) { best = t; found = i; is_sphere = true; } \
+    }
+    FOR_SPEC_SLOTS(NEAREST_SPEC_SPHERE)
     uint ns = const_sphere_count();
-    [[dont_unroll]] for (uint i = 0u; i < ns; ++i) {
+    [[dont_unroll]] for (uint i = spec_sphere_count(); i < ns; ++i) {
         float t = const_sphere(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
@@ -119,8 +162,14 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         float t = intersect_sphere(spheres[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
+#define NEAREST_SPEC_QUAD(i) \
+    if (i < spec_quad_count()) { \
+        float t = SPEC_QUAD_HIT(i, o, d, best); \
+        if (t > 0.0) { best = t; found = i; is_sphere = false; } \
+    }
+    FOR_SPEC_SLOTS(NEAREST_SPEC_QUAD)
     uint nq = const_quad_count();
-    [[dont_unroll]] for (uint i = 0u; i < nq; ++i) {
+    [[dont_unroll]] for (uint i = spec_quad_count(); i < nq; ++i) {
         float t = const_quad(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
@@ -148,15 +197,22 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 }
 
 bool occluded(vec3 o, vec3 d, float t_max) {
+#define BLOCKS_SPEC_SPHERE(i) \
+    if (i < spec_sphere_count() && SPEC_SPHERE_HIT(i, o, d, t_max) > 0.0) return true;
+    FOR_SPEC_SLOTS(BLOCKS_SPEC_SPHERE)
     uint ns = const_sphere_count();
-    [[dont_unroll]] for (uint i = 0u; i < ns; ++i) {
+    [[dont_unroll]] for (uint i = spec_sphere_count(); i < ns; ++i) {
         if (const_sphere(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = ns; i < SCENE_SPHERES; ++i) {
         if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
     }
+    uint nqs = min(OCCLUDING_QUADS, uint(SPEC_QUADS));
+#define BLOCKS_SPEC_QUAD(i) \
+    if (i < nqs && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
+    FOR_SPEC_SLOTS(BLOCKS_SPEC_QUAD)
     uint nq = min(OCCLUDING_QUADS, uint(CONST_QUADS));
-    [[dont_unroll]] for (uint i = 0u; i < nq; ++i) {
+    [[dont_unroll]] for (uint i = nqs; i < nq; ++i) {
         if (const_quad(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = nq; i < OCCLUDING_QUADS; ++i) {

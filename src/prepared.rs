@@ -157,6 +157,14 @@ const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
+// The specialization constants' layout (glsl/common.glsl): the quads' slots
+// follow the scalar constants, the spheres' follow the quads', and nothing after.
+const _: () =
+    assert!(shared::SPEC_SPHERE_BASE == shared::SPEC_QUAD_BASE + shared::SPEC_QUADS * shared::SPEC_QUAD_FLOATS);
+const _: () =
+    assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERES * shared::SPEC_SPHERE_FLOATS);
+// geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
+const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
 /// Guided sampling's default reach with NEE: a path's first two vertices. There,
 /// deeper vertices gained nothing measurable per sample on the seed scenes and
@@ -255,6 +263,29 @@ impl PreparedScene {
         for (i, q) in self.quads.iter().take(nq).enumerate() {
             let k = 2 * ns + 4 * i;
             out[k..k + 4].copy_from_slice(&[q.normal, q.origin, q.dual_u, q.dual_v]);
+        }
+        out
+    }
+
+    /// The hit-test data of the first `SPEC_QUADS` quads and `SPEC_SPHERES`
+    /// spheres as pathtrace.comp's specialization constants (glsl/geometry.glsl),
+    /// f32 bit patterns in constant_id order from `SPEC_QUAD_BASE`: per quad its
+    /// normal, origin, dual_u and dual_v (13 floats), per sphere its anchor and
+    /// radius and its axis (7); zeros past the scene's own.
+    pub fn geometry_specialization(&self) -> Vec<u32> {
+        let quad_floats = shared::SPEC_QUAD_FLOATS as usize;
+        let sphere_floats = shared::SPEC_SPHERE_FLOATS as usize;
+        let mut out = vec![0u32; (shared::NUM_SPEC_CONSTANTS - shared::SPEC_QUAD_BASE) as usize];
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+        for (i, q) in self.quads.iter().take(shared::SPEC_QUADS as usize).enumerate() {
+            let floats = [&q.normal[..], &q.origin[..3], &q.dual_u[..3], &q.dual_v[..3]].concat();
+            out[quad_floats * i..quad_floats * (i + 1)].copy_from_slice(&bits(&floats));
+        }
+        let spheres = (shared::SPEC_SPHERE_BASE - shared::SPEC_QUAD_BASE) as usize;
+        for (i, s) in self.spheres.iter().take(shared::SPEC_SPHERES as usize).enumerate() {
+            let floats = [&s.anchor_radius[..], &s.axis[..3]].concat();
+            let k = spheres + sphere_floats * i;
+            out[k..k + sphere_floats].copy_from_slice(&bits(&floats));
         }
         out
     }
@@ -495,6 +526,45 @@ mod tests {
     /// Every material of the scene file sets its kind's bit, every light its
     /// kind's; the seed's diffuse box and door have diffuse, emissive and quad
     /// lights only, seed-exp3 everything.
+    /// Each specialization constant of the geometry carries its own number: the
+    /// float at constant_id SPEC_QUAD_BASE + 13 i + k is float k of quad i's
+    /// normal, origin, dual_u, dual_v; from SPEC_SPHERE_BASE + 7 i, sphere i's
+    /// anchor, radius and axis; slots past the scene's primitives are zero.
+    #[test]
+    fn geometry_specialization_holds_each_primitive_in_its_slot() {
+        let s = scene("seed-exp3");
+        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s));
+        let c = p.geometry_specialization();
+        assert_eq!(c.len() as u32, shared::NUM_SPEC_CONSTANTS - shared::SPEC_QUAD_BASE);
+        let at = |id: u32| f32::from_bits(c[(id - shared::SPEC_QUAD_BASE) as usize]);
+        assert!(p.quads.len() >= 6 && p.spheres.len() >= 9);
+        for (i, q) in p.quads.iter().enumerate() {
+            let base = shared::SPEC_QUAD_BASE + shared::SPEC_QUAD_FLOATS * i as u32;
+            let want = [q.normal[0], q.normal[1], q.normal[2], q.normal[3], q.origin[0], q.origin[1], q.origin[2]];
+            for (k, w) in want.iter().enumerate() {
+                assert_eq!(at(base + k as u32), *w, "quad {i}, float {k}");
+            }
+            for k in 0..3 {
+                assert_eq!(at(base + 7 + k as u32), q.dual_u[k], "quad {i}, dual_u[{k}]");
+                assert_eq!(at(base + 10 + k as u32), q.dual_v[k], "quad {i}, dual_v[{k}]");
+            }
+        }
+        for (i, sp) in p.spheres.iter().enumerate() {
+            let base = shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERE_FLOATS * i as u32;
+            for k in 0..4 {
+                assert_eq!(at(base + k as u32), sp.anchor_radius[k], "sphere {i}, anchor_radius[{k}]");
+            }
+            for k in 0..3 {
+                assert_eq!(at(base + 4 + k as u32), sp.axis[k], "sphere {i}, axis[{k}]");
+            }
+        }
+        let used_quads = shared::SPEC_QUAD_BASE + shared::SPEC_QUAD_FLOATS * p.quads.len() as u32;
+        let used_spheres = shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERE_FLOATS * p.spheres.len() as u32;
+        for id in (used_quads..shared::SPEC_SPHERE_BASE).chain(used_spheres..shared::NUM_SPEC_CONSTANTS) {
+            assert_eq!(c[(id - shared::SPEC_QUAD_BASE) as usize], 0, "unused constant {id}");
+        }
+    }
+
     #[test]
     fn scene_kinds_name_the_materials_and_lights_of_the_scene() {
         let kinds = |name: &str| {

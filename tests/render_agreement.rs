@@ -133,10 +133,10 @@ fn same_seed_same_image_on_one_device() {
 }
 
 /// A box lit by a quad lamp, with more spheres and quads than the GPU kernel
-/// holds in its uniform buffer (64 of each, glsl/geometry.glsl): a row of 72
-/// small balls on the floor and 64 small tiles on the back wall come first, the
-/// walls and the lamp after them, so hits on primitives of the uniform buffer and
-/// on primitives read from the storage buffers both shape the image.
+/// holds as specialization constants (16 of each) and in its uniform buffer (64
+/// of each, glsl/geometry.glsl): a row of 72 small balls on the floor and 64 small
+/// tiles on the back wall come first, the walls and the lamp after them, so hits
+/// on primitives of all three sources shape the image.
 fn crowded_scene() -> Scene {
     let mut t = String::from(
         r#"
@@ -190,8 +190,8 @@ emission = [10.0, 10.0, 10.0]
     Scene::parse(&t, "crowded").expect("the crowded test scene loads")
 }
 
-/// Both GPU pipelines, unguided and guided, read the uniform buffer and the
-/// storage buffers past it.
+/// Both GPU pipelines, unguided and guided, test the specialized primitives,
+/// the uniform buffer's and the storage buffers' past them.
 #[test]
 fn gpu_and_cpu_agree_past_the_uniform_primitives() {
     let scene = crowded_scene();

@@ -150,6 +150,8 @@ pub struct GpuRenderer {
     scene_buffers: Vec<Buffer>,
     /// The first primitives as the hit tests read them (uniform).
     scene_constants: Buffer,
+    /// The scene's hit-test data as specialization constants (`PreparedScene::geometry_specialization`).
+    geometry: Vec<u32>,
     accum: Buffer,
     readback: Buffer,
     counters: Buffer,
@@ -190,7 +192,8 @@ impl GpuRenderer {
             (true, false) => "pathtrace_guided",
             (true, true) => "pathtrace_guided_partitioned",
         };
-        let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p)?;
+        let geometry = scene.geometry_specialization();
+        let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -251,6 +254,7 @@ impl GpuRenderer {
             learning,
             scene_buffers,
             scene_constants,
+            geometry,
             accum,
             readback,
             counters,
@@ -320,7 +324,8 @@ impl GpuRenderer {
         );
         if specialization(params) != specialization(p) {
             // No frame is in flight: run_commands waits for each submission.
-            (self.pipeline, self.recording) = path_pipelines(&self.ctx, self.kernel, self.learning.is_some(), params)?;
+            (self.pipeline, self.recording) =
+                path_pipelines(&self.ctx, self.kernel, self.learning.is_some(), params, &self.geometry)?;
             self.bind_path_pipelines();
         }
         self.params = *params;
@@ -522,20 +527,23 @@ fn path_pipelines(
     kernel: &str,
     guided: bool,
     p: &crate::prepared::RenderParams,
+    geometry: &[u32],
 ) -> Result<(Pipeline, Option<Pipeline>), GpuError> {
-    let plain = path_pipeline(ctx, kernel, guided, false, p)?;
-    let recording = if guided { Some(path_pipeline(ctx, kernel, guided, true, p)?) } else { None };
+    let plain = path_pipeline(ctx, kernel, guided, false, p, geometry)?;
+    let recording = if guided { Some(path_pipeline(ctx, kernel, guided, true, p, geometry)?) } else { None };
     Ok((plain, recording))
 }
 
 /// The path-tracing pipeline, specialized to the scene and settings of `p`;
-/// with `recording`, the guided kernel that records Q-learning targets.
+/// with `recording`, the guided kernel that records Q-learning targets;
+/// `geometry` is the scene's `PreparedScene::geometry_specialization`.
 fn path_pipeline(
     ctx: &Arc<Context>,
     kernel: &str,
     guided: bool,
     recording: bool,
     p: &crate::prepared::RenderParams,
+    geometry: &[u32],
 ) -> Result<Pipeline, GpuError> {
     let mut bindings = vec![(shared::BINDING_PARAMS, Binding::Uniform)];
     for b in [shared::BINDING_MATERIALS, shared::BINDING_SPHERES, shared::BINDING_QUADS, shared::BINDING_LIGHTS] {
@@ -550,17 +558,20 @@ fn path_pipeline(
     }
     bindings.push((shared::BINDING_COUNTERS, Binding::Storage));
     bindings.push((shared::BINDING_SCENE_CONSTANTS, Binding::Uniform));
-    let mut constants = specialization(p);
+    let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
+    constants.extend_from_slice(geometry);
+    debug_assert_eq!(constants.len(), shared::NUM_SPEC_CONSTANTS as usize);
     let name = if recording { format!("{kernel} (recording)") } else { kernel.to_string() };
     Pipeline::new_specialized(ctx, &name, crate::gpu::shader(kernel), &bindings, 16, &constants)
 }
 
-/// The values of pathtrace.comp's specialization constants (`SPEC_*` of
-/// glsl/common.glsl, by constant_id) for the render `p` describes. Table shapes
+/// The values of pathtrace.comp's scalar specialization constants (`SPEC_*` of
+/// glsl/common.glsl, by constant_id, up to `SPEC_QUAD_BASE`; the scene's
+/// geometry follows) for the render `p` describes. Table shapes
 /// are at least 1, also where guiding is off and the kernel does not read them.
-fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::NUM_SPEC_CONSTANTS as usize] {
-    let mut c = [0u32; shared::NUM_SPEC_CONSTANTS as usize];
+fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::SPEC_QUAD_BASE as usize] {
+    let mut c = [0u32; shared::SPEC_QUAD_BASE as usize];
     c[shared::SPEC_NUM_SPHERES as usize] = p.num_spheres;
     c[shared::SPEC_NUM_QUADS as usize] = p.num_quads;
     c[shared::SPEC_GUIDE_ROWS as usize] = p.guide_rows.max(1);
@@ -622,7 +633,7 @@ mod tests {
             // Set per pipeline by `path_pipeline`, not from the parameters.
             (shared::SPEC_RECORDING, 0),
         ];
-        assert_eq!(want.len(), shared::NUM_SPEC_CONSTANTS as usize);
+        assert_eq!(want.len(), shared::SPEC_QUAD_BASE as usize);
         for (id, v) in want {
             assert_eq!(c[id as usize], v, "specialization constant {id}");
         }
