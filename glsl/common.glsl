@@ -87,15 +87,15 @@
 // float per constant (geometry.glsl; src/prepared.rs `geometry_specialization`):
 // quad i from SPEC_QUAD_BASE + SPEC_QUAD_FLOATS * i (normal and plane offset,
 // origin, dual_u, dual_v), sphere i from SPEC_SPHERE_BASE + SPEC_SPHERE_FLOATS * i
-// (anchor and radius, axis). The driver sees the numbers: the zeros of an
+// (centre, anchor and radius, axis). The driver sees the numbers: the zeros of an
 // axis-aligned quad's normal and edges take their arithmetic with them.
 #define SPEC_QUAD_BASE 15
 #define SPEC_QUAD_FLOATS 13
 #define SPEC_QUADS 16
 #define SPEC_SPHERE_BASE 223
-#define SPEC_SPHERE_FLOATS 7
+#define SPEC_SPHERE_FLOATS 10
 #define SPEC_SPHERES 16
-#define NUM_SPEC_CONSTANTS 335
+#define NUM_SPEC_CONSTANTS 383
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

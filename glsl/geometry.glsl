@@ -23,16 +23,17 @@ float sphere_hit_scale(Sphere s) { return max_abs(s.anchor_radius.xyz); }  // in
 float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) + max_abs(q.edge_v.xyz); }
 
 // Ray Tracing Gems ch. 7, with the origin's power c taken from the sphere's
-// anchor so that nothing of the size of the radius is subtracted
-// (src/math/geometry.rs `intersect_sphere` explains); misses are rejected
-// first. Returns the nearest root in (0, t_max) or -1.
-float intersect_sphere_at(vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
+// anchor so that nothing of the size of the radius is subtracted; misses are
+// rejected first, from the centre alone (src/math/geometry.rs
+// `intersect_sphere` explains). Returns the nearest root in (0, t_max) or -1.
+float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
     float r = anchor_radius.w;
-    vec3 g = o - anchor_radius.xyz;
-    float b = -(dot(g, d) + r * dot(axis, d));
-    float l = length(g + r * axis + b * d);
+    vec3 f = o - center;
+    float b = -dot(f, d);
+    float l = length(f + b * d);
     float disc = (r - l) * (r + l);
     if (disc < 0.0) return -1.0;
+    vec3 g = o - anchor_radius.xyz;
     float c = dot(g, g) + 2.0 * r * dot(g, axis);
     if (c < 0.0) disc = b * b - c;
     float q = b + (b >= 0.0 ? sqrt(disc) : -sqrt(disc));
@@ -46,7 +47,7 @@ float intersect_sphere_at(vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t
 }
 
 float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
-    return intersect_sphere_at(s.anchor_radius, s.axis.xyz, o, d, t_max);
+    return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis.xyz, o, d, t_max);
 }
 
 // The quad's plane (normal, offset in w), origin and dual edges.
@@ -74,7 +75,7 @@ float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
 // unguided frame on the H200 is 6 (seed-exp3) to 25 % (door) cheaper (BENCHMARKS.md).
 // Primitives past the capacity are read from the storage buffers.
 layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstantsBlock {
-    vec4 const_spheres[2 * CONST_SPHERES];  // anchor_radius, axis
+    vec4 const_spheres[3 * CONST_SPHERES];  // center_radius, anchor_radius, axis
     vec4 const_quads[4 * CONST_QUADS];      // normal, origin, dual_u, dual_v
 };
 
@@ -100,8 +101,8 @@ layout(constant_id = SPEC_OCCLUDING_QUADS) const uint OCCLUDING_QUADS = 0u;
     SPEC_QUAD_F(i, 10) SPEC_QUAD_F(i, 11) SPEC_QUAD_F(i, 12)
 #define SPEC_SPHERE_F(i, k) layout(constant_id = SPEC_SPHERE_BASE + SPEC_SPHERE_FLOATS * i + k) const float ss##i##_##k = 0.0;
 #define SPEC_SPHERE_DECL(i) \
-    SPEC_SPHERE_F(i, 0) SPEC_SPHERE_F(i, 1) SPEC_SPHERE_F(i, 2) SPEC_SPHERE_F(i, 3) \
-    SPEC_SPHERE_F(i, 4) SPEC_SPHERE_F(i, 5) SPEC_SPHERE_F(i, 6)
+    SPEC_SPHERE_F(i, 0) SPEC_SPHERE_F(i, 1) SPEC_SPHERE_F(i, 2) SPEC_SPHERE_F(i, 3) SPEC_SPHERE_F(i, 4) \
+    SPEC_SPHERE_F(i, 5) SPEC_SPHERE_F(i, 6) SPEC_SPHERE_F(i, 7) SPEC_SPHERE_F(i, 8) SPEC_SPHERE_F(i, 9)
 SPEC_QUAD_DECL(0) SPEC_QUAD_DECL(1) SPEC_QUAD_DECL(2) SPEC_QUAD_DECL(3)
 SPEC_QUAD_DECL(4) SPEC_QUAD_DECL(5) SPEC_QUAD_DECL(6) SPEC_QUAD_DECL(7)
 SPEC_QUAD_DECL(8) SPEC_QUAD_DECL(9) SPEC_QUAD_DECL(10) SPEC_QUAD_DECL(11)
@@ -116,7 +117,8 @@ SPEC_SPHERE_DECL(12) SPEC_SPHERE_DECL(13) SPEC_SPHERE_DECL(14) SPEC_SPHERE_DECL(
     intersect_quad_at(vec4(sq##i##_0, sq##i##_1, sq##i##_2, sq##i##_3), vec3(sq##i##_4, sq##i##_5, sq##i##_6), \
                       vec3(sq##i##_7, sq##i##_8, sq##i##_9), vec3(sq##i##_10, sq##i##_11, sq##i##_12), o, d, t_max)
 #define SPEC_SPHERE_HIT(i, o, d, t_max) \
-    intersect_sphere_at(vec4(ss##i##_0, ss##i##_1, ss##i##_2, ss##i##_3), vec3(ss##i##_4, ss##i##_5, ss##i##_6), o, d, t_max)
+    intersect_sphere_at(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
+                        vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max)
 // A statement per slot, for the slots 0 to 15 (SPEC_QUADS, SPEC_SPHERES).
 #define FOR_SPEC_SLOTS(S) \
     S(0) S(1) S(2) S(3) S(4) S(5) S(6) S(7) S(8) S(9) S(10) S(11) S(12) S(13) S(14) S(15)
@@ -130,7 +132,8 @@ uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
 
 // The hit tests of primitive i of the uniform buffer.
 float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
-    return intersect_sphere_at(const_spheres[2u * i], const_spheres[2u * i + 1u].xyz, o, d, t_max);
+    uint k = 3u * i;
+    return intersect_sphere_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u].xyz, o, d, t_max);
 }
 float const_quad(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 4u * i;

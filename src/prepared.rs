@@ -249,19 +249,18 @@ fn v4(v: Vec3, w: f32) -> [f32; 4] {
 
 impl PreparedScene {
     /// The uniform buffer of `glsl/geometry.glsl` (`SceneConstantsBlock`): the
-    /// first `CONST_SPHERES` spheres (anchor_radius, axis) and the first
+    /// first `CONST_SPHERES` spheres (center_radius, anchor_radius, axis) and the first
     /// `CONST_QUADS` quads (normal, origin, dual_u, dual_v), the data their hit
     /// tests read, zero-filled past the scene's own.
     pub fn scene_constants(&self) -> Vec<[f32; 4]> {
         let ns = shared::CONST_SPHERES as usize;
         let nq = shared::CONST_QUADS as usize;
-        let mut out = vec![[0.0; 4]; 2 * ns + 4 * nq];
+        let mut out = vec![[0.0; 4]; 3 * ns + 4 * nq];
         for (i, s) in self.spheres.iter().take(ns).enumerate() {
-            out[2 * i] = s.anchor_radius;
-            out[2 * i + 1] = s.axis;
+            out[3 * i..3 * i + 3].copy_from_slice(&[s.center_radius, s.anchor_radius, s.axis]);
         }
         for (i, q) in self.quads.iter().take(nq).enumerate() {
-            let k = 2 * ns + 4 * i;
+            let k = 3 * ns + 4 * i;
             out[k..k + 4].copy_from_slice(&[q.normal, q.origin, q.dual_u, q.dual_v]);
         }
         out
@@ -270,8 +269,8 @@ impl PreparedScene {
     /// The hit-test data of the first `SPEC_QUADS` quads and `SPEC_SPHERES`
     /// spheres as pathtrace.comp's specialization constants (glsl/geometry.glsl),
     /// f32 bit patterns in constant_id order from `SPEC_QUAD_BASE`: per quad its
-    /// normal, origin, dual_u and dual_v (13 floats), per sphere its anchor and
-    /// radius and its axis (7); zeros past the scene's own.
+    /// normal, origin, dual_u and dual_v (13 floats), per sphere its centre, its
+    /// anchor and radius and its axis (10); zeros past the scene's own.
     pub fn geometry_specialization(&self) -> Vec<u32> {
         let quad_floats = shared::SPEC_QUAD_FLOATS as usize;
         let sphere_floats = shared::SPEC_SPHERE_FLOATS as usize;
@@ -283,7 +282,7 @@ impl PreparedScene {
         }
         let spheres = (shared::SPEC_SPHERE_BASE - shared::SPEC_QUAD_BASE) as usize;
         for (i, s) in self.spheres.iter().take(shared::SPEC_SPHERES as usize).enumerate() {
-            let floats = [&s.anchor_radius[..], &s.axis[..3]].concat();
+            let floats = [&s.center_radius[..3], &s.anchor_radius[..], &s.axis[..3]].concat();
             let k = spheres + sphere_floats * i;
             out[k..k + sphere_floats].copy_from_slice(&bits(&floats));
         }
@@ -528,8 +527,8 @@ mod tests {
     /// lights only, seed-exp3 everything.
     /// Each specialization constant of the geometry carries its own number: the
     /// float at constant_id SPEC_QUAD_BASE + 13 i + k is float k of quad i's
-    /// normal, origin, dual_u, dual_v; from SPEC_SPHERE_BASE + 7 i, sphere i's
-    /// anchor, radius and axis; slots past the scene's primitives are zero.
+    /// normal, origin, dual_u, dual_v; from SPEC_SPHERE_BASE + 10 i, sphere i's
+    /// centre, anchor, radius and axis; slots past the scene's primitives are zero.
     #[test]
     fn geometry_specialization_holds_each_primitive_in_its_slot() {
         let s = scene("seed-exp3");
@@ -551,11 +550,12 @@ mod tests {
         }
         for (i, sp) in p.spheres.iter().enumerate() {
             let base = shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERE_FLOATS * i as u32;
-            for k in 0..4 {
-                assert_eq!(at(base + k as u32), sp.anchor_radius[k], "sphere {i}, anchor_radius[{k}]");
-            }
             for k in 0..3 {
-                assert_eq!(at(base + 4 + k as u32), sp.axis[k], "sphere {i}, axis[{k}]");
+                assert_eq!(at(base + k as u32), sp.center_radius[k], "sphere {i}, center[{k}]");
+                assert_eq!(at(base + 7 + k as u32), sp.axis[k], "sphere {i}, axis[{k}]");
+            }
+            for k in 0..4 {
+                assert_eq!(at(base + 3 + k as u32), sp.anchor_radius[k], "sphere {i}, anchor_radius[{k}]");
             }
         }
         let used_quads = shared::SPEC_QUAD_BASE + shared::SPEC_QUAD_FLOATS * p.quads.len() as u32;

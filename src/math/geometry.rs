@@ -53,21 +53,27 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
 /// ```
 ///
 /// subtracts nothing of the size of r or r^2, and its error is a few ulps of
-/// |o| + |A|, the sizes of the scene around the ray; b = -(g.d + r (n.d)) is
-/// accurate relative to its own size. With the origin inside (c < 0) the
-/// discriminant is then b^2 - c, a sum of two positive numbers. Misses, most
-/// tests, are rejected first by the chapter's perpendicular-distance
-/// discriminant (precise enough to tell a miss).
+/// |o| + |A|, the sizes of the scene around the ray. With the origin inside
+/// (c < 0) the discriminant is then b^2 - c, a sum of two positive numbers.
+///
+/// Misses, most tests, are rejected first by the chapter's perpendicular-distance
+/// discriminant, from f = o - C with the f32 centre: b = -(f.d) and
+/// l = |f + b d|. f carries an error of an ulp of |C| (of r, for spheres far
+/// larger than the scene), which moves b and l by as much: nothing against the
+/// roots' own sizes there, and where the ray grazes the sphere, a shift of the
+/// silhouette by an ulp of the centre. The anchor is read only by rays that
+/// pass, so a miss costs the centre's arithmetic alone.
 pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     let r = s.anchor_radius[3];
-    let axis = xyz(s.axis);
-    let g = o - xyz(s.anchor_radius);
-    let b = -(g.dot(d) + r * axis.dot(d));
-    let l = (g + r * axis + b * d).length();
+    let f = o - xyz(s.center_radius);
+    let b = -f.dot(d);
+    let l = (f + b * d).length();
     let mut disc = (r - l) * (r + l);
     if disc < 0.0 {
         return None;
     }
+    let axis = xyz(s.axis);
+    let g = o - xyz(s.anchor_radius);
     let c = g.dot(g) + 2.0 * r * g.dot(axis);
     if c < 0.0 {
         disc = b * b - c;
