@@ -50,17 +50,36 @@ float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
     return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis.xyz, o, d, t_max);
 }
 
-// The quad's plane (normal, offset in w), origin and dual edges.
-float intersect_quad_at(vec4 normal, vec3 origin, vec3 dual_u, vec3 dual_v, vec3 o, vec3 d, float t_max) {
-    float denom = dot(normal.xyz, d);
+// The quad's plane (normal, offset in w), origin and dual edges; denom is
+// dot(normal, d) and inv its reciprocal.
+float quad_hit(vec4 normal, vec3 origin, vec3 dual_u, vec3 dual_v, vec3 o, vec3 d, float denom, float inv, float t_max) {
     if (abs(denom) < 1e-12) return -1.0;
-    float t = (normal.w - dot(normal.xyz, o)) / denom;
+    float t = (normal.w - dot(normal.xyz, o)) * inv;
     if (!(t > 0.0 && t < t_max)) return -1.0;
     vec3 rel = o + t * d - origin;
     float s = dot(rel, dual_u);
     float tt = dot(rel, dual_v);
     if (s >= 0.0 && s <= 1.0 && tt >= 0.0 && tt <= 1.0) return t;
     return -1.0;
+}
+
+float intersect_quad_at(vec4 normal, vec3 origin, vec3 dual_u, vec3 dual_v, vec3 o, vec3 d, float t_max) {
+    float denom = dot(normal.xyz, d);
+    return quad_hit(normal, origin, dual_u, dual_v, o, d, denom, 1.0 / denom, t_max);
+}
+
+// The same for a quad whose normal the driver knows (a specialized slot): where
+// it lies along an axis (every wall of the seed's rooms and of door), 1 / denom
+// is the ray's reciprocal along that axis, computed once per ray (inv_d) for all
+// such quads. src/math/geometry.rs divides; the two agree to rounding.
+float intersect_quad_inv(vec4 normal, vec3 origin, vec3 dual_u, vec3 dual_v, vec3 o, vec3 d, vec3 inv_d, float t_max) {
+    float denom = dot(normal.xyz, d);
+    float inv;
+    if (normal.y == 0.0 && normal.z == 0.0) inv = normal.x * inv_d.x;
+    else if (normal.x == 0.0 && normal.z == 0.0) inv = normal.y * inv_d.y;
+    else if (normal.x == 0.0 && normal.y == 0.0) inv = normal.z * inv_d.z;
+    else inv = 1.0 / denom;
+    return quad_hit(normal, origin, dual_u, dual_v, o, d, denom, inv, t_max);
 }
 
 float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
@@ -114,8 +133,8 @@ SPEC_SPHERE_DECL(12) SPEC_SPHERE_DECL(13) SPEC_SPHERE_DECL(14) SPEC_SPHERE_DECL(
 
 // The hit test of specialized quad or sphere slot i (a literal).
 #define SPEC_QUAD_HIT(i, o, d, t_max) \
-    intersect_quad_at(vec4(sq##i##_0, sq##i##_1, sq##i##_2, sq##i##_3), vec3(sq##i##_4, sq##i##_5, sq##i##_6), \
-                      vec3(sq##i##_7, sq##i##_8, sq##i##_9), vec3(sq##i##_10, sq##i##_11, sq##i##_12), o, d, t_max)
+    intersect_quad_inv(vec4(sq##i##_0, sq##i##_1, sq##i##_2, sq##i##_3), vec3(sq##i##_4, sq##i##_5, sq##i##_6), \
+                      vec3(sq##i##_7, sq##i##_8, sq##i##_9), vec3(sq##i##_10, sq##i##_11, sq##i##_12), o, d, inv_d, t_max)
 #define SPEC_SPHERE_HIT(i, o, d, t_max) \
     intersect_sphere_at(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
                         vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max)
@@ -147,6 +166,7 @@ float const_quad(uint i, vec3 o, vec3 d, float t_max) {
 // uniform buffer stay loops: unrolled (the driver's choice once their length is
 // known) they made frames 2 to 4 % slower.
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
+    vec3 inv_d = 1.0 / d;
     float best = t_max;
     int found = -1;
     bool is_sphere = false;
@@ -200,6 +220,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 }
 
 bool occluded(vec3 o, vec3 d, float t_max) {
+    vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \
     if (i < spec_sphere_count() && SPEC_SPHERE_HIT(i, o, d, t_max) > 0.0) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_SPHERE)
