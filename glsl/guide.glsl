@@ -78,18 +78,23 @@ uint cell_index(vec3 p) {
 
 // src/guide/mod.rs `guided_direction`: the column of the row's alias table
 // from uc, the bin by the column's threshold, the direction uniform inside the
-// bin. Its density is `guided_pdf`, a function of the direction alone.
-vec3 guided_direction(uint row, float uc, vec2 u) {
+// bin (also returned, in `b`). Its density is `guided_pdf`, a function of the
+// direction alone: `bin_pdf` of the bin, which the caller has without
+// bin_index's arctangent.
+vec3 guided_direction(uint row, float uc, vec2 u, out uint b) {
     uint n = GUIDE_BINS;
     float x = uc * float(n);
     uint i = min(uint(x), n - 1u);
     float rest = x - float(i);
     uint column = sampler_table[row + i].x;
-    uint b = rest * float(ALIAS_THRESHOLD_ONE) < float(column >> 16u) ? i : column & 0xffffu;
+    b = rest * float(ALIAS_THRESHOLD_ONE) < float(column >> 16u) ? i : column & 0xffffu;
     return bin_sample(b, u);
 }
 
-float guided_pdf(uint row, vec3 dir) { return uintBitsToFloat(sampler_table[row + bin_index(dir)].y); }
+// The guided density in bin b of a sampling row.
+float bin_pdf(uint row, uint b) { return uintBitsToFloat(sampler_table[row + b].y); }
+
+float guided_pdf(uint row, vec3 dir) { return bin_pdf(row, bin_index(dir)); }
 
 bool guide_learned(uint row) { return sampler_table[row].x != uint(UNLEARNED); }
 

@@ -216,12 +216,17 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         float pdf = 0.0;
         bool delta = false;
         bool ok = false;
+#if GUIDED
+        // The bin of wi where something reads it (qrow set): a guided direction
+        // comes with its bin, a BSDF direction's is found once, below.
+        uint wi_bin = 0u;
+#endif
         // First the direction, from the table or the BSDF; then, where the two
         // are mixed, one evaluation of the BSDF and the mixture density for
         // either choice, so that a warp holding both runs it once.
 #if GUIDED
         if (u_mix < g_frac) {
-            wi = guided_direction(row, uc, u);
+            wi = guided_direction(row, uc, u, wi_bin);
             ok = true;
         } else
 #endif
@@ -236,17 +241,18 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             }
         }
 #if GUIDED
+        if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
         if (ok && g_frac > 0.0 && !delta) {
             vec3 wi_local = to_local(frame, wi);
             float pdf_bsdf;
             vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-            pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * guided_pdf(row, wi);
+            pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * bin_pdf(row, wi_bin);
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
         }
         if (wants_target) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
-            float reflected = ok ? mean3(weight) * q_table[qrow + bin_index(wi)] : 0.0;
+            float reflected = ok ? mean3(weight) * q_table[qrow + wi_bin] : 0.0;
             record_target(prev_key, mean3(le) + reflected);
         }
 #endif
@@ -256,7 +262,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         prev_delta = delta;
         prev_p = hit.p;
 #if GUIDED
-        prev_key = qrow == NO_KEY ? NO_KEY : qrow + bin_index(wi);
+        prev_key = qrow == NO_KEY ? NO_KEY : qrow + wi_bin;
 #endif
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;

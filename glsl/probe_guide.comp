@@ -14,6 +14,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= push.count) return;
     vec4 x = inputs[i];
-    vec3 d = guided_direction(0u, x.x, x.yz);
+    uint b;
+    vec3 d = guided_direction(0u, x.x, x.yz, b);
     outputs[i] = vec4(d, guided_pdf(0u, d));
 }

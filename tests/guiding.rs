@@ -10,9 +10,9 @@ use rlpt::cpu::{camera_ray, trace_path, CpuRenderer, Guide};
 use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
-    bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction, guided_pdf, learned,
-    rebuilds_rows, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode, QTable, NORMAL_CLASSES, ROW_REBUILD_STRIDE,
-    UNLEARNED,
+    bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction,
+    guided_direction_bin, guided_pdf, learned, rebuilds_rows, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode,
+    QTable, NORMAL_CLASSES, ROW_REBUILD_STRIDE, UNLEARNED,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -302,6 +302,41 @@ fn guided_sampler_follows_its_pdf_on_the_cpu() {
         let pdf = |d: [f64; 3]| guided_pdf(&bins, row, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
         let r = chi2_sphere(&samples, pdf, &Chi2Options::default());
         assert!(r.passed(significance), "bins {bins:?} floor {floor}: {r:?}");
+    }
+}
+
+/// The renderers take a guided direction's density from the bin it was drawn in
+/// (`guided_direction_bin`, glsl/guide.glsl) rather than finding its bin again:
+/// the two must be the same function of the direction, so every direction drawn
+/// in bin b lies in bin b by `Bins::index`, except within rounding of a bin's
+/// edge (a set of measure zero, where either bin's density will do).
+#[test]
+fn a_guided_direction_lies_in_the_bin_it_was_drawn_in() {
+    for bins in [Bins::OCTANT, Bins::SPHERE_DEFAULT, Bins { rows: 16, cols: 32 }, Bins { rows: 5, cols: 7 }] {
+        let (_, rows) = test_row(bins, 3, 0.2);
+        let row = class_row(&rows, bins, 1);
+        let mut rng = Rng::new(2, bins.rows, bins.cols, 0);
+        let (mut drawn, mut on_edges) = (vec![0u32; bins.count() as usize], 0);
+        for _ in 0..200_000 {
+            let (uc, u) = (rng.next_f32(), rng.next_2d());
+            let (d, b) = guided_direction_bin(&bins, row, uc, u);
+            assert_eq!(d, guided_direction(&bins, row, uc, u));
+            drawn[b as usize] += 1;
+            if bins.index(d) != b {
+                let near_edge = |x: f32| !(1e-5..=1.0 - 1e-5).contains(&x);
+                assert!(
+                    near_edge(u[0]) || near_edge(u[1]),
+                    "bins {bins:?}: u {u:?} drawn in bin {b}, lies in {}",
+                    bins.index(d)
+                );
+                on_edges += 1;
+            }
+        }
+        assert!(on_edges <= 10, "bins {bins:?}: {on_edges} directions off their bin");
+        // Every bin with density is drawn from (the test rows have a floor).
+        for (b, n) in drawn.iter().enumerate() {
+            assert!(*n > 0 || row[b].pdf == 0.0, "bins {bins:?}: bin {b} never drawn");
+        }
     }
 }
 

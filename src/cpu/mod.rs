@@ -165,19 +165,21 @@ pub fn trace_path(
             Some(g) if depth < guided_vertices && !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
             _ => 0.0,
         };
-        // The density of the mixture of BSDF and guided sampling, from the BSDF's
-        // density `pb` at the direction.
-        let mix_pdf = |wi_world: Vec3, pb: f32| match guide {
-            Some(g) if g_frac > 0.0 => (1.0 - g_frac) * pb + g_frac * guide::guided_pdf(&g.cfg.bins, sampler, wi_world),
+        // The density of the mixture of BSDF and guided sampling at a direction
+        // in bin `bin`, from the BSDF's density `pb` there.
+        let mix_pdf = |bin: u32, pb: f32| match guide {
+            Some(_) if g_frac > 0.0 => (1.0 - g_frac) * pb + g_frac * guide::bin_pdf(sampler, bin),
             _ => pb,
         };
+        // The bin of a direction, where guiding reads it.
+        let bin_of = |wi: Vec3| guide.map_or(0, |g| g.cfg.bins.index(wi));
         // A direction of the mixture, whichever sampler chose it: (wi, BSDF x cos / pdf,
-        // mixture pdf, not delta), or None where the BSDF or the density is zero.
-        let mixture_sample = |wi: Vec3| {
+        // mixture pdf, not delta, bin), or None where the BSDF or the density is zero.
+        let mixture_sample = |wi: Vec3, bin: u32| {
             let wi_local = frame.to_local(wi);
             let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
-            let pdf = mix_pdf(wi, pb);
-            (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false))
+            let pdf = mix_pdf(bin, pb);
+            (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false, bin))
         };
         let last = depth >= p.max_bounces;
 
@@ -194,7 +196,7 @@ pub fn trace_path(
                     let len = seg.length();
                     segments += 1;
                     if !occluded(scene, origin, seg / len, len) {
-                        let w = mis_weight(ls.pdf, mix_pdf(ls.wi, pb), power);
+                        let w = mis_weight(ls.pdf, mix_pdf(bin_of(ls.wi), pb), power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                     }
                 }
@@ -212,24 +214,31 @@ pub fn trace_path(
         let u = rng.next_2d();
         // First the direction, from the table or the BSDF; then, where the two are
         // mixed, one evaluation of the BSDF and the mixture density for either
-        // choice (the GPU runs it once for a warp that holds both).
+        // choice (the GPU runs it once for a warp that holds both). A guided
+        // direction comes with its bin, a BSDF direction's is found once.
         let sampled = if u_mix < g_frac {
             // A guided direction: its weight and density are those of the mixture.
             let g = guide.expect("g_frac > 0 only with guiding");
-            let wi = guide::guided_direction(&g.cfg.bins, sampler, uc, u);
-            mixture_sample(wi)
+            let (wi, bin) = guide::guided_direction_bin(&g.cfg.bins, sampler, uc, u);
+            mixture_sample(wi, bin)
         } else {
             match bsdf_sample(&bsdf, wo_local, uc, u) {
                 // A BSDF direction at a vertex that mixes: the same evaluation.
-                Some(s) if g_frac > 0.0 && !s.delta => mixture_sample(frame.to_world(s.wi).normalize()),
-                Some(s) => Some((frame.to_world(s.wi).normalize(), s.weight, s.pdf, s.delta)),
+                Some(s) if g_frac > 0.0 && !s.delta => {
+                    let wi = frame.to_world(s.wi).normalize();
+                    mixture_sample(wi, bin_of(wi))
+                }
+                Some(s) => {
+                    let wi = frame.to_world(s.wi).normalize();
+                    Some((wi, s.weight, s.pdf, s.delta, bin_of(wi)))
+                }
                 None => None,
             }
         };
         if let (Some(g), Some(learn)) = (guide, learn.as_mut().filter(|_| wants_target)) {
             // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
             let reflected = match sampled {
-                Some((wi, weight, _, _)) => guide::mean3(weight) * g.q[(cell_key + g.cfg.bins.index(wi)) as usize],
+                Some((_, weight, _, _, bin)) => guide::mean3(weight) * g.q[(cell_key + bin) as usize],
                 None => 0.0,
             };
             learn(prev_key, guide::mean3(le) + reflected);
@@ -237,13 +246,13 @@ pub fn trace_path(
         if last {
             break;
         }
-        let Some((wi, weight, pdf, delta)) = sampled else { break };
+        let Some((wi, weight, pdf, delta, bin)) = sampled else { break };
         beta *= weight;
         prev_pdf = pdf;
         prev_delta = delta;
         prev_p = hit.p;
-        if let Some(g) = guide {
-            prev_key = cell_key + g.cfg.bins.index(wi);
+        if guide.is_some() {
+            prev_key = cell_key + bin;
         }
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;

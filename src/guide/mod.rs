@@ -313,18 +313,30 @@ const THRESHOLD_ONE: u32 = crate::shared::ALIAS_THRESHOLD_ONE;
 /// [`guided_pdf`], a function of the direction alone, which is what the mixture
 /// with BSDF sampling needs for either choice. `glsl/guide.glsl` `guided_direction`.
 pub fn guided_direction(bins: &Bins, row: &[AliasBin], uc: f32, u: [f32; 2]) -> Vec3 {
+    guided_direction_bin(bins, row, uc, u).0
+}
+
+/// [`guided_direction`] and the bin it drew the direction in, whose density is
+/// the direction's ([`bin_pdf`]); the renderers read it instead of finding the
+/// direction's bin again.
+pub fn guided_direction_bin(bins: &Bins, row: &[AliasBin], uc: f32, u: [f32; 2]) -> (Vec3, u32) {
     let n = row.len();
     let x = uc * n as f32;
     let i = (x as usize).min(n - 1);
     let rest = x - i as f32;
     let column = row[i].column;
-    let b = if rest * (THRESHOLD_ONE as f32) < (column >> 16) as f32 { i } else { (column & 0xffff) as usize };
-    bins.sample(b as u32, u)
+    let b = if rest * (THRESHOLD_ONE as f32) < (column >> 16) as f32 { i } else { (column & 0xffff) as usize } as u32;
+    (bins.sample(b, u), b)
 }
 
 /// Solid-angle density of [`guided_direction`] for direction `dir`.
 pub fn guided_pdf(bins: &Bins, row: &[AliasBin], dir: Vec3) -> f32 {
-    row[bins.index(dir) as usize].pdf
+    bin_pdf(row, bins.index(dir))
+}
+
+/// Solid-angle density of [`guided_direction`] in bin `b` of the row.
+pub fn bin_pdf(row: &[AliasBin], b: u32) -> f32 {
+    row[b as usize].pdf
 }
 
 /// True when a sampling row holds a distribution (its cell has learned something).
