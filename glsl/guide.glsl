@@ -59,10 +59,13 @@ vec3 bin_sample(uint b, vec2 u) {
 }
 
 // src/guide/mod.rs `normal_class`: the signed axis closest to a unit normal.
+// The component is picked by selects: n[axis] with axis unknown made the
+// driver keep n in local memory (16 bytes per invocation, NVIDIA 580).
 uint normal_class(vec3 n) {
     vec3 a = abs(n);
     uint axis = (a.x >= a.y && a.x >= a.z) ? 0u : (a.y >= a.z ? 1u : 2u);
-    return 2u * axis + (n[axis] < 0.0 ? 1u : 0u);
+    float c = axis == 0u ? n.x : (axis == 1u ? n.y : n.z);
+    return 2u * axis + (c < 0.0 ? 1u : 0u);
 }
 
 // The first bin of the sampling row for a cell and a normal class.
