@@ -1,0 +1,56 @@
+#!/usr/bin/env python3
+"""The equal-time table of BENCHMARKS.md from `scripts/gpu-bench.sh ... equal-time` output.
+
+    scripts/equal-time-table.py OUTDIR SCENE...
+
+Reads OUTDIR/stats-SCENE-G-nee-N.json (`rlpt render --stats`) for G in off / octant /
+sphere and N in on / off, and prints one markdown row per run: relMSE at 1 s (the
+last frame with a relMSE within 1 s of GPU time), at 10 s (the run's last frame),
+samples per pixel and zero-radiance fraction at the last frame, and the ratio of the
+relMSE to the best unguided setting's (NEE on or off) at the same times.
+"""
+import json
+import sys
+
+
+def load(path):
+    with open(path) as f:
+        frames = json.load(f)["frames"]
+    measured = [fr for fr in frames if fr.get("rel_mse") is not None]
+    if not measured:
+        sys.exit(f"{path}: no frame has a relMSE (was --reference given?)")
+    at_1s = [fr for fr in measured if fr["elapsed_ms"] <= 1000.0]
+    if not at_1s:
+        sys.exit(f"{path}: no relMSE within the first second")
+    last = frames[-1]
+    if last.get("rel_mse") is None:
+        sys.exit(f"{path}: the last frame has no relMSE")
+    return {
+        "r1": at_1s[-1]["rel_mse"],
+        "r10": last["rel_mse"],
+        "spp": last["spp"],
+        "zero": last.get("zero_fraction"),
+    }
+
+
+def main():
+    if len(sys.argv) < 3:
+        sys.exit(__doc__)
+    out, scenes = sys.argv[1], sys.argv[2:]
+    for scene in scenes:
+        runs = {}
+        for nee in ("on", "off"):
+            for g in ("off", "octant", "sphere"):
+                runs[(nee, g)] = load(f"{out}/stats-{scene}-{g}-nee-{nee}.json")
+        best1 = min(runs[("on", "off")]["r1"], runs[("off", "off")]["r1"])
+        best10 = min(runs[("on", "off")]["r10"], runs[("off", "off")]["r10"])
+        for nee in ("on", "off"):
+            for g in ("off", "octant", "sphere"):
+                r = runs[(nee, g)]
+                ratio = "" if g == "off" else f"{r['r1'] / best1:.2f} / {r['r10'] / best10:.2f}"
+                zero = "" if r["zero"] is None else f"{r['zero']:.3f}"
+                print(f"| {scene} | {nee} | {g} | {r['r1']:.3e} | {r['r10']:.3e} | {r['spp']} | {zero} | {ratio} |")
+
+
+if __name__ == "__main__":
+    main()
