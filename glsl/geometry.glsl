@@ -111,7 +111,8 @@ layout(constant_id = SPEC_OCCLUDING_QUADS) const uint OCCLUDING_QUADS = 0u;
 // constants, one float each (common.glsl: SPEC_QUAD_BASE, SPEC_SPHERE_BASE):
 // their tests are written out once per slot below, so every operand is a number
 // the driver knows, and an axis-aligned quad's test keeps only the arithmetic of
-// its one axis (a wall of the seed's rooms: a division and two multiply-adds).
+// its one axis (a wall of the seed's rooms: a multiply by the ray's reciprocal
+// along that axis and two multiply-adds).
 // Slots past the scene's count are left out when the kernel is specialized.
 #define SPEC_QUAD_F(i, k) layout(constant_id = SPEC_QUAD_BASE + SPEC_QUAD_FLOATS * i + k) const float sq##i##_##k = 0.0;
 #define SPEC_QUAD_DECL(i) \

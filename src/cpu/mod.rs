@@ -196,7 +196,8 @@ pub fn trace_path(
                     let len = seg.length();
                     segments += 1;
                     if !occluded(scene, origin, seg / len, len) {
-                        let w = mis_weight(ls.pdf, mix_pdf(bin_of(ls.wi), pb), power);
+                        let pdf = if g_frac > 0.0 { mix_pdf(bin_of(ls.wi), pb) } else { pb };
+                        let w = mis_weight(ls.pdf, pdf, power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                     }
                 }
