@@ -669,12 +669,19 @@ fn render_after_warmup(ctx: &Arc<Context>, scene: &Scene, opts: &RenderOptions, 
 /// by the few bright pixels that see the lamp-lit far room through the gap, whose
 /// light NEE already samples well, while the near room, lit only through the gap,
 /// is where plain path tracing struggles. The absolute figures are printed too.
+///
+/// 32 warm-up frames, then 16 measured (1024 spp; learning goes on through them).
+/// With 16 and 8 the guided renders were still learning fast and the test sat on
+/// the bound: over six seed pairs the ratio averaged 0.49, and the named pair gave
+/// 0.446, 0.499 or 0.500 from run to run (float atomics fold the targets in the
+/// order lanes arrive), so it failed by chance. At 32 + 16 the six pairs gave 0.38
+/// to 0.41 (BENCHMARKS.md, "Variance at equal samples").
 #[test]
 fn learning_reduces_variance_on_door() {
     let ctx = gpu();
     let scene = scene("door.toml");
     let base = options(&scene, 48, 32, 64);
-    let (warmup, frames) = (16, 8);
+    let (warmup, frames) = (32, 16);
     let mut results = Vec::new();
     for (mode, nee) in [(GuidingMode::Off, true), (GuidingMode::Off, false), (GuidingMode::Sphere, true)] {
         let mut o = base.clone();
