@@ -522,9 +522,6 @@ mod tests {
         Scene::load(format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
     }
 
-    /// Every material of the scene file sets its kind's bit, every light its
-    /// kind's; the seed's diffuse box and door have diffuse, emissive and quad
-    /// lights only, seed-exp3 everything.
     /// Each specialization constant of the geometry carries its own number: the
     /// float at constant_id SPEC_QUAD_BASE + 13 i + k is float k of quad i's
     /// normal, origin, dual_u, dual_v; from SPEC_SPHERE_BASE + 10 i, sphere i's
@@ -565,6 +562,9 @@ mod tests {
         }
     }
 
+    /// Every material of the scene file sets its kind's bit, every light its
+    /// kind's; the seed's diffuse box and door have diffuse, emissive and quad
+    /// lights only, seed-exp3 everything.
     #[test]
     fn scene_kinds_name_the_materials_and_lights_of_the_scene() {
         let kinds = |name: &str| {
