@@ -235,10 +235,24 @@ fn parse_seconds(s: &str) -> Result<f64, String> {
 }
 
 /// Frames at which relMSE is measured against the reference: about 24 per decade
-/// (each readback and comparison costs host time, not GPU time), and the last.
+/// (each readback and comparison costs host time, not GPU time), the last, and
+/// the first frame at or past each power of ten of elapsed time (`time_marks`).
 fn measure_at(frame: u32) -> bool {
     let f = frame as f64;
     frame <= 8 || (f.log10() * 24.0).floor() != ((f - 1.0).log10() * 24.0).floor()
+}
+
+/// Whether a frame that took the elapsed time from `before_ms` to `after_ms` is
+/// the first at or past a power of ten of milliseconds from 100 ms on (0.1 s,
+/// 1 s, 10 s...): relMSE is measured there, so that runs whose frames take
+/// different times are compared at equal time to within one frame, not at
+/// whichever of their geometric frames falls nearest.
+fn time_mark(before_ms: f64, after_ms: f64) -> bool {
+    let mut mark = 100.0;
+    while mark <= before_ms {
+        mark *= 10.0;
+    }
+    after_ms >= mark
 }
 
 fn parse_bins(s: &str) -> Result<Bins, String> {
@@ -374,11 +388,12 @@ fn render(args: RenderArgs) -> Result<()> {
             }
         };
         let frame_ms = gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
+        let mark = time_mark(gpu_ms_total, gpu_ms_total + frame_ms);
         gpu_ms_total += frame_ms;
         let out_of_time = args.time.is_some_and(|limit| gpu_ms_total >= limit * 1e3);
         let last = f + 1 == frames || out_of_time;
         let rel_mse = match &reference {
-            Some(r) if last || measure_at(f + 1) => {
+            Some(r) if last || mark || measure_at(f + 1) => {
                 let current = renderer.film()?;
                 let e = metrics::compare(&current.mean(), r).map_err(anyhow::Error::msg)?;
                 if last {
@@ -627,5 +642,31 @@ fn yes_no(b: bool) -> &'static str {
         "yes"
     } else {
         "no"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::time_mark;
+
+    /// relMSE is measured at the first frame at or past 0.1 s, 1 s, 10 s... of
+    /// elapsed time, once each, whatever the frames' length.
+    #[test]
+    fn time_marks_fall_on_the_first_frame_past_each_power_of_ten() {
+        for dt in [0.37, 1.0, 7.3, 99.0] {
+            let (mut t, mut marks) = (0.0f64, Vec::new());
+            while t < 20000.0 {
+                if time_mark(t, t + dt) {
+                    marks.push((t, t + dt));
+                }
+                t += dt;
+            }
+            assert_eq!(marks.len(), 3, "frames of {dt} ms: {marks:?}");
+            for ((before, after), mark) in marks.into_iter().zip([100.0, 1000.0, 10000.0]) {
+                assert!(before < mark && after >= mark, "frames of {dt} ms: {before}..{after} for {mark}");
+            }
+        }
+        assert!(time_mark(50.0, 5000.0), "a frame past two marks");
+        assert!(!time_mark(100.0, 999.0) && time_mark(999.0, 1000.0));
     }
 }
