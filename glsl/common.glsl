@@ -117,14 +117,16 @@
 // frames and 8.4e-4 after 64; started at the fifth, 0.034 and 6.4e-4.
 #define LEARNED_RR_FRAMES 4
 // Which paths hand their Q-learning targets to the table (src/guide/mod.rs
-// `records`): all of them in the first RECORD_ALL_FRAMES frames, then those of one
-// pixel row in RECORD_ROW_STRIDE, a different row each frame.
+// `RecordSchedule`): all of them in the first RECORD_ALL_FRAMES frames, then those
+// of one pixel row in a stride, a different row each frame. The stride starts at
+// RECORD_ROW_STRIDE and doubles, up to RECORD_MAX_STRIDE, as the table fills.
 #define RECORD_ALL_FRAMES 8
 #define RECORD_ROW_STRIDE 4
+#define RECORD_MAX_STRIDE 16
 // Which pixel rows a dispatch of pathtrace.comp traces (push constant `rows`:
-// mode | phase << 8; src/render/mod.rs `frame_dispatches`): all of them; those
-// y with y % RECORD_ROW_STRIDE == phase (workgroup row g traces y = g * stride +
-// phase); or all the others.
+// mode | phase << 8 | stride << 16; src/render/mod.rs `frame_dispatches`): all
+// of them; those y with y % stride == phase (workgroup row g traces
+// y = g * stride + phase); or all the others.
 #define ROWS_ALL 0
 #define ROWS_PHASE 1
 #define ROWS_NOT_PHASE 2

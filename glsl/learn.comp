@@ -4,7 +4,7 @@
 // the running means, Q <- (Q n + S) / (n + c), i.e. learning rate 1 / (1 + visits)
 // for each target, and clears the frame's sums;
 // phase 1, one invocation per (cell, normal class), after the frames that
-// src/guide/mod.rs `rebuilds_rows` names (the host dispatches it): rebuilds that sampling row,
+// src/guide/mod.rs `RecordSchedule::rebuilds_rows` names (the host dispatches it): rebuilds that sampling row,
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
 #include "common.glsl"

@@ -40,14 +40,14 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // frame: frames traced so far (decorrelates the random numbers);
 // accum_frames: frames in the accumulation buffer (restarts keep learning going);
 // ablate: ABLATE_* bits, parts of guiding left out (profiling only, else 0);
-// rows: the pixel rows this dispatch traces (ROWS_* | phase << 8).
+// rows: the pixel rows this dispatch traces (ROWS_* | phase << 8 | stride << 16).
 layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; uint rows; } push;
 
 // src/render/mod.rs `pixel_row`: the pixel row of workgroup row `g`.
 uint pixel_row(uint g) {
     uint mode = push.rows & 0xffu;
-    uint phase = push.rows >> 8u;
-    uint stride = uint(RECORD_ROW_STRIDE);
+    uint phase = (push.rows >> 8u) & 0xffu;
+    uint stride = push.rows >> 16u;
     if (mode == uint(ROWS_PHASE)) return g * stride + phase;
     if (mode == uint(ROWS_NOT_PHASE)) return (g / (stride - 1u)) * stride + (phase + 1u + g % (stride - 1u)) % stride;
     return g;

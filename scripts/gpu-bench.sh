@@ -4,8 +4,11 @@
 #   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
-#             door.toml, guiding off / octant / sphere, NEE on; 8 warm-up frames
-#             (guiding learns), 32 measured frames of 64 spp at the scene's size.
+#             door.toml, guiding off / octant / sphere, NEE on; 32 measured
+#             frames of 64 spp at the scene's size after 256 warm-up frames, past
+#             the last change of the recording stride (guide::RecordSchedule) on
+#             every scene here (bench-S-G); and, guided, after 8 (bench-early-S-G),
+#             where more rows record.
 # equal-time: for each SCENE, a reference (unguided, NEE on, 40 s of GPU time),
 #             then 10 s of GPU time for each of off / octant / sphere x NEE on /
 #             off with --stats against it (relMSE frame by frame: read at 1 s and
@@ -24,8 +27,12 @@ timing)
     "$rlpt" devices >"$out/devices.txt"
     for s in seed-exp1 seed-exp2 seed-exp3 door; do
         for g in off octant sphere; do
-            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 8 --guiding "$g" --nee on \
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 256 --guiding "$g" --nee on \
                 --json "$out/bench-$s-$g.json" | tee "$out/bench-$s-$g.txt"
+        done
+        for g in octant sphere; do
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 8 --guiding "$g" --nee on \
+                --json "$out/bench-early-$s-$g.json" | tee "$out/bench-early-$s-$g.txt"
         done
     done
     ;;

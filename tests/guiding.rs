@@ -11,8 +11,8 @@ use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
     bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction,
-    guided_direction_bin, guided_pdf, learned, rebuilds_rows, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode,
-    QTable, NORMAL_CLASSES, ROW_REBUILD_STRIDE, UNLEARNED,
+    guided_direction_bin, guided_pdf, learned, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode, QTable,
+    RecordSchedule, NORMAL_CLASSES, UNLEARNED,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -483,21 +483,95 @@ fn assert_rows_built_from_table(t: &QTable, cfg: &GuideConfig, what: &str) {
     assert!(worst <= 1e-4, "{what}: GLSL and Rust sampling rows differ by up to {worst} in a bin's probability");
 }
 
-/// After the first frames the GPU rebuilds the sampling rows after one frame in
-/// `ROW_REBUILD_STRIDE` (`rebuilds_rows`): after those frames the rows are built
-/// from the table as it stands, after the others they are the previous frame's,
-/// bit for bit, while the table itself goes on learning. Both ways of rendering a
-/// frame (batched and profiled).
+/// The recording schedule (`RecordSchedule`): every row records in the first
+/// frames, then one row in 4, 8 and 16, the stride doubling at the first frame
+/// that is a multiple of the new stride once the paths recorded so far reach
+/// `RECORD_PATHS_PER_ENTRY` per table entry, then twice as many; within each
+/// cycle of `stride` frames every row records exactly once, and the sampling rows
+/// are rebuilt after the cycle's last frame.
+#[test]
+fn recording_stride_doubles_as_the_table_fills() {
+    use rlpt::guide::{RecordSchedule, RECORD_PATHS_PER_ENTRY};
+    use rlpt::shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
+    assert_eq!((RECORD_ALL_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 4, 16), "the schedule documented");
+    let frames = 20000u32;
+    // (pixels, entries): a thumbnail, door.toml's size and table, a large image over a small table.
+    let door = guided(&options(&scene("door.toml"), 480, 320, 64), GuidingMode::Sphere);
+    let door_entries = PreparedScene::new(&scene("door.toml"), &door).guide.unwrap().entries() as u64;
+    for (pixels, entries) in [(48 * 32, door_entries), (480 * 320, door_entries), (640 * 480, 4096)] {
+        let s = RecordSchedule::new(pixels, entries);
+        let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries as f64;
+        let mut recorded = 0.0; // paths per entry recorded before frame f
+        let mut history = std::collections::HashMap::new(); // cycle start -> recorded before it
+        let mut threshold = RECORD_PATHS_PER_ENTRY;
+        let mut stride_start = 0; // where the current stride began
+        let mut f = 0;
+        while f < frames {
+            let stride = s.stride(f);
+            history.insert(f, recorded);
+            let expected_stride = if f < RECORD_ALL_FRAMES { 1 } else { s.stride(f - 1).max(RECORD_ROW_STRIDE) };
+            if stride != expected_stride {
+                // A doubling: once the threshold is reached, at the first multiple of the
+                // new stride since then (and since the last change of stride).
+                assert_eq!(stride, 2 * expected_stride, "{pixels} px: frame {f}");
+                assert!(recorded >= threshold, "{pixels} px: doubled at frame {f} with {recorded} per entry");
+                if f >= stride && f - stride >= stride_start.max(RECORD_ALL_FRAMES) {
+                    let before = history[&(f - stride)];
+                    assert!(
+                        before < threshold,
+                        "{pixels} px: frame {f} doubles late ({before} at frame {})",
+                        f - stride
+                    );
+                }
+                threshold *= 2.0;
+            }
+            if stride != expected_stride || f == RECORD_ALL_FRAMES {
+                stride_start = f;
+            }
+            assert!(stride <= RECORD_MAX_STRIDE, "{pixels} px: frame {f}");
+            assert_eq!(f % stride, 0, "{pixels} px: a cycle starts at frame {f}, not a multiple of {stride}");
+            for k in 0..stride {
+                assert_eq!(s.stride(f + k), stride, "{pixels} px: the stride changes in the cycle from frame {f}");
+                let rebuilds = s.rebuilds_rows(f + k);
+                assert_eq!(rebuilds, k == stride - 1, "{pixels} px: rows rebuilt after frame {}", f + k);
+            }
+            for y in 0..100 {
+                let n = (f..f + stride).filter(|&g| s.records(g, y)).count();
+                assert_eq!(n, 1, "{pixels} px: row {y} records {n} times in frames {f}..{}", f + stride);
+            }
+            recorded += per_entry;
+            f += stride;
+        }
+        let last = s.stride(frames);
+        match pixels {
+            // A thumbnail over door's table records one row in 4 for a thousand frames
+            // and more; door at its size reaches 16 within 200; a small table at once.
+            1536 => assert_eq!((s.stride(1000), last), (4, 16), "{s:?}"),
+            153600 => assert_eq!((s.stride(8), s.stride(200)), (4, 16), "{s:?}"),
+            _ => assert_eq!((s.stride(8), s.stride(16)), (8, 16), "{s:?}"),
+        }
+    }
+}
+
+/// After the first frames the GPU rebuilds the sampling rows after the last frame
+/// of each recording cycle (`RecordSchedule::rebuilds_rows`): after those frames
+/// the rows are built from the table as it stands, after the others they are the
+/// previous frame's, bit for bit, while the table itself goes on learning. Both
+/// ways of rendering a frame (batched and profiled); a table of one cell, so that
+/// the stride reaches 8 and 16 within the frames rendered.
 #[test]
 fn sampling_rows_are_rebuilt_on_schedule() {
     let ctx = gpu();
-    let scene = scene("door.toml");
+    let mut scene = scene("door.toml");
+    scene.guiding.resolution = Some([1, 1, 1]);
     let o = guided(&options(&scene, 32, 24, 64), GuidingMode::Sphere);
     let prepared = PreparedScene::new(&scene, &o);
     let cfg = prepared.guide.unwrap();
+    let schedule = RecordSchedule::for_render(&cfg, 32, 24);
     let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
     let mut before: Option<QTable> = None;
-    let frames = rlpt::shared::RECORD_ALL_FRAMES + 2 * ROW_REBUILD_STRIDE;
+    let frames = 3 * rlpt::shared::RECORD_MAX_STRIDE;
+    assert_eq!((schedule.stride(8), schedule.stride(frames - 1)), (8, 16), "{schedule:?}");
     let (mut rebuilt, mut kept) = (0, 0);
     for frame in 0..frames {
         if frame % 2 == 0 {
@@ -506,7 +580,7 @@ fn sampling_rows_are_rebuilt_on_schedule() {
             r.render_frame_profiled().unwrap();
         }
         let t = r.table().unwrap().unwrap();
-        if rebuilds_rows(frame) {
+        if schedule.rebuilds_rows(frame) {
             assert_rows_built_from_table(&t, &cfg, &format!("after frame {frame}"));
             rebuilt += 1;
         } else {
@@ -517,7 +591,8 @@ fn sampling_rows_are_rebuilt_on_schedule() {
         }
         before = Some(t);
     }
-    assert!(rebuilt > rlpt::shared::RECORD_ALL_FRAMES && kept > 2, "the schedule was exercised: {rebuilt} / {kept}");
+    // After frames 0 to 7, 15, 31 and 47.
+    assert_eq!((rebuilt, kept), (11, frames - 11), "the schedule was exercised");
     assert_no_validation_messages(&ctx);
 }
 

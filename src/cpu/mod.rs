@@ -291,6 +291,8 @@ pub struct FrameCounters {
 pub struct CpuRenderer {
     scene: PreparedScene,
     table: Option<QTable>,
+    /// With guiding, which pixel rows record targets, frame by frame (as on the GPU).
+    schedule: Option<guide::RecordSchedule>,
     film: Film,
     /// Frames traced so far (decorrelates random numbers; not reset with the film).
     frames_traced: u32,
@@ -301,7 +303,16 @@ impl CpuRenderer {
     pub fn new(scene: &PreparedScene) -> CpuRenderer {
         let table = scene.guide.map(|g| QTable::new(g.entries()));
         let film = Film::new(scene.params.width, scene.params.height);
-        CpuRenderer { scene: scene.clone(), table, film, frames_traced: 0, last_counters: FrameCounters::default() }
+        let (w, h) = (scene.params.width, scene.params.height);
+        let schedule = scene.guide.map(|g| guide::RecordSchedule::for_render(&g, w, h));
+        CpuRenderer {
+            scene: scene.clone(),
+            table,
+            schedule,
+            film,
+            frames_traced: 0,
+            last_counters: FrameCounters::default(),
+        }
     }
 
     pub fn film(&self) -> &Film {
@@ -325,6 +336,7 @@ impl CpuRenderer {
         let scene = &self.scene;
         let guide = scene.guide.as_ref().zip(self.table.as_ref()).map(|(cfg, t)| Guide { cfg, q: &t.q, rows: &t.rows });
         let entries = scene.guide.map_or(0, |g| g.entries());
+        let schedule = self.schedule.as_ref();
         let (sums, counters) = self
             .film
             .pixels
@@ -333,7 +345,7 @@ impl CpuRenderer {
             .fold(
                 || (FrameSums::new(entries), FrameCounters::default()),
                 |(mut sums, mut counters), (y, row)| {
-                    let record = guide::records(frame, y as u32);
+                    let record = schedule.is_some_and(|s| s.records(frame, y as u32));
                     for (x, acc) in row.iter_mut().enumerate() {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
@@ -375,8 +387,9 @@ impl CpuRenderer {
                     )
                 },
             );
-        if let (Some(t), Some(cfg)) = (self.table.as_mut(), self.scene.guide.as_ref()) {
-            t.learn(cfg, &sums, guide::rebuilds_rows(self.frames_traced));
+        if let (Some(t), Some(cfg), Some(s)) = (self.table.as_mut(), self.scene.guide.as_ref(), self.schedule.as_ref())
+        {
+            t.learn(cfg, &sums, s.rebuilds_rows(self.frames_traced));
         }
         self.film.frames += 1;
         self.frames_traced += 1;

@@ -20,14 +20,15 @@
 //!   ([`QTable::learn`]): the same running mean, taken in batches. Without
 //!   Russian roulette only the rays that leave guided vertices (below) record
 //!   targets ([`record_vertices`]), and after the first frames only the paths of
-//!   one pixel row in four ([`records`]).
+//!   one pixel row in a stride that grows from 4 to 16 as the table fills
+//!   ([`RecordSchedule`]).
 //! - **Sampling** at a non-delta vertex among a path's first `guided_vertices`
 //!   (by default two with NEE, all without; deeper vertices sample the BSDF
 //!   alone, see `prepared::DEFAULT_GUIDED_VERTICES_NEE`) is a one-sample mixture: with probability
 //!   `fraction` a bin is drawn from the cell's sampling row for the vertex's
 //!   orientation class (the signed axis nearest its shading normal,
 //!   [`normal_class`]), in proportion to `(Q + floor * Qbar) cos(axis, bin)`
-//!   (an alias table, rebuilt as [`rebuilds_rows`] says: one or two loads per
+//!   (an alias table, rebuilt as [`RecordSchedule::rebuilds_rows`] says: one or two loads per
 //!   sample, one per density), and a direction uniformly inside it; otherwise the BSDF is
 //!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
 //!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
@@ -220,16 +221,94 @@ impl GuideConfig {
     }
 }
 
-/// Whether the paths of pixel row `y` hand their Q-learning targets to the table
-/// in frame `frame` (counted from the first frame traced): all rows in the first
-/// `RECORD_ALL_FRAMES` frames, then one row in `RECORD_ROW_STRIDE`, a different
-/// one each frame. Q is a running mean of its targets, so recording fewer of them
-/// keeps it consistent; it costs learning speed only once the table has seen
-/// thousands of targets per entry, and saves most of the atomics' cost (whole
-/// workgroups skip recording, since a group's pixels share a row).
-/// On the GPU, `crate::render::frame_dispatches` gives these rows to the kernel that records.
-pub fn records(frame: u32, y: u32) -> bool {
-    frame < crate::shared::RECORD_ALL_FRAMES || (y + frame).is_multiple_of(crate::shared::RECORD_ROW_STRIDE)
+/// Recorded paths per table entry at which the recording stride first doubles
+/// ([`RecordSchedule`]); it doubles again at twice as many, and so on.
+pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
+
+/// Which pixel rows hand their paths' Q-learning targets to the table, frame by
+/// frame (counted from the first frame traced): all rows in the first
+/// `RECORD_ALL_FRAMES` frames, then one row in a stride, a different one each
+/// frame. The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
+/// `RECORD_MAX_STRIDE`, each time the paths recorded so far reach
+/// [`RECORD_PATHS_PER_ENTRY`] per table entry, then twice that, and so on: a large
+/// image over a small table gets there within a few frames, a thumbnail seldom.
+/// Each stride starts at a frame that is a multiple of it, so that every row
+/// records once per cycle of `stride` frames.
+///
+/// Q is a running mean of its targets, so recording fewer of them keeps it
+/// consistent; each target moves an entry that has seen n of them by 1/n. The
+/// rows that record run a kernel that is slower than the one without its code
+/// (whole workgroups skip recording, since a group's pixels share a row): on the
+/// H200 a quarter of seed-exp2's rows recording cost 0.44 ms per frame more than a
+/// sixteenth (BENCHMARKS.md). On the GPU, `crate::render::frame_dispatches` gives
+/// the recording rows to the kernel that records; the CPU renderer follows the
+/// same schedule.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RecordSchedule {
+    /// The first frame of each doubled stride: `RECORD_ROW_STRIDE << (k + 1)` from
+    /// `doublings[k]` on.
+    doublings: Vec<u32>,
+}
+
+impl RecordSchedule {
+    /// The schedule of a render of `pixels` pixels (`SAMPLES_PER_FRAME` paths each
+    /// per frame) over a table of `entries` entries.
+    pub fn new(pixels: u64, entries: u64) -> RecordSchedule {
+        use crate::shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
+        // In frames of every row: recorded so far, and needed for the next doubling.
+        let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries.max(1) as f64;
+        let mut recorded = RECORD_ALL_FRAMES as f64;
+        let mut needed = RECORD_PATHS_PER_ENTRY / per_entry.max(1e-12);
+        let (mut frame, mut stride) = (RECORD_ALL_FRAMES as u64, RECORD_ROW_STRIDE as u64);
+        let mut doublings = Vec::new();
+        while stride < RECORD_MAX_STRIDE as u64 && frame < u32::MAX as u64 {
+            let more = ((needed - recorded).max(0.0) * stride as f64).ceil().min(u32::MAX as f64) as u64;
+            let start = (frame + more).next_multiple_of(2 * stride);
+            recorded += (start - frame) as f64 / stride as f64;
+            frame = start;
+            doublings.push(frame.min(u32::MAX as u64) as u32);
+            stride *= 2;
+            needed *= 2.0;
+        }
+        RecordSchedule { doublings }
+    }
+
+    /// The schedule of a guided render of `width` x `height` pixels.
+    pub fn for_render(cfg: &GuideConfig, width: u32, height: u32) -> RecordSchedule {
+        RecordSchedule::new(width as u64 * height as u64, cfg.entries() as u64)
+    }
+
+    /// One pixel row in this many records in frame `frame`: 1 (every row) in the
+    /// first `RECORD_ALL_FRAMES` frames, then `RECORD_ROW_STRIDE` up to `RECORD_MAX_STRIDE`.
+    pub fn stride(&self, frame: u32) -> u32 {
+        if frame < crate::shared::RECORD_ALL_FRAMES {
+            return 1;
+        }
+        crate::shared::RECORD_ROW_STRIDE << self.doublings.iter().filter(|&&d| frame >= d).count()
+    }
+
+    /// Whether the paths of pixel row `y` record their targets in frame `frame`.
+    pub fn records(&self, frame: u32, y: u32) -> bool {
+        (y + frame).is_multiple_of(self.stride(frame))
+    }
+
+    /// Whether the sampling rows are rebuilt from the table after frame `frame`:
+    /// after each of the first `RECORD_ALL_FRAMES` frames, while the table changes
+    /// fast, then after the last frame of each cycle of the recording rows, one
+    /// frame in `stride`. The targets are folded into the table after every
+    /// frame. In between, paths sample rows a few frames old; the densities they
+    /// evaluate are those of the same rows, so the estimate stays unbiased. The
+    /// rebuild is a sequential loop per row, about 0.17 ms on the H200 whatever the
+    /// scene. Rows go staler as the stride grows, but only once the table has seen
+    /// many targets per entry and changes little from frame to frame; with the
+    /// stride fixed by frame count instead, up to 16 from frame 32, lavapipe's
+    /// door test (48x32, measured at frames 32 to 47) gave 0.43 of unguided's
+    /// variance with a rebuild per cycle and 0.41 with one every 4 frames, against
+    /// 0.38 with stride 4 throughout: a thumbnail's table is far from that.
+    pub fn rebuilds_rows(&self, frame: u32) -> bool {
+        let stride = self.stride(frame);
+        frame % stride == stride - 1
+    }
 }
 
 /// The vertices that mix guided sampling in: those of depth below this. The
@@ -259,22 +338,6 @@ pub fn record_vertices(p: &crate::prepared::RenderParams) -> u32 {
     } else {
         guided_vertices(p)
     }
-}
-
-/// After the first frames, the sampling rows are rebuilt from the table after one
-/// frame in this many (see [`rebuilds_rows`]).
-pub const ROW_REBUILD_STRIDE: u32 = 4;
-
-/// Whether the sampling rows are rebuilt from the table after frame `frame`
-/// (counted from the first frame traced): after each of the first
-/// `RECORD_ALL_FRAMES` frames, while the table changes fast, then after one in
-/// [`ROW_REBUILD_STRIDE`], once per cycle of the rows that record targets. The
-/// targets are folded into the table after every frame. In between, paths sample
-/// rows a few frames old; the densities they evaluate are those of the same rows,
-/// so the estimate stays unbiased. The rebuild is a sequential loop per row, about
-/// 0.2 ms on the H200 whatever the scene, which this saves three frames in four.
-pub fn rebuilds_rows(frame: u32) -> bool {
-    frame < crate::shared::RECORD_ALL_FRAMES || frame % ROW_REBUILD_STRIDE == ROW_REBUILD_STRIDE - 1
 }
 
 /// Mean of the three channels: the scalar Q learns.
@@ -540,7 +603,7 @@ impl QTable {
 
     /// Folds a frame's targets into the running means, Q <- (Q n + S) / (n + c)
     /// (the learning rate 1/(1 + visits) applied to each target in turn), then,
-    /// with `rebuild_rows` ([`rebuilds_rows`] of the frame), rebuilds the sampling
+    /// with `rebuild_rows` ([`RecordSchedule::rebuilds_rows`] of the frame), rebuilds the sampling
     /// rows. `glsl/learn.comp` is the same.
     pub fn learn(&mut self, cfg: &GuideConfig, frame: &FrameSums, rebuild_rows: bool) {
         for i in 0..self.q.len() {

@@ -4,7 +4,7 @@
 
 use crate::film::Film;
 use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, PipelineStatistic, Timer};
-use crate::guide::{AliasBin, QTable};
+use crate::guide::{AliasBin, QTable, RecordSchedule};
 use crate::prepared::{AccumPixel, PreparedScene};
 use crate::shared;
 use std::sync::Arc;
@@ -86,7 +86,7 @@ impl Learning {
 pub struct RowDispatch {
     /// The kernel that records Q-learning targets (else the one without that code).
     pub recording: bool,
-    /// The kernel's `rows` push constant: `ROWS_*` mode | phase << 8.
+    /// The kernel's `rows` push constant: `ROWS_*` mode | phase << 8 | stride << 16.
     pub rows: u32,
     /// Workgroup rows to dispatch.
     pub groups_y: u32,
@@ -94,17 +94,15 @@ pub struct RowDispatch {
 
 /// The dispatches that trace frame `frame` (frames traced before it) of an image
 /// `height` rows high: every row once, the rows whose paths record their targets
-/// (`crate::guide::records`) by the recording kernel, the others by the kernel
+/// (`schedule`, with guiding) by the recording kernel, the others by the kernel
 /// without recording. Without guiding, one dispatch of all rows.
-pub fn frame_dispatches(guided: bool, frame: u32, height: u32) -> Vec<RowDispatch> {
+pub fn frame_dispatches(schedule: Option<&RecordSchedule>, frame: u32, height: u32) -> Vec<RowDispatch> {
     let all = |recording| vec![RowDispatch { recording, rows: shared::ROWS_ALL, groups_y: height }];
-    if !guided {
-        return all(false);
-    }
-    if frame < shared::RECORD_ALL_FRAMES {
+    let Some(schedule) = schedule else { return all(false) };
+    let stride = schedule.stride(frame);
+    if stride == 1 {
         return all(true);
     }
-    let stride = shared::RECORD_ROW_STRIDE;
     // Rows y with (y + frame) % stride == 0.
     let phase = (stride - frame % stride) % stride;
     let blocks = height.div_ceil(stride);
@@ -112,13 +110,13 @@ pub fn frame_dispatches(guided: bool, frame: u32, height: u32) -> Vec<RowDispatc
     if height > phase {
         d.push(RowDispatch {
             recording: true,
-            rows: shared::ROWS_PHASE | phase << 8,
+            rows: shared::ROWS_PHASE | phase << 8 | stride << 16,
             groups_y: (height - phase).div_ceil(stride),
         });
     }
     d.push(RowDispatch {
         recording: false,
-        rows: shared::ROWS_NOT_PHASE | phase << 8,
+        rows: shared::ROWS_NOT_PHASE | phase << 8 | stride << 16,
         groups_y: blocks * (stride - 1),
     });
     d
@@ -127,8 +125,7 @@ pub fn frame_dispatches(guided: bool, frame: u32, height: u32) -> Vec<RowDispatc
 /// The pixel row that workgroup row `g` of a dispatch traces (`glsl/pathtrace.comp`
 /// `pixel_row`); rows at or past the image's height trace nothing.
 pub fn pixel_row(g: u32, rows: u32) -> u32 {
-    let (mode, phase) = (rows & 0xff, rows >> 8);
-    let stride = shared::RECORD_ROW_STRIDE;
+    let (mode, phase, stride) = (rows & 0xff, (rows >> 8) & 0xff, rows >> 16);
     match mode {
         shared::ROWS_PHASE => g * stride + phase,
         shared::ROWS_NOT_PHASE => (g / (stride - 1)) * stride + (phase + 1 + g % (stride - 1)) % stride,
@@ -144,6 +141,8 @@ pub struct GpuRenderer {
     pipeline: Pipeline,
     /// With guiding, the path-tracing pipeline that records targets.
     recording: Option<Pipeline>,
+    /// With guiding, which pixel rows record targets, frame by frame.
+    schedule: Option<RecordSchedule>,
     learning: Option<Learning>,
     /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
     /// lights, in the order of the pipeline's first bindings.
@@ -251,6 +250,7 @@ impl GpuRenderer {
             kernel,
             pipeline,
             recording,
+            schedule: scene.guide.map(|g| RecordSchedule::for_render(&g, p.width, p.height)),
             learning,
             scene_buffers,
             scene_constants,
@@ -291,7 +291,7 @@ impl GpuRenderer {
     /// kernel's frame, accumulated frames and ablation bits.
     fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: [u32; 3]) {
         let wide = self.width.div_ceil(shared::PIXELS_PER_GROUP);
-        for d in frame_dispatches(self.recording.is_some(), push[0], self.height) {
+        for d in frame_dispatches(self.schedule.as_ref(), push[0], self.height) {
             let pipeline = match (&self.recording, d.recording) {
                 (Some(r), true) => r,
                 _ => &self.pipeline,
@@ -365,7 +365,7 @@ impl GpuRenderer {
     }
 
     /// Renders `count` frames in one submission (each followed by learning when
-    /// guiding is on: the fold always, the rows' rebuild as `guide::rebuilds_rows`
+    /// guiding is on: the fold always, the rows' rebuild as `RecordSchedule::rebuilds_rows`
     /// says) and returns what they measured. Times come from timestamp
     /// queries (zero where the queue has none).
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
@@ -391,7 +391,7 @@ impl GpuRenderer {
                     }
                     self.ctx.barrier(cmd);
                     l.cmd_fold(cmd);
-                    if crate::guide::rebuilds_rows(traced + f) {
+                    if self.schedule.as_ref().is_some_and(|s| s.rebuilds_rows(traced + f)) {
                         self.ctx.barrier(cmd);
                         l.cmd_build_rows(cmd);
                     }
@@ -446,7 +446,7 @@ impl GpuRenderer {
                 self.ctx.barrier(cmd);
                 l.cmd_fold(cmd);
                 self.timer.cmd_stamp(cmd, 2);
-                if crate::guide::rebuilds_rows(self.frames_traced) {
+                if self.schedule.as_ref().is_some_and(|s| s.rebuilds_rows(self.frames_traced)) {
                     self.ctx.barrier(cmd);
                     l.cmd_build_rows(cmd);
                 }
@@ -651,21 +651,26 @@ mod tests {
     }
 
     /// Each frame's dispatches trace every pixel row exactly once, the rows that
-    /// record (`guide::records`) by the recording kernel and no others.
+    /// record (`RecordSchedule::records`) by the recording kernel and no others,
+    /// through every stride of a schedule.
     #[test]
     fn frame_dispatches_trace_every_row_once() {
+        // 102.4 paths per entry per frame: strides 4, 8 and 16 from frames 8, 16 and 96.
+        let s = RecordSchedule::new(1600, 1000);
+        assert_eq!((s.stride(15), s.stride(16), s.stride(95), s.stride(96)), (4, 8, 8, 16), "{s:?}");
         for guided in [false, true] {
-            for frame in 0..3 * shared::RECORD_ALL_FRAMES {
-                for height in 1..=3 * shared::RECORD_ROW_STRIDE + 1 {
+            let schedule = guided.then_some(&s);
+            for frame in 0..120 {
+                for height in 1..=3 * shared::RECORD_MAX_STRIDE + 1 {
                     let mut traced = vec![0u32; height as usize];
-                    for d in frame_dispatches(guided, frame, height) {
+                    for d in frame_dispatches(schedule, frame, height) {
                         for g in 0..d.groups_y {
                             let y = pixel_row(g, d.rows);
                             if y >= height {
                                 continue;
                             }
                             traced[y as usize] += 1;
-                            let records = guided && crate::guide::records(frame, y);
+                            let records = guided && s.records(frame, y);
                             assert_eq!(
                                 d.recording, records,
                                 "guided {guided}, frame {frame}, height {height}, row {y}"

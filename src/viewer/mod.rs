@@ -183,9 +183,10 @@ struct FrameTime {
 }
 
 /// How many frames the title's timings average: two cycles of the sampling rows'
-/// rebuild, which runs after one guided frame in `ROW_REBUILD_STRIDE` and makes
-/// that frame longer (`guide::rebuilds_rows`), so that the readout holds still.
-const RECENT_FRAMES: usize = 2 * crate::guide::ROW_REBUILD_STRIDE as usize;
+/// rebuild at its longest, which runs after one guided frame in a stride of up to
+/// `RECORD_MAX_STRIDE` and makes that frame longer (`RecordSchedule::rebuilds_rows`),
+/// so that the readout holds still.
+const RECENT_FRAMES: usize = 2 * crate::shared::RECORD_MAX_STRIDE as usize;
 
 /// The timings of the last `RECENT_FRAMES` frames since the accumulation restarted.
 #[derive(Default)]
@@ -698,7 +699,7 @@ mod tests {
     }
 
     /// The title's timings: a mean over the last RECENT_FRAMES frames, which holds
-    /// still while every fourth frame rebuilds the sampling rows.
+    /// still while one frame in 16 rebuilds the sampling rows.
     #[test]
     fn title_timings_average_the_recent_frames() {
         let mut r = RecentFrames::default();
@@ -706,8 +707,8 @@ mod tests {
         r.push(frame(2.0, 0.5));
         assert_eq!(r.mean(), frame(2.0, 0.5));
         // Frames as guided rendering makes them after its first ones: the rows'
-        // rebuild (0.4 ms here) after one frame in ROW_REBUILD_STRIDE.
-        let stride = crate::guide::ROW_REBUILD_STRIDE as usize;
+        // rebuild (0.4 ms here) after one frame in the largest stride.
+        let stride = crate::shared::RECORD_MAX_STRIDE as usize;
         let mut means = Vec::new();
         for i in 0..5 * RECENT_FRAMES {
             r.push(frame(1.0, if i % stride == stride - 1 { 0.4 } else { 0.0 }));
