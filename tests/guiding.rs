@@ -496,8 +496,9 @@ fn recording_stride_doubles_as_the_table_fills() {
     assert_eq!((RECORD_ALL_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 4, 16), "the schedule documented");
     let frames = 20000u32;
     // (pixels, entries): a thumbnail, door.toml's size and table, a large image over a small table.
-    let door = guided(&options(&scene("door.toml"), 480, 320, 64), GuidingMode::Sphere);
-    let door_entries = PreparedScene::new(&scene("door.toml"), &door).guide.unwrap().entries() as u64;
+    let door_scene = scene("door.toml");
+    let door = guided(&options(&door_scene, 480, 320, 64), GuidingMode::Sphere);
+    let door_entries = PreparedScene::new(&door_scene, &door).guide.unwrap().entries() as u64;
     for (pixels, entries) in [(48 * 32, door_entries), (480 * 320, door_entries), (640 * 480, 4096)] {
         let s = RecordSchedule::new(pixels, entries);
         let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries as f64;

@@ -239,8 +239,9 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// consistent; each target moves an entry that has seen n of them by 1/n. The
 /// rows that record run a kernel that is slower than the one without its code
 /// (whole workgroups skip recording, since a group's pixels share a row): on the
-/// H200 a quarter of seed-exp2's rows recording cost 0.44 ms per frame more than a
-/// sixteenth (BENCHMARKS.md). On the GPU, `crate::render::frame_dispatches` gives
+/// H200 a quarter of seed-exp2's rows recording, with the rows rebuilt every 4
+/// frames, cost 0.44 ms per frame more than a sixteenth with a rebuild every 16,
+/// about 0.04 of it the rebuilds (BENCHMARKS.md). On the GPU, `crate::render::frame_dispatches` gives
 /// the recording rows to the kernel that records; the CPU renderer follows the
 /// same schedule.
 #[derive(Clone, Debug, PartialEq, Eq)]
