@@ -89,6 +89,13 @@ void camera_ray(uint x, uint y, vec2 u, out vec3 o, out vec3 d) {
 float survival_probability(float expected, float pixel_estimate) {
     return clamp(float(RR_WINDOW) * expected / pixel_estimate, float(RR_MIN_PERCENT) / 100.0, 1.0);
 }
+
+// src/guide/mod.rs `lobe_share`: the share of the guided fraction at a vertex,
+// less than 1 on glossy lobes narrower than the cosine lobe.
+float lobe_share(Bsdf b) {
+    if (scene_has_material(MAT_GLOSSY) && b.kind == MAT_GLOSSY) return min(4.0 * b.alpha * b.alpha, 1.0);
+    return 1.0;
+}
 #define GUIDED 1
 #else
 #define GUIDED 0
@@ -171,7 +178,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         }
         float g_frac = 0.0;
 #if GUIDED
-        if (guide && depth < GUIDE_VERTICES && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w;
+        if (guide && depth < GUIDE_VERTICES && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w * lobe_share(bsdf);
 #endif
         bool last = depth >= MAX_BOUNCES;
 

@@ -11,14 +11,15 @@ use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
     bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction,
-    guided_direction_bin, guided_pdf, learned, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode, QTable,
-    RecordSchedule, NORMAL_CLASSES, UNLEARNED,
+    guided_direction_bin, guided_pdf, learned, lobe_share, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode,
+    QTable, RecordSchedule, NORMAL_CLASSES, UNLEARNED,
 };
+use rlpt::math::bsdf::Bsdf;
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
 use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
-use rlpt::scene::Scene;
+use rlpt::scene::{MaterialKind, Scene};
 use std::sync::Arc;
 
 const K: f64 = 5.0;
@@ -46,6 +47,65 @@ fn guided_and_unguided_renders_agree_in_mean() {
             eprintln!("{name} {mode:?}: worst block {z:.2} sigma");
         }
     }
+}
+
+fn share_of(kind: MaterialKind, roughness: f32) -> f32 {
+    lobe_share(&Bsdf { kind, albedo: Vec3::splat(0.75), alpha: roughness * roughness, ior: 1.5 })
+}
+
+/// The share of the guided fraction is 1 on diffuse surfaces and 4 alpha^2 on
+/// glossy ones, at most 1, growing with the roughness.
+#[test]
+fn lobe_share_is_the_glossy_lobes_width_over_the_cosine_lobes() {
+    assert_eq!(share_of(MaterialKind::Diffuse, 0.0), 1.0);
+    for (roughness, share) in [(0.08, 0.000_163_84), (0.3, 0.0324), (0.5, 0.25), (0.7, 0.9604), (0.8, 1.0), (1.0, 1.0)]
+    {
+        let s = share_of(MaterialKind::Glossy, roughness);
+        assert!((s - share).abs() <= 1e-6 * share.max(1.0), "roughness {roughness}: share {s}, expected {share}");
+    }
+    let mut last = 0.0;
+    for i in 1..=100 {
+        let s = share_of(MaterialKind::Glossy, i as f32 / 100.0);
+        assert!(s >= last && s <= 1.0, "share {s} at roughness {} after {last}", i as f32 / 100.0);
+        last = s;
+    }
+}
+
+/// Glossy vertices take part of the guided fraction (`guide::lobe_share`): seed-exp1
+/// with its white walls, floor, ceiling and ball made glossy of roughness 0.6
+/// (share 4 alpha^2 = 0.52), so that most guided vertices mix at a fraction
+/// between 0 and the setting's. If sampling and density disagreed about the
+/// fraction, the guided images would be biased there: GPU and CPU guided renders
+/// agree with the unguided one.
+#[test]
+fn glossy_vertices_mix_a_share_of_the_fraction_without_bias() {
+    let text = std::fs::read_to_string(format!("{}/scenes/seed-exp1.toml", env!("CARGO_MANIFEST_DIR")))
+        .expect("seed-exp1.toml");
+    let white = "name = \"white\"\ntype = \"diffuse\"\nalbedo = [0.75, 0.75, 0.75]";
+    assert!(text.contains(white), "seed-exp1.toml has its white diffuse material");
+    let text = text.replace(white, "name = \"white\"\ntype = \"glossy\"\nalbedo = [0.75, 0.75, 0.75]\nroughness = 0.6");
+    let scene = Scene::parse(&text, "seed-exp1.toml, glossy white").expect("scene parses");
+    assert!((share_of(MaterialKind::Glossy, 0.6) - 0.5184).abs() < 1e-4, "roughness 0.6's share");
+
+    let ctx = gpu();
+    let base = options(&scene, 36, 24, 1024);
+    let off = render_gpu(&ctx, &scene, &base);
+    let mut o = guided(&base, GuidingMode::Sphere);
+    o.seed = 31;
+    let z = assert_films_agree(&render_gpu(&ctx, &scene, &o), &off, 6, K, "glossy seed-exp1: GPU guided vs off");
+    eprintln!("glossy seed-exp1, GPU guided: worst block {z:.2} sigma");
+    (o.width, o.height, o.spp, o.seed) = (18, 12, 512, 32);
+    let mut off_small = base.clone();
+    (off_small.width, off_small.height, off_small.spp) = (18, 12, 512);
+    let z = assert_films_agree(
+        &render_cpu(&scene, &o),
+        &render_gpu(&ctx, &scene, &off_small),
+        4,
+        K,
+        "glossy seed-exp1: CPU guided vs GPU off",
+    );
+    eprintln!("glossy seed-exp1, CPU guided: worst block {z:.2} sigma");
+    assert_no_validation_messages(&ctx);
 }
 
 /// After the first frames, a guided frame traces its pixel rows in two dispatches

@@ -160,9 +160,11 @@ pub fn trace_path(
             break;
         }
         // Probability of guided sampling here: zero at delta vertices, past the
-        // guided vertices and where nothing is learned.
+        // guided vertices and where nothing is learned; less on narrow glossy lobes.
         let g_frac = match guide {
-            Some(g) if depth < guided_vertices && !bsdf.is_delta() && guide::learned(sampler) => g.cfg.fraction,
+            Some(g) if depth < guided_vertices && !bsdf.is_delta() && guide::learned(sampler) => {
+                g.cfg.fraction * guide::lobe_share(&bsdf)
+            }
             _ => 0.0,
         };
         // The density of the mixture of BSDF and guided sampling at a direction
