@@ -46,7 +46,7 @@
 #define BINDING_QUADS 3
 #define BINDING_LIGHTS 4
 #define BINDING_ACCUM 5
-// Learned guiding (pathtrace.comp): the table, this frame's sums, the sampling rows (alias tables).
+// Learned guiding (pathtrace.comp): the table, the targets' sums since it last learned, the sampling rows (alias tables).
 #define BINDING_Q 6
 #define BINDING_FRAME_SUMS 7
 #define BINDING_FRAME_COUNTS 8

@@ -1,10 +1,10 @@
 #version 460
-// Between frames, with guiding (src/guide/mod.rs `QTable::learn`):
-// phase 0, one invocation per entry: folds the frame's Q-learning targets into
-// the running means, Q <- (Q n + S) / (n + c), i.e. learning rate 1 / (1 + visits)
-// for each target, and clears the frame's sums;
-// phase 1, one invocation per (cell, normal class), after the frames that
-// src/guide/mod.rs `RecordSchedule::rebuilds_rows` names (the host dispatches it): rebuilds that sampling row,
+// Between frames, with guiding, after the frames that src/guide/mod.rs
+// `RecordSchedule::learns_after` names (src/guide/mod.rs `QTable::learn`):
+// phase 0, one invocation per entry: folds the Q-learning targets recorded since
+// the last fold into the running means, Q <- (Q n + S) / (n + c), i.e. learning
+// rate 1 / (1 + visits) for each target, and clears the sums;
+// phase 1, one invocation per (cell, normal class): rebuilds that sampling row,
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
 #include "common.glsl"
@@ -126,21 +126,24 @@ void main() {
     row_start = row;
     stage_start = gl_LocalInvocationID.x;
     in_shared = push.bins <= SHARED_BINS;
-    // Each bin's cosine, computed once, waits in its density slot; then the
-    // weights (Q + floor * Qbar) cos take its place while the table is built.
+    // Each bin's Q and cosine, Q read from the table once, wait in its column
+    // and density slots; then the weights (Q + floor * Qbar) cos take the density
+    // slot and the column is marked unset while the table is built.
     float qc = 0.0;
     float c = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
         float w = bin_cosine(b, class_);
-        set_bin(b, uvec2(uint(UNLEARNED), floatBitsToUint(w)));
-        qc += q_table[qrow + b] * w;
+        float q = q_table[qrow + b];
+        set_bin(b, uvec2(floatBitsToUint(q), floatBitsToUint(w)));
+        qc += q * w;
         c += w;
     }
     float q_floor = c > 0.0 ? push.floor_factor * qc / c : 0.0;
     float total = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
-        float w = (q_table[qrow + b] + q_floor) * weight_at(b);
-        set_weight(b, w);
+        uvec2 e = get_bin(b);
+        float w = (uintBitsToFloat(e.x) + q_floor) * uintBitsToFloat(e.y);
+        set_bin(b, uvec2(uint(UNLEARNED), floatBitsToUint(w)));
         total += w;
     }
     if (!(total > 0.0)) {

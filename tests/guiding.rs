@@ -593,8 +593,8 @@ fn recording_stride_doubles_as_the_table_fills() {
             assert_eq!(f % stride, 0, "{pixels} px: a cycle starts at frame {f}, not a multiple of {stride}");
             for k in 0..stride {
                 assert_eq!(s.stride(f + k), stride, "{pixels} px: the stride changes in the cycle from frame {f}");
-                let rebuilds = s.rebuilds_rows(f + k);
-                assert_eq!(rebuilds, k == stride - 1, "{pixels} px: rows rebuilt after frame {}", f + k);
+                let learns = s.learns_after(f + k);
+                assert_eq!(learns, k == stride - 1, "{pixels} px: the table learns after frame {}", f + k);
             }
             for y in 0..100 {
                 let n = (f..f + stride).filter(|&g| s.records(g, y)).count();
@@ -614,14 +614,17 @@ fn recording_stride_doubles_as_the_table_fills() {
     }
 }
 
-/// After the first frames the GPU rebuilds the sampling rows after the last frame
-/// of each recording cycle (`RecordSchedule::rebuilds_rows`): after those frames
-/// the rows are built from the table as it stands, after the others they are the
-/// previous frame's, bit for bit, while the table itself goes on learning. Both
-/// ways of rendering a frame (batched and profiled); a table of one cell, so that
-/// the stride reaches 8 and 16 within the frames rendered.
+/// After the first frames the GPU table learns after the last frame of each
+/// recording cycle (`RecordSchedule::learns_after`): then the targets of the
+/// whole cycle are folded in and the sampling rows built from the table as it
+/// stands; after the other frames the table, its visit counts and its rows are
+/// the previous frame's, bit for bit. Both ways of rendering a frame (batched and
+/// profiled); a table of one cell, so that the stride reaches 8 and 16 within the
+/// frames rendered. Every row records once per cycle, so a cycle's fold adds
+/// about as many targets as one of the first frames, where every row records
+/// (a fold that kept the last frame's targets alone would add 1/8 or 1/16 of it).
 #[test]
-fn sampling_rows_are_rebuilt_on_schedule() {
+fn the_table_learns_on_schedule() {
     let ctx = gpu();
     let mut scene = scene("door.toml");
     scene.guiding.resolution = Some([1, 1, 1]);
@@ -633,7 +636,9 @@ fn sampling_rows_are_rebuilt_on_schedule() {
     let mut before: Option<QTable> = None;
     let frames = 3 * rlpt::shared::RECORD_MAX_STRIDE;
     assert_eq!((schedule.stride(8), schedule.stride(frames - 1)), (8, 16), "{schedule:?}");
-    let (mut rebuilt, mut kept) = (0, 0);
+    let visits = |t: &QTable| t.visits.iter().map(|&v| v as u64).sum::<u64>();
+    let (mut learned, mut kept) = (0, 0);
+    let mut all_rows_frame = Vec::new(); // targets folded after each of frames 1 to 7
     for frame in 0..frames {
         if frame % 2 == 0 {
             r.render_frames(1).unwrap();
@@ -641,19 +646,34 @@ fn sampling_rows_are_rebuilt_on_schedule() {
             r.render_frame_profiled().unwrap();
         }
         let t = r.table().unwrap().unwrap();
-        if schedule.rebuilds_rows(frame) {
+        if schedule.learns_after(frame) {
             assert_rows_built_from_table(&t, &cfg, &format!("after frame {frame}"));
-            rebuilt += 1;
+            if let Some(b) = &before {
+                let added = visits(&t) - visits(b);
+                if frame < rlpt::shared::RECORD_ALL_FRAMES {
+                    all_rows_frame.push(added as f64);
+                } else {
+                    let mean = all_rows_frame.iter().sum::<f64>() / all_rows_frame.len() as f64;
+                    let stride = schedule.stride(frame);
+                    assert!(
+                        (0.7..1.4).contains(&(added as f64 / mean)),
+                        "the fold after frame {frame} (stride {stride}) added {added} targets, \
+                         against {mean} after a frame where every row records"
+                    );
+                }
+                assert!(t.q != b.q, "after frame {frame} the table learned nothing");
+            }
+            learned += 1;
         } else {
-            let b = before.as_ref().expect("the first frame rebuilds");
-            assert!(t.rows == b.rows, "after frame {frame} the rows changed, though they are not rebuilt then");
-            assert!(t.q != b.q, "after frame {frame} the table learned nothing");
+            let b = before.as_ref().expect("the first frame learns");
+            assert!(t.rows == b.rows, "after frame {frame} the rows changed, though the table does not learn then");
+            assert!(t.q == b.q && t.visits == b.visits, "after frame {frame} the table changed");
             kept += 1;
         }
         before = Some(t);
     }
     // After frames 0 to 7, 15, 31 and 47.
-    assert_eq!((rebuilt, kept), (11, frames - 11), "the schedule was exercised");
+    assert_eq!((learned, kept), (11, frames - 11), "the schedule was exercised");
     assert_no_validation_messages(&ctx);
 }
 

@@ -293,8 +293,11 @@ pub struct FrameCounters {
 pub struct CpuRenderer {
     scene: PreparedScene,
     table: Option<QTable>,
-    /// With guiding, which pixel rows record targets, frame by frame (as on the GPU).
+    /// With guiding, which pixel rows record targets, frame by frame, and when the
+    /// table learns (as on the GPU).
     schedule: Option<guide::RecordSchedule>,
+    /// With guiding, the targets recorded since the table last learned.
+    pending: Option<FrameSums>,
     film: Film,
     /// Frames traced so far (decorrelates random numbers; not reset with the film).
     frames_traced: u32,
@@ -311,6 +314,7 @@ impl CpuRenderer {
             scene: scene.clone(),
             table,
             schedule,
+            pending: scene.guide.map(|g| FrameSums::new(g.entries())),
             film,
             frames_traced: 0,
             last_counters: FrameCounters::default(),
@@ -330,7 +334,8 @@ impl CpuRenderer {
         self.film = Film::new(self.film.width, self.film.height);
     }
 
-    /// Renders one frame of 64 samples per pixel, then folds its Q-learning targets into the table.
+    /// Renders one frame of 64 samples per pixel; with guiding, the table learns
+    /// from its Q-learning targets after the frames the schedule names.
     pub fn render_frame(&mut self) {
         let p = self.scene.params;
         let frame = self.frames_traced;
@@ -389,9 +394,16 @@ impl CpuRenderer {
                     )
                 },
             );
-        if let (Some(t), Some(cfg), Some(s)) = (self.table.as_mut(), self.scene.guide.as_ref(), self.schedule.as_ref())
+        if let (Some(t), Some(cfg), Some(s), Some(pending)) =
+            (self.table.as_mut(), self.scene.guide.as_ref(), self.schedule.as_ref(), self.pending.take())
         {
-            t.learn(cfg, &sums, s.rebuilds_rows(self.frames_traced));
+            let pending = pending.merge(sums);
+            if s.learns_after(self.frames_traced) {
+                t.learn(cfg, &pending);
+                self.pending = Some(FrameSums::new(cfg.entries()));
+            } else {
+                self.pending = Some(pending);
+            }
         }
         self.film.frames += 1;
         self.frames_traced += 1;

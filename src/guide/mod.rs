@@ -16,8 +16,9 @@
 //!   that integral (over each bin, not only at its centre), so the running means
 //!   converge to the same values while each update costs O(1) instead of one BSDF
 //!   evaluation per bin. Delta vertices pass through the bin of the direction they
-//!   chose. A frame's targets are summed per entry and folded in between frames
-//!   ([`QTable::learn`]): the same running mean, taken in batches. Without
+//!   chose. Targets are summed per entry and folded in after the frames
+//!   [`RecordSchedule::learns_after`] names ([`QTable::learn`]): the same
+//!   running mean, taken in batches. Without
 //!   Russian roulette only the rays that leave guided vertices (below) record
 //!   targets ([`record_vertices`]), and after the first frames only the paths of
 //!   one pixel row in a stride that grows from 4 to 16 as the table fills
@@ -28,7 +29,7 @@
 //!   `fraction` a bin is drawn from the cell's sampling row for the vertex's
 //!   orientation class (the signed axis nearest its shading normal,
 //!   [`normal_class`]), in proportion to `(Q + floor * Qbar) cos(axis, bin)`
-//!   (an alias table, rebuilt as [`RecordSchedule::rebuilds_rows`] says: one or two loads per
+//!   (an alias table, rebuilt as [`RecordSchedule::learns_after`] says: one or two loads per
 //!   sample, one per density), and a direction uniformly inside it; otherwise the BSDF is
 //!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
 //!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
@@ -293,20 +294,25 @@ impl RecordSchedule {
         (y + frame).is_multiple_of(self.stride(frame))
     }
 
-    /// Whether the sampling rows are rebuilt from the table after frame `frame`:
-    /// after each of the first `RECORD_ALL_FRAMES` frames, while the table changes
-    /// fast, then after the last frame of each cycle of the recording rows, one
-    /// frame in `stride`. The targets are folded into the table after every
-    /// frame. In between, paths sample rows a few frames old; the densities they
-    /// evaluate are those of the same rows, so the estimate stays unbiased. The
-    /// rebuild is a sequential loop per row, about 0.17 ms on the H200 whatever the
-    /// scene. Rows go staler as the stride grows, but only once the table has seen
-    /// many targets per entry and changes little from frame to frame; with the
-    /// stride fixed by frame count instead, up to 16 from frame 32, lavapipe's
-    /// door test (48x32, measured at frames 32 to 47) gave 0.43 of unguided's
-    /// variance with a rebuild per cycle and 0.41 with one every 4 frames, against
-    /// 0.38 with stride 4 throughout: a thumbnail's table is far from that.
-    pub fn rebuilds_rows(&self, frame: u32) -> bool {
+    /// Whether the table learns after frame `frame`: the targets recorded since
+    /// it last learned are folded into Q, and the sampling rows rebuilt from it
+    /// ([`QTable::learn`]). After each of the first `RECORD_ALL_FRAMES` frames,
+    /// while the table changes fast, then after the last frame of each cycle of
+    /// the recording rows, one frame in `stride`, when every row has recorded once.
+    /// In between, the targets are summed per entry, and paths read a table and
+    /// sample rows a few frames old; the densities they evaluate are those of the
+    /// same rows, so the estimate stays unbiased, and Q is the running mean of the
+    /// same targets, folded later. The rebuild is a sequential loop per row,
+    /// about 0.16 ms on the H200 whatever the scene, the fold 0.009 ms (seed-exp1);
+    /// a fold after every frame, as before, cost seed-exp1 0.6 % of a guided frame
+    /// (BENCHMARKS.md). Rows go staler as the stride grows, but only once the table
+    /// has seen many targets per entry and changes little from frame to frame;
+    /// with the stride fixed by frame count instead, up to 16 from frame 32,
+    /// lavapipe's door test (48x32, measured at frames 32 to 47) gave 0.43 of
+    /// unguided's variance with a rebuild per cycle and 0.41 with one every 4
+    /// frames, against 0.38 with stride 4 throughout: a thumbnail's table is far
+    /// from that.
+    pub fn learns_after(&self, frame: u32) -> bool {
         let stride = self.stride(frame);
         frame % stride == stride - 1
     }
@@ -591,7 +597,8 @@ pub struct QTable {
     pub rows: Vec<AliasBin>,
 }
 
-/// One frame's targets, summed per entry.
+/// Targets summed per entry: a frame's, or those of the frames since the table
+/// last learned.
 #[derive(Clone, Debug)]
 pub struct FrameSums {
     pub sums: Vec<f32>,
@@ -626,21 +633,18 @@ impl QTable {
         }
     }
 
-    /// Folds a frame's targets into the running means, Q <- (Q n + S) / (n + c)
-    /// (the learning rate 1/(1 + visits) applied to each target in turn), then,
-    /// with `rebuild_rows` ([`RecordSchedule::rebuilds_rows`] of the frame), rebuilds the sampling
-    /// rows. `glsl/learn.comp` is the same.
-    pub fn learn(&mut self, cfg: &GuideConfig, frame: &FrameSums, rebuild_rows: bool) {
+    /// Folds the targets recorded since the last call into the running means,
+    /// Q <- (Q n + S) / (n + c) (the learning rate 1/(1 + visits) applied to each
+    /// target in turn), then rebuilds the sampling rows; after the frames that
+    /// [`RecordSchedule::learns_after`] names. `glsl/learn.comp` is the same.
+    pub fn learn(&mut self, cfg: &GuideConfig, targets: &FrameSums) {
         for i in 0..self.q.len() {
-            let c = frame.counts[i];
+            let c = targets.counts[i];
             if c > 0 {
                 let n = self.visits[i] as f32;
-                self.q[i] = (self.q[i] * n + frame.sums[i]) / (n + c as f32);
+                self.q[i] = (self.q[i] * n + targets.sums[i]) / (n + c as f32);
                 self.visits[i] += c;
             }
-        }
-        if !rebuild_rows {
-            return;
         }
         let n = cfg.bins.count() as usize;
         let cosines = class_cosines(&cfg.bins);

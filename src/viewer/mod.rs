@@ -182,9 +182,9 @@ struct FrameTime {
     gpu: bool,
 }
 
-/// How many frames the title's timings average: two cycles of the sampling rows'
-/// rebuild at its longest, which runs after one guided frame in a stride of up to
-/// `RECORD_MAX_STRIDE` and makes that frame longer (`RecordSchedule::rebuilds_rows`),
+/// How many frames the title's timings average: two cycles of guiding's learning
+/// at its longest, which runs after one guided frame in a stride of up to
+/// `RECORD_MAX_STRIDE` and makes that frame longer (`RecordSchedule::learns_after`),
 /// so that the readout holds still.
 const RECENT_FRAMES: usize = 2 * crate::shared::RECORD_MAX_STRIDE as usize;
 
