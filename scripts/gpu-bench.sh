@@ -5,7 +5,7 @@
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
-#             frames of 64 spp at the scene's size after 256 warm-up frames, past
+#             frames of 64 spp at the scene's size after 640 warm-up frames, past
 #             the last change of the recording stride (guide::RecordSchedule) on
 #             every scene here (bench-S-G); and, guided, after 8 (bench-early-S-G),
 #             where more rows record.
@@ -27,7 +27,7 @@ timing)
     "$rlpt" devices >"$out/devices.txt"
     for s in seed-exp1 seed-exp2 seed-exp3 door; do
         for g in off octant sphere; do
-            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 256 --guiding "$g" --nee on \
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 640 --guiding "$g" --nee on \
                 --json "$out/bench-$s-$g.json" | tee "$out/bench-$s-$g.txt"
         done
         for g in octant sphere; do

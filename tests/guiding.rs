@@ -553,7 +553,7 @@ fn assert_rows_built_from_table(t: &QTable, cfg: &GuideConfig, what: &str) {
 fn recording_stride_doubles_as_the_table_fills() {
     use rlpt::guide::{RecordSchedule, RECORD_PATHS_PER_ENTRY};
     use rlpt::shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
-    assert_eq!((RECORD_ALL_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 4, 16), "the schedule documented");
+    assert_eq!((RECORD_ALL_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 4, 32), "the schedule documented");
     let frames = 20000u32;
     // (pixels, entries): a thumbnail, door.toml's size and table, a large image over a small table.
     let door_scene = scene("door.toml");
@@ -606,10 +606,11 @@ fn recording_stride_doubles_as_the_table_fills() {
         let last = s.stride(frames);
         match pixels {
             // A thumbnail over door's table records one row in 4 for a thousand frames
-            // and more; door at its size reaches 16 within 200; a small table at once.
+            // and more; door at its size reaches 16 within 200 and 32 within 700; a
+            // small table at once.
             1536 => assert_eq!((s.stride(1000), last), (4, 16), "{s:?}"),
-            153600 => assert_eq!((s.stride(8), s.stride(200)), (4, 16), "{s:?}"),
-            _ => assert_eq!((s.stride(8), s.stride(16)), (8, 16), "{s:?}"),
+            153600 => assert_eq!((s.stride(8), s.stride(200), s.stride(700)), (4, 16, 32), "{s:?}"),
+            _ => assert_eq!((s.stride(8), s.stride(16), s.stride(64)), (8, 16, 32), "{s:?}"),
         }
     }
 }
@@ -635,7 +636,7 @@ fn the_table_learns_on_schedule() {
     let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
     let mut before: Option<QTable> = None;
     let frames = 3 * rlpt::shared::RECORD_MAX_STRIDE;
-    assert_eq!((schedule.stride(8), schedule.stride(frames - 1)), (8, 16), "{schedule:?}");
+    assert_eq!((schedule.stride(8), schedule.stride(frames - 1)), (8, 32), "{schedule:?}");
     let visits = |t: &QTable| t.visits.iter().map(|&v| v as u64).sum::<u64>();
     let (mut learned, mut kept) = (0, 0);
     let mut all_rows_frame = Vec::new(); // targets folded after each of frames 1 to 7
@@ -672,8 +673,8 @@ fn the_table_learns_on_schedule() {
         }
         before = Some(t);
     }
-    // After frames 0 to 7, 15, 31 and 47.
-    assert_eq!((learned, kept), (11, frames - 11), "the schedule was exercised");
+    // After frames 0 to 7, 15, 31, 47, 63 and 95.
+    assert_eq!((learned, kept), (13, frames - 13), "the schedule was exercised");
     assert_no_validation_messages(&ctx);
 }
 

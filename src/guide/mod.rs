@@ -21,7 +21,7 @@
 //!   running mean, taken in batches. Without
 //!   Russian roulette only the rays that leave guided vertices (below) record
 //!   targets ([`record_vertices`]), and after the first frames only the paths of
-//!   one pixel row in a stride that grows from 4 to 16 as the table fills
+//!   one pixel row in a stride that grows from 4 to 32 as the table fills
 //!   ([`RecordSchedule`]).
 //! - **Sampling** at a non-delta vertex among a path's first `guided_vertices`
 //!   (by default two with NEE, all without; deeper vertices sample the BSDF
@@ -242,7 +242,11 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// (whole workgroups skip recording, since a group's pixels share a row): on the
 /// H200 a quarter of seed-exp2's rows recording, with the rows rebuilt every 4
 /// frames, cost 0.44 ms per frame more than a sixteenth with a rebuild every 16,
-/// about 0.04 of it the rebuilds (BENCHMARKS.md). On the GPU, `crate::render::frame_dispatches` gives
+/// about 0.04 of it the rebuilds; going on from 16 to 32 (at 4096 paths per
+/// entry: seed-exp1 from frame 576, door 608, seed-exp2 and exp3 128) took
+/// 0.8 % off seed-exp1's guided frame and 0.6 to 1.1 % off the others, with
+/// relMSE at equal time the same or lower at 1 s and 10 s (BENCHMARKS.md). On the
+/// GPU, `crate::render::frame_dispatches` gives
 /// the recording rows to the kernel that records; the CPU renderer follows the
 /// same schedule.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -699,7 +699,7 @@ mod tests {
     }
 
     /// The title's timings: a mean over the last RECENT_FRAMES frames, which holds
-    /// still while one frame in 16 rebuilds the sampling rows.
+    /// still while one frame in 32 learns.
     #[test]
     fn title_timings_average_the_recent_frames() {
         let mut r = RecentFrames::default();
