@@ -49,6 +49,13 @@ fn guided_and_unguided_renders_agree_in_mean() {
     }
 }
 
+/// A scene of `scenes/` with the text `from` (which it must hold) replaced by `to`.
+fn edited_scene(name: &str, from: &str, to: &str) -> Scene {
+    let text = std::fs::read_to_string(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect(name);
+    assert!(text.contains(from), "{name} holds {from:?}");
+    Scene::parse(&text.replace(from, to), &format!("{name}, edited")).expect("the edited scene parses")
+}
+
 fn share_of(kind: MaterialKind, roughness: f32) -> f32 {
     lobe_share(&Bsdf { kind, albedo: Vec3::splat(0.75), alpha: roughness * roughness, ior: 1.5 })
 }
@@ -79,12 +86,11 @@ fn lobe_share_is_the_glossy_lobes_width_over_the_cosine_lobes() {
 /// agree with the unguided one.
 #[test]
 fn glossy_vertices_mix_a_share_of_the_fraction_without_bias() {
-    let text = std::fs::read_to_string(format!("{}/scenes/seed-exp1.toml", env!("CARGO_MANIFEST_DIR")))
-        .expect("seed-exp1.toml");
-    let white = "name = \"white\"\ntype = \"diffuse\"\nalbedo = [0.75, 0.75, 0.75]";
-    assert!(text.contains(white), "seed-exp1.toml has its white diffuse material");
-    let text = text.replace(white, "name = \"white\"\ntype = \"glossy\"\nalbedo = [0.75, 0.75, 0.75]\nroughness = 0.6");
-    let scene = Scene::parse(&text, "seed-exp1.toml, glossy white").expect("scene parses");
+    let scene = edited_scene(
+        "seed-exp1.toml",
+        "name = \"white\"\ntype = \"diffuse\"\nalbedo = [0.75, 0.75, 0.75]",
+        "name = \"white\"\ntype = \"glossy\"\nalbedo = [0.75, 0.75, 0.75]\nroughness = 0.6",
+    );
     assert!((share_of(MaterialKind::Glossy, 0.6) - 0.5184).abs() < 1e-4, "roughness 0.6's share");
 
     let ctx = gpu();
@@ -118,12 +124,7 @@ fn glossy_vertices_mix_a_share_of_the_fraction_without_bias() {
 #[test]
 fn guided_frames_trace_every_pixel_once() {
     let ctx = gpu();
-    let text = std::fs::read_to_string(format!("{}/scenes/furnace-open.toml", env!("CARGO_MANIFEST_DIR")))
-        .expect("furnace-open.toml");
-    let look_at_ball = "look_at = [0.0, 0.0, 0.0]";
-    assert!(text.contains(look_at_ball), "furnace-open.toml's camera looks at the ball");
-    let text = text.replace(look_at_ball, "look_at = [0.0, 0.0, 8.0]");
-    let scene = Scene::parse(&text, "furnace-open.toml, looking away from the ball").expect("scene parses");
+    let scene = edited_scene("furnace-open.toml", "look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 8.0]");
     let mut o = guided(&options(&scene, 9, 13, 64), GuidingMode::Sphere);
     o.seed = 3;
     let prepared = PreparedScene::new(&scene, &o);
