@@ -56,7 +56,7 @@ impl Image {
         self.pixels[y as usize * self.width as usize + x as usize]
     }
 
-    /// Saves by extension: .png (clamped to [0,1], sRGB-encoded (the exact
+    /// Saves by extension: .png (clamped to [0, 1], sRGB-encoded (the exact
     /// piecewise sRGB curve), 8-bit RGB; NaN is written as 0) or .exr (linear
     /// 32-bit float RGB). Other extensions: an error naming the path and the
     /// supported extensions. The parent directory must exist (it is not created).
@@ -160,8 +160,8 @@ fn to_srgb8(linear: f32) -> u8 {
     (srgb_encode(clamped) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
 }
 
-/// The sRGB transfer function (IEC 61966-2-1): linear [0,1] -> encoded [0,1].
-/// Values outside [0,1] follow the same formula (negative values map to
+/// The sRGB transfer function (IEC 61966-2-1): linear [0, 1] -> encoded [0, 1].
+/// Values outside [0, 1] follow the same formula (negative values map to
 /// `12.92 * linear`).
 pub fn srgb_encode(linear: f32) -> f32 {
     let l = f64::from(linear);
@@ -169,7 +169,7 @@ pub fn srgb_encode(linear: f32) -> f32 {
     e as f32
 }
 
-/// The inverse of [`srgb_encode`]: encoded [0,1] -> linear [0,1].
+/// The inverse of [`srgb_encode`]: encoded [0, 1] -> linear [0, 1].
 pub fn srgb_decode(encoded: f32) -> f32 {
     let e = f64::from(encoded);
     let l = if e <= 0.04045 { e / 12.92 } else { ((e + 0.055) / 1.055).powf(2.4) };

@@ -8,7 +8,7 @@
 //! - [`gpu`]: the only home of `unsafe` Vulkan: context, buffers, pipelines;
 //! - [`render`]: the GPU renderer built on [`gpu`];
 //! - [`image`], [`metrics`]: image files and error metrics;
-//! - [`bench`]: per-pass GPU timings (`rlpt bench`);
+//! - [`bench`](mod@bench): per-pass GPU timings (`rlpt bench`);
 //! - [`chi2`]: the goodness-of-fit test used by the sampling tests.
 
 // `!(x > 0.0)` is written on purpose: unlike `x <= 0.0` it also rejects NaN.

@@ -58,7 +58,7 @@ pub enum MaterialKind {
 pub struct Material {
     pub name: String,
     pub kind: MaterialKind,
-    /// Reflectance in [0,1]^3 (diffuse, specular, glossy, dielectric; zero for emissive).
+    /// Reflectance in [0, 1]^3 (diffuse, specular, glossy, dielectric; zero for emissive).
     pub albedo: Vec3,
     /// GGX roughness in (0,1] for glossy (alpha = roughness^2); 1 otherwise.
     pub roughness: f32,
@@ -78,7 +78,7 @@ pub struct Sphere {
     pub material: u32,
 }
 
-/// The parallelogram `origin + s*edge_u + t*edge_v`, s,t in [0,1];
+/// The parallelogram `origin + s*edge_u + t*edge_v`, s,t in [0, 1];
 /// front side = direction of `edge_u x edge_v`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Quad {

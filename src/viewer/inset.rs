@@ -27,7 +27,7 @@ pub fn window_to_pixel(rect: (i32, i32, u32, u32), render: (u32, u32), pos: (f64
 /// A `width` x `height` picture of one voxel's values `q` (one per bin of `bins`),
 /// as RGBA8 texels (R in the low byte): columns are phi = atan2(y, x) from 0 at the
 /// left to 2 pi at the right, rows are cos theta = z from +1 at the top to -1 at the
-/// bottom, each bin a block in false colour ([`shade`]: two decades on a log scale,
+/// bottom, each bin a block in false colour (`shade`: two decades on a log scale,
 /// from black through red and yellow to white at the voxel's largest value), with a
 /// grey frame. Equal-area bins make equal blocks.
 pub fn inset_texels(q: &[f32], bins: Bins, width: u32, height: u32) -> Vec<u32> {
