@@ -329,3 +329,38 @@ fn glsl_dielectric_and_mirror_match_rust() {
     }
     common::assert_no_validation_messages(&ctx);
 }
+
+/// The GPU's random numbers are the CPU's, bit for bit (glsl/rng.glsl and
+/// src/math/rng.rs): stream seeding, the 32-bit outputs and the floats, over
+/// many pixels, samples, two seeds and two frames.
+#[test]
+fn glsl_random_numbers_match_rust_bit_for_bit() {
+    let ctx = common::gpu();
+    let n = 4096u32;
+    let output = Buffer::new(&ctx, "rng outputs", n as u64 * 32, BufferUsage::Storage).unwrap();
+    let p = Pipeline::new(&ctx, "probe_rng", shader("probe_rng"), &[Binding::Storage], 12).unwrap();
+    p.bind(&[&output]);
+    for (seed, frame) in [(0u32, 0u32), (7, 123_456)] {
+        ctx.run_commands("probe rng", |cmd| {
+            let push = [n, seed, frame];
+            p.cmd_dispatch(cmd, [n.div_ceil(64), 1, 1], bytemuck::cast_slice(&push));
+        })
+        .unwrap();
+        let got: Vec<[u32; 8]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &output));
+        for (i, g) in got.iter().enumerate() {
+            let mut rng = Rng::new(seed, i as u32, frame, i as u32 % 64);
+            let mut want = [0u32; 8];
+            want[0] = rng.next_u32();
+            for w in &mut want[1..4] {
+                *w = rng.next_f32().to_bits();
+            }
+            let [x, y] = rng.next_2d();
+            (want[4], want[5]) = (x.to_bits(), y.to_bits());
+            for w in &mut want[6..] {
+                *w = rng.next_f32().to_bits();
+            }
+            assert_eq!(*g, want, "seed {seed}, frame {frame}, invocation {i}");
+        }
+    }
+    common::assert_no_validation_messages(&ctx);
+}
