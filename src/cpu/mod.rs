@@ -289,15 +289,20 @@ pub struct FrameCounters {
     pub segments: u64,
 }
 
+/// The CPU renderer's guiding state.
+struct Learning {
+    table: QTable,
+    /// Which pixel rows record targets, frame by frame, and when the table learns
+    /// (as on the GPU).
+    schedule: guide::RecordSchedule,
+    /// The targets recorded since the table last learned.
+    pending: FrameSums,
+}
+
 /// The CPU renderer: the film, the learned table (with guiding) and the frame counter.
 pub struct CpuRenderer {
     scene: PreparedScene,
-    table: Option<QTable>,
-    /// With guiding, which pixel rows record targets, frame by frame, and when the
-    /// table learns (as on the GPU).
-    schedule: Option<guide::RecordSchedule>,
-    /// With guiding, the targets recorded since the table last learned.
-    pending: Option<FrameSums>,
+    learning: Option<Learning>,
     film: Film,
     /// Frames traced so far (decorrelates random numbers; not reset with the film).
     frames_traced: u32,
@@ -306,16 +311,16 @@ pub struct CpuRenderer {
 
 impl CpuRenderer {
     pub fn new(scene: &PreparedScene) -> CpuRenderer {
-        let table = scene.guide.map(|g| QTable::new(g.entries()));
-        let film = Film::new(scene.params.width, scene.params.height);
         let (w, h) = (scene.params.width, scene.params.height);
-        let schedule = scene.guide.map(|g| guide::RecordSchedule::for_render(&g, w, h));
+        let learning = scene.guide.map(|g| Learning {
+            table: QTable::new(g.entries()),
+            schedule: guide::RecordSchedule::for_render(&g, w, h),
+            pending: FrameSums::new(g.entries()),
+        });
         CpuRenderer {
             scene: scene.clone(),
-            table,
-            schedule,
-            pending: scene.guide.map(|g| FrameSums::new(g.entries())),
-            film,
+            learning,
+            film: Film::new(w, h),
             frames_traced: 0,
             last_counters: FrameCounters::default(),
         }
@@ -326,7 +331,7 @@ impl CpuRenderer {
     }
 
     pub fn table(&self) -> Option<&QTable> {
-        self.table.as_ref()
+        self.learning.as_ref().map(|l| &l.table)
     }
 
     /// Starts a new accumulation; what guiding learned is kept.
@@ -341,9 +346,11 @@ impl CpuRenderer {
         let frame = self.frames_traced;
         let accum_frames = self.film.frames;
         let scene = &self.scene;
-        let guide = scene.guide.as_ref().zip(self.table.as_ref()).map(|(cfg, t)| Guide { cfg, q: &t.q, rows: &t.rows });
+        let learning = self.learning.as_ref();
+        let guide =
+            scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide { cfg, q: &l.table.q, rows: &l.table.rows });
         let entries = scene.guide.map_or(0, |g| g.entries());
-        let schedule = self.schedule.as_ref();
+        let schedule = learning.map(|l| &l.schedule);
         let (sums, counters) = self
             .film
             .pixels
@@ -394,15 +401,11 @@ impl CpuRenderer {
                     )
                 },
             );
-        if let (Some(t), Some(cfg), Some(s), Some(pending)) =
-            (self.table.as_mut(), self.scene.guide.as_ref(), self.schedule.as_ref(), self.pending.take())
-        {
-            let pending = pending.merge(sums);
-            if s.learns_after(self.frames_traced) {
-                t.learn(cfg, &pending);
-                self.pending = Some(FrameSums::new(cfg.entries()));
-            } else {
-                self.pending = Some(pending);
+        if let (Some(l), Some(cfg)) = (self.learning.as_mut(), self.scene.guide.as_ref()) {
+            l.pending.add_all(&sums);
+            if l.schedule.learns_after(self.frames_traced) {
+                l.table.learn(cfg, &l.pending);
+                l.pending = FrameSums::new(cfg.entries());
             }
         }
         self.film.frames += 1;

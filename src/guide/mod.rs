@@ -619,13 +619,17 @@ impl FrameSums {
         self.sums[key as usize] += target;
         self.counts[key as usize] += 1;
     }
+    /// Adds `other`'s sums and counts to these.
+    pub fn add_all(&mut self, other: &FrameSums) {
+        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
+            *a += b;
+        }
+        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
+            *a += b;
+        }
+    }
     pub fn merge(mut self, other: FrameSums) -> FrameSums {
-        for (a, b) in self.sums.iter_mut().zip(other.sums) {
-            *a += b;
-        }
-        for (a, b) in self.counts.iter_mut().zip(other.counts) {
-            *a += b;
-        }
+        self.add_all(&other);
         self
     }
 }

@@ -59,6 +59,8 @@ struct Learning {
     entries: u32,
     bins: crate::guide::Bins,
     floor: f32,
+    /// Which pixel rows record targets, frame by frame, and when the table learns.
+    schedule: RecordSchedule,
 }
 
 impl Learning {
@@ -142,8 +144,6 @@ pub struct GpuRenderer {
     pipeline: Pipeline,
     /// With guiding, the path-tracing pipeline that records targets.
     recording: Option<Pipeline>,
-    /// With guiding, which pixel rows record targets, frame by frame.
-    schedule: Option<RecordSchedule>,
     learning: Option<Learning>,
     /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
     /// lights, in the order of the pipeline's first bindings.
@@ -229,6 +229,7 @@ impl GpuRenderer {
                     entries,
                     bins: cfg.bins,
                     floor: cfg.floor,
+                    schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
                 l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler]);
                 Some(l)
@@ -251,7 +252,6 @@ impl GpuRenderer {
             kernel,
             pipeline,
             recording,
-            schedule: scene.guide.map(|g| RecordSchedule::for_render(&g, p.width, p.height)),
             learning,
             scene_buffers,
             scene_constants,
@@ -292,7 +292,7 @@ impl GpuRenderer {
     /// kernel's frame, accumulated frames and ablation bits.
     fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: [u32; 3]) {
         let wide = self.width.div_ceil(shared::PIXELS_PER_GROUP);
-        for d in frame_dispatches(self.schedule.as_ref(), push[0], self.height) {
+        for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push[0], self.height) {
             let pipeline = match (&self.recording, d.recording) {
                 (Some(r), true) => r,
                 _ => &self.pipeline,
@@ -390,7 +390,7 @@ impl GpuRenderer {
                     if timestamps && f + 1 == count {
                         self.timer.cmd_stamp(cmd, 1);
                     }
-                    if self.schedule.as_ref().is_some_and(|s| s.learns_after(traced + f)) {
+                    if l.schedule.learns_after(traced + f) {
                         self.ctx.barrier(cmd);
                         l.cmd_fold(cmd);
                         self.ctx.barrier(cmd);
@@ -436,8 +436,7 @@ impl GpuRenderer {
             });
         }
         let push = [self.frames_traced, self.accum_frames, self.ablate];
-        let learns =
-            self.learning.is_some() && self.schedule.as_ref().is_some_and(|s| s.learns_after(self.frames_traced));
+        let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.frames_traced));
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);
