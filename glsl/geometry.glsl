@@ -24,15 +24,18 @@ float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) 
 
 // Ray Tracing Gems ch. 7, with the origin's power c taken from the sphere's
 // anchor so that nothing of the size of the radius is subtracted; misses are
-// rejected first, from the centre alone (src/math/geometry.rs
-// `intersect_sphere` explains). Returns the nearest root in (0, t_max) or -1.
+// rejected first, from the centre alone and without a square root
+// (src/math/geometry.rs `intersect_sphere` explains). Returns the nearest root
+// in (0, t_max) or -1.
 float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
     float r = anchor_radius.w;
     vec3 f = o - center;
     float b = -dot(f, d);
-    float l = length(f + b * d);
-    float disc = (r - l) * (r + l);
-    if (disc < 0.0) return -1.0;
+    vec3 h = f + b * d;
+    float l2 = dot(h, h);
+    if (l2 > r * r) return -1.0;
+    float l = sqrt(l2);
+    float disc = max((r - l) * (r + l), 0.0);
     vec3 g = o - anchor_radius.xyz;
     float c = dot(g, g) + 2.0 * r * dot(g, axis);
     if (c < 0.0) disc = b * b - c;

@@ -62,16 +62,21 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
 /// larger than the scene), which moves b and l by as much: nothing against the
 /// roots' own sizes there, and where the ray grazes the sphere, a shift of the
 /// silhouette by an ulp of the centre. The anchor is read only by rays that
-/// pass, so a miss costs the centre's arithmetic alone.
+/// pass, so a miss costs the centre's arithmetic alone, and no square root: it
+/// compares l^2 with r^2, and l itself is taken for the discriminant
+/// (r - l)(r + l) of the rays that pass (clamped at 0 where rounding puts l
+/// just past r; tangent, then). Against the square root taken for every test,
+/// an unguided H200 frame of seed-exp3 (nine spheres) was 2.7 % shorter.
 pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     let r = s.anchor_radius[3];
     let f = o - xyz(s.center_radius);
     let b = -f.dot(d);
-    let l = (f + b * d).length();
-    let mut disc = (r - l) * (r + l);
-    if disc < 0.0 {
+    let l2 = (f + b * d).length_squared();
+    if l2 > r * r {
         return None;
     }
+    let l = l2.sqrt();
+    let mut disc = ((r - l) * (r + l)).max(0.0);
     let axis = xyz(s.axis);
     let g = o - xyz(s.anchor_radius);
     let c = g.dot(g) + 2.0 * r * g.dot(axis);
