@@ -95,7 +95,12 @@
 #define SPEC_SPHERE_BASE 223
 #define SPEC_SPHERE_FLOATS 10
 #define SPEC_SPHERES 16
-#define NUM_SPEC_CONSTANTS 383
+// Bit i: the sphere in slot i is compact (src/prepared.rs `GpuSphere::compact`).
+// The host works it out, as the driver did not fold the same comparison of the
+// slot's float constants: the branch on it stayed, with both sides' code
+// (seed-exp3 3 % slower; BENCHMARKS.md).
+#define SPEC_COMPACT_SPHERES 383
+#define NUM_SPEC_CONSTANTS 384
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4
@@ -152,7 +157,7 @@ struct Material {
 struct Sphere {
     vec4 center_radius;      // xyz center, w radius
     vec4 anchor_radius;      // xyz the point nearest the world origin, w radius
-    vec4 axis;               // xyz unit outward normal at the anchor
+    vec4 axis;               // xyz unit outward normal at the anchor; w 1 if compact, else 0
     uint material;
     uint light;              // index into lights, or NO_LIGHT
     uint pad0;

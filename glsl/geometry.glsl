@@ -49,7 +49,63 @@ float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, ve
     return -1.0;
 }
 
+// src/math/geometry.rs `sphere_blocks`: whether the segment from o to o + t_max d
+// (d unit) meets the sphere; a shadow ray's test, without the roots. The ends'
+// sides come from the powers of the ends, taken from the centre on a compact
+// sphere (sphere_blocks_compact) and from the anchor on others
+// (sphere_blocks_anchored); the verdict from them and the line's nearest
+// approach b to the centre, where the line passes inside:
+bool segment_crosses(bool in_o, bool in_e, float b, float t_max) {
+    if (in_o != in_e) return true;
+    return !in_o && b > 0.0 && b < t_max;
+}
+
+bool sphere_blocks_compact(vec3 center, float r, vec3 o, vec3 d, float t_max) {
+    vec3 f = o - center;
+    float b = -dot(f, d);
+    vec3 h = f + b * d;
+    if (dot(h, h) > r * r) return false;
+    vec3 e = f + t_max * d;
+    return segment_crosses(dot(f, f) < r * r, dot(e, e) < r * r, b, t_max);
+}
+
+bool sphere_blocks_anchored(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
+    float r = anchor_radius.w;
+    vec3 f = o - center;
+    float b = -dot(f, d);
+    vec3 h = f + b * d;
+    if (dot(h, h) > r * r) return false;
+    vec3 g = o - anchor_radius.xyz;
+    vec3 ge = g + t_max * d;
+    return segment_crosses(dot(g, g) + 2.0 * r * dot(g, axis) < 0.0, dot(ge, ge) + 2.0 * r * dot(ge, axis) < 0.0, b, t_max);
+}
+
+// axis.w: 1 for a compact sphere (src/prepared.rs `GpuSphere::compact`).
+bool sphere_blocks_at(vec3 center, vec4 anchor_radius, vec4 axis, vec3 o, vec3 d, float t_max) {
+    if (axis.w != 0.0) return sphere_blocks_compact(center, anchor_radius.w, o, d, t_max);
+    return sphere_blocks_anchored(center, anchor_radius, axis.xyz, o, d, t_max);
+}
+
+bool sphere_blocks(Sphere s, vec3 o, vec3 d, float t_max) {
+    return sphere_blocks_at(s.center_radius.xyz, s.anchor_radius, s.axis, o, d, t_max);
+}
+
+// src/math/geometry.rs `intersect_sphere_compact`: the roots b -+ sqrt(r^2 - l^2)
+// of a compact sphere, from the centre.
+float intersect_sphere_compact(vec3 center, float r, vec3 o, vec3 d, float t_max) {
+    vec3 f = o - center;
+    float b = -dot(f, d);
+    vec3 h = f + b * d;
+    float l2 = dot(h, h);
+    if (l2 > r * r) return -1.0;
+    float s = sqrt(r * r - l2);
+    if (b - s > 0.0 && b - s < t_max) return b - s;
+    if (b + s > 0.0 && b + s < t_max) return b + s;
+    return -1.0;
+}
+
 float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
+    if (s.axis.w != 0.0) return intersect_sphere_compact(s.center_radius.xyz, s.center_radius.w, o, d, t_max);
     return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis.xyz, o, d, t_max);
 }
 
@@ -134,14 +190,25 @@ SPEC_SPHERE_DECL(0) SPEC_SPHERE_DECL(1) SPEC_SPHERE_DECL(2) SPEC_SPHERE_DECL(3)
 SPEC_SPHERE_DECL(4) SPEC_SPHERE_DECL(5) SPEC_SPHERE_DECL(6) SPEC_SPHERE_DECL(7)
 SPEC_SPHERE_DECL(8) SPEC_SPHERE_DECL(9) SPEC_SPHERE_DECL(10) SPEC_SPHERE_DECL(11)
 SPEC_SPHERE_DECL(12) SPEC_SPHERE_DECL(13) SPEC_SPHERE_DECL(14) SPEC_SPHERE_DECL(15)
+// Bit i: the sphere in slot i is compact (src/prepared.rs `GpuSphere::compact`),
+// an integer the host works out, which the driver folds (common.glsl).
+layout(constant_id = SPEC_COMPACT_SPHERES) const uint COMPACT_SPHERES = 0u;
 
 // The hit test of specialized quad or sphere slot i (a literal).
 #define SPEC_QUAD_HIT(i, o, d, t_max) \
     intersect_quad_inv(vec4(sq##i##_0, sq##i##_1, sq##i##_2, sq##i##_3), vec3(sq##i##_4, sq##i##_5, sq##i##_6), \
                       vec3(sq##i##_7, sq##i##_8, sq##i##_9), vec3(sq##i##_10, sq##i##_11, sq##i##_12), o, d, inv_d, t_max)
+#define SPEC_SPHERE_COMPACT(i) (((COMPACT_SPHERES >> i) & 1u) != 0u)
 #define SPEC_SPHERE_HIT(i, o, d, t_max) \
-    intersect_sphere_at(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
-                        vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max)
+    (SPEC_SPHERE_COMPACT(i) \
+        ? intersect_sphere_compact(vec3(ss##i##_0, ss##i##_1, ss##i##_2), ss##i##_6, o, d, t_max) \
+        : intersect_sphere_at(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
+                              vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max))
+#define SPEC_SPHERE_BLOCKS(i, o, d, t_max) \
+    (SPEC_SPHERE_COMPACT(i) \
+        ? sphere_blocks_compact(vec3(ss##i##_0, ss##i##_1, ss##i##_2), ss##i##_6, o, d, t_max) \
+        : sphere_blocks_anchored(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
+                                 vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max))
 // A statement per slot, for the slots 0 to 15 (SPEC_QUADS, SPEC_SPHERES).
 #define FOR_SPEC_SLOTS(S) \
     S(0) S(1) S(2) S(3) S(4) S(5) S(6) S(7) S(8) S(9) S(10) S(11) S(12) S(13) S(14) S(15)
@@ -156,7 +223,12 @@ uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
 // The hit tests of primitive i of the uniform buffer.
 float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 3u * i;
+    if (const_spheres[k + 2u].w != 0.0) return intersect_sphere_compact(const_spheres[k].xyz, const_spheres[k].w, o, d, t_max);
     return intersect_sphere_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u].xyz, o, d, t_max);
+}
+bool const_sphere_blocks(uint i, vec3 o, vec3 d, float t_max) {
+    uint k = 3u * i;
+    return sphere_blocks_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u], o, d, t_max);
 }
 float const_quad(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 4u * i;
@@ -226,14 +298,14 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
 bool occluded(vec3 o, vec3 d, float t_max) {
     vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \
-    if (i < spec_sphere_count() && SPEC_SPHERE_HIT(i, o, d, t_max) > 0.0) return true;
+    if (i < spec_sphere_count() && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_SPHERE)
     uint ns = const_sphere_count();
     [[dont_unroll]] for (uint i = spec_sphere_count(); i < ns; ++i) {
-        if (const_sphere(i, o, d, t_max) > 0.0) return true;
+        if (const_sphere_blocks(i, o, d, t_max)) return true;
     }
     for (uint i = ns; i < SCENE_SPHERES; ++i) {
-        if (intersect_sphere(spheres[i], o, d, t_max) > 0.0) return true;
+        if (sphere_blocks(spheres[i], o, d, t_max)) return true;
     }
     uint nqs = min(OCCLUDING_QUADS, uint(SPEC_QUADS));
 #define BLOCKS_SPEC_QUAD(i) \

@@ -26,7 +26,8 @@ pub struct GpuSphere {
     pub center_radius: [f32; 4],
     /// xyz: the anchor, the point of the sphere nearest the world origin; w: the radius again.
     pub anchor_radius: [f32; 4],
-    /// xyz: the unit outward normal at the anchor (the centre is anchor - radius * axis).
+    /// xyz: the unit outward normal at the anchor (the centre is anchor - radius * axis);
+    /// w: 1 for a compact sphere ([`GpuSphere::compact`]), else 0.
     pub axis: [f32; 4],
     pub material: u32,
     pub light: u32,
@@ -44,14 +45,24 @@ impl GpuSphere {
         let axis = if len > 0.0 { -c / len } else { glam::DVec3::Z };
         let anchor = (c + radius as f64 * axis).as_vec3();
         let axis = axis.as_vec3();
+        let compact = 4.0 * radius * radius <= center.dot(center);
         GpuSphere {
             center_radius: v4(center, radius),
             anchor_radius: v4(anchor, radius),
-            axis: v4(axis, 0.0),
+            axis: v4(axis, if compact { 1.0 } else { 0.0 }),
             material,
             light,
             pad: [0; 2],
         }
+    }
+
+    /// Whether the sphere is no larger than half its centre's distance from the
+    /// world origin (2r <= |C|), so that its hit tests work from the centre
+    /// instead of the anchor ([`crate::math::geometry::intersect_sphere_compact`]
+    /// and [`crate::math::geometry::sphere_blocks`] say why that is precise
+    /// enough); set by [`GpuSphere::new`], in `axis[3]`.
+    pub fn compact(&self) -> bool {
+        self.axis[3] != 0.0
     }
 }
 
@@ -161,8 +172,10 @@ const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 // follow the scalar constants, the spheres' follow the quads', and nothing after.
 const _: () =
     assert!(shared::SPEC_SPHERE_BASE == shared::SPEC_QUAD_BASE + shared::SPEC_QUADS * shared::SPEC_QUAD_FLOATS);
-const _: () =
-    assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERES * shared::SPEC_SPHERE_FLOATS);
+const _: () = assert!(
+    shared::SPEC_COMPACT_SPHERES == shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERES * shared::SPEC_SPHERE_FLOATS
+);
+const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_COMPACT_SPHERES + 1);
 // geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
@@ -270,7 +283,9 @@ impl PreparedScene {
     /// spheres as pathtrace.comp's specialization constants (glsl/geometry.glsl),
     /// f32 bit patterns in constant_id order from `SPEC_QUAD_BASE`: per quad its
     /// normal, origin, dual_u and dual_v (13 floats), per sphere its centre, its
-    /// anchor and radius and its axis (10); zeros past the scene's own.
+    /// anchor and radius and its axis (10); zeros past the scene's own. Last,
+    /// `SPEC_COMPACT_SPHERES`, an integer: bit i for a compact sphere i
+    /// ([`GpuSphere::compact`]).
     pub fn geometry_specialization(&self) -> Vec<u32> {
         let quad_floats = shared::SPEC_QUAD_FLOATS as usize;
         let sphere_floats = shared::SPEC_SPHERE_FLOATS as usize;
@@ -285,6 +300,10 @@ impl PreparedScene {
             let floats = [&s.center_radius[..3], &s.anchor_radius[..], &s.axis[..3]].concat();
             let k = spheres + sphere_floats * i;
             out[k..k + sphere_floats].copy_from_slice(&bits(&floats));
+        }
+        let at = |id: u32| (id - shared::SPEC_QUAD_BASE) as usize;
+        for (i, s) in self.spheres.iter().take(shared::SPEC_SPHERES as usize).enumerate() {
+            out[at(shared::SPEC_COMPACT_SPHERES)] |= (s.compact() as u32) << i;
         }
         out
     }
@@ -525,7 +544,8 @@ mod tests {
     /// Each specialization constant of the geometry carries its own number: the
     /// float at constant_id SPEC_QUAD_BASE + 13 i + k is float k of quad i's
     /// normal, origin, dual_u, dual_v; from SPEC_SPHERE_BASE + 10 i, sphere i's
-    /// centre, anchor, radius and axis; slots past the scene's primitives are zero.
+    /// centre, anchor, radius and axis; slots past the scene's primitives are zero;
+    /// last, the mask of compact spheres.
     #[test]
     fn geometry_specialization_holds_each_primitive_in_its_slot() {
         let s = scene("seed-exp3");
@@ -557,9 +577,20 @@ mod tests {
         }
         let used_quads = shared::SPEC_QUAD_BASE + shared::SPEC_QUAD_FLOATS * p.quads.len() as u32;
         let used_spheres = shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERE_FLOATS * p.spheres.len() as u32;
-        for id in (used_quads..shared::SPEC_SPHERE_BASE).chain(used_spheres..shared::NUM_SPEC_CONSTANTS) {
+        for id in (used_quads..shared::SPEC_SPHERE_BASE).chain(used_spheres..shared::SPEC_COMPACT_SPHERES) {
             assert_eq!(c[(id - shared::SPEC_QUAD_BASE) as usize], 0, "unused constant {id}");
         }
+        // Every sphere of seed-exp3 is compact; of smallpt's, the balls (radius 16.5) are,
+        // not the walls (1e5, centres 1e5 + 80 or less from the origin) nor the lamp (600 at 687).
+        let mask = |p: &PreparedScene| {
+            p.geometry_specialization()[(shared::SPEC_COMPACT_SPHERES - shared::SPEC_QUAD_BASE) as usize]
+        };
+        assert_eq!(mask(&p), (1u32 << p.spheres.len()) - 1);
+        let smallpt = scene("smallpt");
+        let sp = PreparedScene::new(&smallpt, &RenderOptions::from_scene(&smallpt));
+        let want = sp.spheres.iter().enumerate().fold(0, |m, (i, s)| m | ((s.center_radius[3] < 100.0) as u32) << i);
+        assert_eq!(mask(&sp), want);
+        assert!(want != 0 && want != (1u32 << sp.spheres.len()) - 1, "smallpt has both kinds: {want:b}");
     }
 
     /// Every material of the scene file sets its kind's bit, every light its

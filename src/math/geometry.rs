@@ -56,6 +56,9 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
 /// |o| + |A|, the sizes of the scene around the ray. With the origin inside
 /// (c < 0) the discriminant is then b^2 - c, a sum of two positive numbers.
 ///
+/// A compact sphere ([`GpuSphere::compact`]) takes [`intersect_sphere_compact`]
+/// instead.
+///
 /// Misses, most tests, are rejected first by the chapter's perpendicular-distance
 /// discriminant, from f = o - C with the f32 centre: b = -(f.d) and
 /// l = |f + b d|. f carries an error of an ulp of |C| (of r, for spheres far
@@ -68,6 +71,9 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
 /// just past r; tangent, then). Against the square root taken for every test,
 /// an unguided H200 frame of seed-exp3 (nine spheres) was 2.7 % shorter.
 pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
+    if s.compact() {
+        return intersect_sphere_compact(s, o, d, t_max);
+    }
     let r = s.anchor_radius[3];
     let f = o - xyz(s.center_radius);
     let b = -f.dot(d);
@@ -77,9 +83,8 @@ pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f
     }
     let l = l2.sqrt();
     let mut disc = ((r - l) * (r + l)).max(0.0);
-    let axis = xyz(s.axis);
     let g = o - xyz(s.anchor_radius);
-    let c = g.dot(g) + 2.0 * r * g.dot(axis);
+    let c = g.dot(g) + 2.0 * r * g.dot(xyz(s.axis));
     if c < 0.0 {
         disc = b * b - c;
     }
@@ -102,6 +107,77 @@ pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f
     } else {
         None
     }
+}
+
+/// [`intersect_sphere`] for a compact sphere ([`GpuSphere::compact`]: 2r <= |C|,
+/// every sphere of the seed's scenes and smallpt's balls): the textbook roots
+/// b -+ sqrt(r^2 - l^2) from the centre, f = o - C, b = -(f.d), l = |f + b d|,
+/// with neither the anchor's power of the origin nor a division.
+///
+/// What the chapter's care buys elsewhere is not needed at this size. The roots
+/// carry an error of a few ulps of |f| + r (most where b - sqrt(..) cancels,
+/// with the origin near the surface), the order of the rounding of the hit
+/// point o + t d itself, which every test has. What remains is f's own error,
+/// an ulp of |C| from the f32 centre: against the hit's offset ([`hit_epsilon`],
+/// at least 1e-5 |p|, with |p| >= |C| / 2 near a compact sphere) under a
+/// hundredth, where on smallpt's walls (r = 1e5 beside a room of size 100) it
+/// would be 0.004 and more than the offset, hence the anchor there. In
+/// exchange, a ray that passes costs one
+/// square root and no division instead of two and one: seed-exp3's unguided
+/// H200 frame took 8.10 ms against 8.55 with the anchor's arithmetic on its
+/// (compact) balls (BENCHMARKS.md).
+pub fn intersect_sphere_compact(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
+    let r = s.center_radius[3];
+    let f = o - xyz(s.center_radius);
+    let b = -f.dot(d);
+    let l2 = (f + b * d).length_squared();
+    if l2 > r * r {
+        return None;
+    }
+    let root = (r * r - l2).sqrt();
+    [b - root, b + root].into_iter().find(|&t| t > 0.0 && t < t_max)
+}
+
+/// Whether the segment from `o` to `o + t_max d` (`d` unit length) meets the
+/// sphere: the shadow rays' test, which needs no root, only whether one lies in
+/// (0, t_max). Misses are rejected as in [`intersect_sphere`]. For the rest, the
+/// segment's ends are classed inside or outside by the sign of their power: ends
+/// on opposite sides cross the surface once, two ends inside never (a ball is
+/// convex), and two outside twice if the line's nearest approach to the centre,
+/// at b = -(f.d), lies between them (the line passes inside, from the miss test).
+/// No square root and no division; on seed-exp3 (nine spheres) an unguided H200
+/// frame took 8.8 ms with this test against 9.8 with the roots (BENCHMARKS.md).
+///
+/// The powers come from the centre, |p - C|^2 - r^2, on a compact sphere
+/// ([`GpuSphere::compact`]: no larger than half its centre's distance from the
+/// world origin, 2r <= |C|): their error there, an ulp of |C| + r in distance,
+/// is a small part of the offset
+/// ([`offset_origin`]) that keeps an end off a surface, which grows with |p|, and
+/// the points near such a sphere are at least |C| / 2 from the origin. On larger
+/// spheres (smallpt's walls, r = 1e5 next to a room of size 100, which the centre's
+/// arithmetic would misplace by 0.004) they come from the anchor, as the power of
+/// the origin does in [`intersect_sphere`].
+pub fn sphere_blocks(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> bool {
+    let r = s.anchor_radius[3];
+    let center = xyz(s.center_radius);
+    let f = o - center;
+    let b = -f.dot(d);
+    if (f + b * d).length_squared() > r * r {
+        return false;
+    }
+    let (in_o, in_e) = if s.compact() {
+        let e = f + t_max * d;
+        (f.dot(f) < r * r, e.dot(e) < r * r)
+    } else {
+        let axis = xyz(s.axis);
+        let g = o - xyz(s.anchor_radius);
+        let ge = g + t_max * d;
+        (g.dot(g) + 2.0 * r * g.dot(axis) < 0.0, ge.dot(ge) + 2.0 * r * ge.dot(axis) < 0.0)
+    };
+    if in_o != in_e {
+        return true;
+    }
+    !in_o && b > 0.0 && b < t_max
 }
 
 pub fn intersect_quad(q: &GpuQuad, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
@@ -172,7 +248,7 @@ pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<
 /// scene cannot, and are not tested (`crate::prepared::occluding_order`).
 pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> bool {
     let quads = &scene.quads[..scene.params.occluding_quads as usize];
-    scene.spheres.iter().any(|s| intersect_sphere(s, o, d, t_max).is_some())
+    scene.spheres.iter().any(|s| sphere_blocks(s, o, d, t_max))
         || quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
 }
 
