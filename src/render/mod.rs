@@ -77,6 +77,18 @@ impl Learning {
         self.pipeline.cmd_dispatch(cmd, [rows.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
     }
 
+    /// The table learns: the fold, then the rows' rebuild, each after a barrier;
+    /// `after(phase)` runs after each pass's dispatch (0 the fold, 1 the rebuild),
+    /// where a profiled frame stamps the time.
+    fn cmd_learn(&self, ctx: &Context, cmd: crate::gpu::vk::CommandBuffer, mut after: impl FnMut(u32)) {
+        ctx.barrier(cmd);
+        self.cmd_fold(cmd);
+        after(0);
+        ctx.barrier(cmd);
+        self.cmd_build_rows(cmd);
+        after(1);
+    }
+
     /// learn.comp's push constants for a phase.
     fn push(&self, phase: u32) -> [u32; 6] {
         [phase, self.entries, self.bins.count(), self.floor.to_bits(), self.bins.rows, self.bins.cols]
@@ -391,10 +403,7 @@ impl GpuRenderer {
                         self.timer.cmd_stamp(cmd, 1);
                     }
                     if l.schedule.learns_after(traced + f) {
-                        self.ctx.barrier(cmd);
-                        l.cmd_fold(cmd);
-                        self.ctx.barrier(cmd);
-                        l.cmd_build_rows(cmd);
+                        l.cmd_learn(&self.ctx, cmd, |_| {});
                     }
                 }
             }
@@ -446,12 +455,7 @@ impl GpuRenderer {
             self.timer.cmd_stamp(cmd, 1);
             // Learning's passes, and their stamps, after the frames it follows alone.
             if let Some(l) = self.learning.as_ref().filter(|_| learns) {
-                self.ctx.barrier(cmd);
-                l.cmd_fold(cmd);
-                self.timer.cmd_stamp(cmd, 2);
-                self.ctx.barrier(cmd);
-                l.cmd_build_rows(cmd);
-                self.timer.cmd_stamp(cmd, 3);
+                l.cmd_learn(&self.ctx, cmd, |phase| self.timer.cmd_stamp(cmd, 2 + phase));
             }
             self.ctx.barrier(cmd);
             self.counters.cmd_copy_to(cmd, &self.counters_readback);
