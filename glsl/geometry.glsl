@@ -22,6 +22,17 @@ float sphere_scale(vec4 cr) { return max_abs(cr.xyz) + cr.w; }  // sampled light
 float sphere_hit_scale(Sphere s) { return max_abs(s.anchor_radius.xyz); }  // intersect_sphere's hits
 float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) + max_abs(q.edge_v.xyz); }
 
+// src/math/geometry.rs `approach`: f = o - C, b = -(f.d) (the nearest approach
+// to the centre along the line) and l2 = |f + b d|^2; false where the line
+// misses the sphere (l2 > r^2). Every sphere test starts here, and most stop.
+bool sphere_approach(vec3 center, float r, vec3 o, vec3 d, out vec3 f, out float b, out float l2) {
+    f = o - center;
+    b = -dot(f, d);
+    vec3 h = f + b * d;
+    l2 = dot(h, h);
+    return l2 <= r * r;
+}
+
 // Ray Tracing Gems ch. 7, with the origin's power c taken from the sphere's
 // anchor so that nothing of the size of the radius is subtracted; misses are
 // rejected first, from the centre alone and without a square root
@@ -29,11 +40,9 @@ float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) 
 // in (0, t_max) or -1.
 float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
     float r = anchor_radius.w;
-    vec3 f = o - center;
-    float b = -dot(f, d);
-    vec3 h = f + b * d;
-    float l2 = dot(h, h);
-    if (l2 > r * r) return -1.0;
+    vec3 f;
+    float b, l2;
+    if (!sphere_approach(center, r, o, d, f, b, l2)) return -1.0;
     float l = sqrt(l2);
     float disc = max((r - l) * (r + l), 0.0);
     vec3 g = o - anchor_radius.xyz;
@@ -61,20 +70,18 @@ bool segment_crosses(bool in_o, bool in_e, float b, float t_max) {
 }
 
 bool sphere_blocks_compact(vec3 center, float r, vec3 o, vec3 d, float t_max) {
-    vec3 f = o - center;
-    float b = -dot(f, d);
-    vec3 h = f + b * d;
-    if (dot(h, h) > r * r) return false;
+    vec3 f;
+    float b, l2;
+    if (!sphere_approach(center, r, o, d, f, b, l2)) return false;
     vec3 e = f + t_max * d;
     return segment_crosses(dot(f, f) < r * r, dot(e, e) < r * r, b, t_max);
 }
 
 bool sphere_blocks_anchored(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
     float r = anchor_radius.w;
-    vec3 f = o - center;
-    float b = -dot(f, d);
-    vec3 h = f + b * d;
-    if (dot(h, h) > r * r) return false;
+    vec3 f;
+    float b, l2;
+    if (!sphere_approach(center, r, o, d, f, b, l2)) return false;
     vec3 g = o - anchor_radius.xyz;
     vec3 ge = g + t_max * d;
     return segment_crosses(dot(g, g) + 2.0 * r * dot(g, axis) < 0.0, dot(ge, ge) + 2.0 * r * dot(ge, axis) < 0.0, b, t_max);
@@ -93,11 +100,9 @@ bool sphere_blocks(Sphere s, vec3 o, vec3 d, float t_max) {
 // src/math/geometry.rs `intersect_sphere_compact`: the roots b -+ sqrt(r^2 - l^2)
 // of a compact sphere, from the centre.
 float intersect_sphere_compact(vec3 center, float r, vec3 o, vec3 d, float t_max) {
-    vec3 f = o - center;
-    float b = -dot(f, d);
-    vec3 h = f + b * d;
-    float l2 = dot(h, h);
-    if (l2 > r * r) return -1.0;
+    vec3 f;
+    float b, l2;
+    if (!sphere_approach(center, r, o, d, f, b, l2)) return -1.0;
     float s = sqrt(r * r - l2);
     if (b - s > 0.0 && b - s < t_max) return b - s;
     if (b + s > 0.0 && b + s < t_max) return b + s;

@@ -35,6 +35,24 @@ pub fn hit_epsilon(p: Vec3, scale: f32) -> f32 {
     1e-5 * (1.0 + max_abs(p)) + 2.5e-7 * scale
 }
 
+/// Where a line passes a sphere: f = o - C, b = -(f.d) (the distance along the
+/// line to its nearest approach to the centre) and l^2 = |f + b d|^2 (the
+/// square of that approach); `None` where the line misses, l^2 > r^2. Every
+/// sphere test starts here, and most stop.
+struct Approach {
+    f: Vec3,
+    b: f32,
+    l2: f32,
+}
+
+fn approach(s: &GpuSphere, o: Vec3, d: Vec3) -> Option<Approach> {
+    let r = s.center_radius[3];
+    let f = o - xyz(s.center_radius);
+    let b = -f.dot(d);
+    let l2 = (f + b * d).length_squared();
+    (l2 <= r * r).then_some(Approach { f, b, l2 })
+}
+
 /// Ray-sphere intersection that stays accurate in f32 for any radius, smallpt's
 /// 1e5 walls included. It follows Haines et al., "Precision Improvements for
 /// Ray/Sphere Intersection" (Ray Tracing Gems, ch. 7): near-tangent
@@ -75,12 +93,7 @@ pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f
         return intersect_sphere_compact(s, o, d, t_max);
     }
     let r = s.anchor_radius[3];
-    let f = o - xyz(s.center_radius);
-    let b = -f.dot(d);
-    let l2 = (f + b * d).length_squared();
-    if l2 > r * r {
-        return None;
-    }
+    let Approach { b, l2, .. } = approach(s, o, d)?;
     let l = l2.sqrt();
     let mut disc = ((r - l) * (r + l)).max(0.0);
     let g = o - xyz(s.anchor_radius);
@@ -128,12 +141,7 @@ pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f
 /// (compact) balls (BENCHMARKS.md).
 pub fn intersect_sphere_compact(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     let r = s.center_radius[3];
-    let f = o - xyz(s.center_radius);
-    let b = -f.dot(d);
-    let l2 = (f + b * d).length_squared();
-    if l2 > r * r {
-        return None;
-    }
+    let Approach { b, l2, .. } = approach(s, o, d)?;
     let root = (r * r - l2).sqrt();
     [b - root, b + root].into_iter().find(|&t| t > 0.0 && t < t_max)
 }
@@ -159,12 +167,7 @@ pub fn intersect_sphere_compact(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> 
 /// the origin does in [`intersect_sphere`].
 pub fn sphere_blocks(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> bool {
     let r = s.anchor_radius[3];
-    let center = xyz(s.center_radius);
-    let f = o - center;
-    let b = -f.dot(d);
-    if (f + b * d).length_squared() > r * r {
-        return false;
-    }
+    let Some(Approach { f, b, .. }) = approach(s, o, d) else { return false };
     let (in_o, in_e) = if s.compact() {
         let e = f + t_max * d;
         (f.dot(f) < r * r, e.dot(e) < r * r)
