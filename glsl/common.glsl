@@ -166,7 +166,7 @@ struct Sphere {
 
 struct Quad {
     vec4 origin;             // xyz origin, w area
-    vec4 edge_u;             // xyz edge_u
+    vec4 edge_u;             // xyz edge_u, w the scale of its points for hit offsets
     vec4 edge_v;             // xyz edge_v
     vec4 normal;             // xyz unit normal (edge_u x edge_v), w plane offset dot(normal, origin)
     vec4 dual_u;             // xyz: dot(p - origin, dual_u) = s

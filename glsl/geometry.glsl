@@ -20,7 +20,7 @@ float hit_epsilon(vec3 p, float scale) { return 1e-5 * (1.0 + max_abs(p)) + 2.5e
 
 float sphere_scale(vec4 cr) { return max_abs(cr.xyz) + cr.w; }  // sampled light points
 float sphere_hit_scale(Sphere s) { return max_abs(s.anchor_radius.xyz); }  // intersect_sphere's hits
-float quad_scale(Quad q) { return max_abs(q.origin.xyz) + max_abs(q.edge_u.xyz) + max_abs(q.edge_v.xyz); }
+float quad_scale(Quad q) { return q.edge_u.w; }  // src/math/geometry.rs `quad_points_scale`, from the host
 
 // src/math/geometry.rs `approach`: f = o - C, b = -(f.d) (the nearest approach
 // to the centre along the line) and l2 = |f + b d|^2; false where the line

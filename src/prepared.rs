@@ -70,6 +70,8 @@ impl GpuSphere {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuQuad {
     pub origin: [f32; 4],
+    /// xyz: the edge; w: the scale of the quad's points for hit offsets
+    /// ([`crate::math::geometry::quad_points_scale`]).
     pub edge_u: [f32; 4],
     pub edge_v: [f32; 4],
     pub normal: [f32; 4],
@@ -359,7 +361,7 @@ impl PreparedScene {
                 }
                 GpuQuad {
                     origin: v4(q.origin, area),
-                    edge_u: v4(q.edge_u, 0.0),
+                    edge_u: v4(q.edge_u, crate::math::geometry::quad_points_scale(q.origin, q.edge_u, q.edge_v)),
                     edge_v: v4(q.edge_v, 0.0),
                     normal: v4(normal, normal.dot(q.origin)),
                     dual_u: v4(q.edge_v.cross(w), 0.0),
@@ -591,6 +593,30 @@ mod tests {
         let want = sp.spheres.iter().enumerate().fold(0, |m, (i, s)| m | ((s.center_radius[3] < 100.0) as u32) << i);
         assert_eq!(mask(&sp), want);
         assert!(want != 0 && want != (1u32 << sp.spheres.len()) - 1, "smallpt has both kinds: {want:b}");
+    }
+
+    /// Each quad carries the scale of its points (for hit offsets) in edge_u.w,
+    /// worked out when the scene is prepared: max |origin| + max |edge_u| +
+    /// max |edge_v|, which the hit and light-sampling code of both renderers read.
+    #[test]
+    fn quads_carry_the_scale_of_their_points() {
+        let mut seen = 0;
+        for name in ["door", "seed-exp1", "seed-exp3"] {
+            let s = scene(name);
+            let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s));
+            for q in &p.quads {
+                let m = |v: [f32; 4]| v[..3].iter().fold(0.0f32, |a, x| a.max(x.abs()));
+                let want = m(q.origin) + m(q.edge_u) + m(q.edge_v);
+                assert!(
+                    want > 0.0 && q.edge_u[3] == want,
+                    "{name}: quad at {:?}: {} against {want}",
+                    q.origin,
+                    q.edge_u[3]
+                );
+                seen += 1;
+            }
+        }
+        assert!(seen >= 20, "{seen} quads");
     }
 
     /// Every material of the scene file sets its kind's bit, every light its

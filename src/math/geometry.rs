@@ -215,7 +215,13 @@ fn sphere_hit_scale(s: &GpuSphere) -> f32 {
 }
 
 fn quad_scale(q: &GpuQuad) -> f32 {
-    max_abs(xyz(q.origin)) + max_abs(xyz(q.edge_u)) + max_abs(xyz(q.edge_v))
+    q.edge_u[3]
+}
+
+/// The scale of the points of a quad (origin, edges), for [`hit_epsilon`]:
+/// computed once, when the scene is prepared, and kept in `GpuQuad::edge_u[3]`.
+pub fn quad_points_scale(origin: Vec3, edge_u: Vec3, edge_v: Vec3) -> f32 {
+    max_abs(origin) + max_abs(edge_u) + max_abs(edge_v)
 }
 
 /// Nearest hit along the unit direction `d` closer than `t_max`.
