@@ -38,7 +38,7 @@ bool sphere_approach(vec3 center, float r, vec3 o, vec3 d, out vec3 f, out float
 // rejected first, from the centre alone and without a square root
 // (src/math/geometry.rs `intersect_sphere` explains). Returns the nearest root
 // in (0, t_max) or -1.
-float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
+float intersect_sphere_anchored(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, vec3 d, float t_max) {
     float r = anchor_radius.w;
     vec3 f;
     float b, l2;
@@ -109,9 +109,14 @@ float intersect_sphere_compact(vec3 center, float r, vec3 o, vec3 d, float t_max
     return -1.0;
 }
 
+// axis.w: 1 for a compact sphere (src/prepared.rs `GpuSphere::compact`).
+float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec4 axis, vec3 o, vec3 d, float t_max) {
+    if (axis.w != 0.0) return intersect_sphere_compact(center, anchor_radius.w, o, d, t_max);
+    return intersect_sphere_anchored(center, anchor_radius, axis.xyz, o, d, t_max);
+}
+
 float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
-    if (s.axis.w != 0.0) return intersect_sphere_compact(s.center_radius.xyz, s.center_radius.w, o, d, t_max);
-    return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis.xyz, o, d, t_max);
+    return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis, o, d, t_max);
 }
 
 // The quad's plane (normal, offset in w), origin and dual edges; denom is
@@ -207,8 +212,8 @@ layout(constant_id = SPEC_COMPACT_SPHERES) const uint COMPACT_SPHERES = 0u;
 #define SPEC_SPHERE_HIT(i, o, d, t_max) \
     (SPEC_SPHERE_COMPACT(i) \
         ? intersect_sphere_compact(vec3(ss##i##_0, ss##i##_1, ss##i##_2), ss##i##_6, o, d, t_max) \
-        : intersect_sphere_at(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
-                              vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max))
+        : intersect_sphere_anchored(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
+                                    vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max))
 #define SPEC_SPHERE_BLOCKS(i, o, d, t_max) \
     (SPEC_SPHERE_COMPACT(i) \
         ? sphere_blocks_compact(vec3(ss##i##_0, ss##i##_1, ss##i##_2), ss##i##_6, o, d, t_max) \
@@ -228,8 +233,7 @@ uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
 // The hit tests of primitive i of the uniform buffer.
 float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 3u * i;
-    if (const_spheres[k + 2u].w != 0.0) return intersect_sphere_compact(const_spheres[k].xyz, const_spheres[k].w, o, d, t_max);
-    return intersect_sphere_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u].xyz, o, d, t_max);
+    return intersect_sphere_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u], o, d, t_max);
 }
 bool const_sphere_blocks(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 3u * i;
