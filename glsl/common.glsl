@@ -26,8 +26,11 @@
 #define LIGHT_QUAD 1
 #define NO_LIGHT 4294967295
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
-// bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light.
+// bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light, and bit
+// (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough
+// to take guided directions (src/guide/mod.rs `glossy_share`).
 #define SCENE_KIND_LIGHT_SHIFT 8
+#define SCENE_KIND_GUIDED_GLOSSY 5
 
 // RenderParams.flags bits.
 #define FLAG_NEE 1
@@ -115,6 +118,9 @@
 // estimate), at least RR_MIN_PERCENT / 100 and at most 1.
 #define RR_WINDOW 4
 #define RR_MIN_PERCENT 25
+// Glossy lobes whose share of the guided fraction (4 alpha^2) is below
+// 1 / GLOSSY_SHARE_MIN_INV take none (src/guide/mod.rs `glossy_share`).
+#define GLOSSY_SHARE_MIN_INV 16
 // Learned roulette starts once the table has learned from this many frames (and
 // the pixel has an estimate); plain throughput roulette before
 // (src/cpu/mod.rs `roulette_estimate`). Started at the

@@ -90,10 +90,21 @@ float survival_probability(float expected, float pixel_estimate) {
     return clamp(float(RR_WINDOW) * expected / pixel_estimate, float(RR_MIN_PERCENT) / 100.0, 1.0);
 }
 
+// The scene has glossy materials, and none wide enough to take guided directions
+// (src/guide/mod.rs `glossy_share`, `SCENE_KIND_GUIDED_GLOSSY`).
+const bool GLOSSY_UNGUIDED = (SCENE_KINDS & ((1u << MAT_GLOSSY) | (1u << SCENE_KIND_GUIDED_GLOSSY))) == (1u << MAT_GLOSSY);
+
+// src/guide/mod.rs `glossy_share`; 0 throughout where GLOSSY_UNGUIDED.
+float glossy_share(float alpha) {
+    float s = 4.0 * alpha * alpha;
+    return GLOSSY_UNGUIDED || s * float(GLOSSY_SHARE_MIN_INV) < 1.0 ? 0.0 : min(s, 1.0);
+}
+
 // src/guide/mod.rs `lobe_share`: the share of the guided fraction at a vertex,
-// less than 1 on glossy lobes narrower than the cosine lobe.
+// less than 1 on glossy lobes narrower than the cosine lobe, 0 on the narrowest
+// and on every glossy lobe of a scene whose kinds say none takes any.
 float lobe_share(Bsdf b) {
-    if (scene_has_material(MAT_GLOSSY) && b.kind == MAT_GLOSSY) return min(4.0 * b.alpha * b.alpha, 1.0);
+    if (scene_has_material(MAT_GLOSSY) && b.kind == MAT_GLOSSY) return glossy_share(b.alpha);
     return 1.0;
 }
 #define GUIDED 1
@@ -249,7 +260,12 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         }
 #if GUIDED
         if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
-        if (ok && g_frac > 0.0 && !delta) {
+        // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
+        // 0), and the last test, always true here then, says so to the compiler:
+        // the glossy evaluation leaves this site, whose second copy of it cost
+        // seed-exp2 and exp3 3.3 and 3.9 % of a guided frame (H200), and other
+        // scenes' kernels stay as they were (BENCHMARKS.md).
+        if (ok && g_frac > 0.0 && !delta && (!GLOSSY_UNGUIDED || bsdf.kind != MAT_GLOSSY)) {
             vec3 wi_local = to_local(frame, wi);
             float pdf_bsdf;
             vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);

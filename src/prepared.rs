@@ -465,8 +465,14 @@ impl PreparedScene {
 /// kind (`LIGHT_*`). pathtrace.comp is specialized to them (`SPEC_SCENE_KINDS`)
 /// and compiles the BSDFs and light samplers of these kinds alone: a kind with no
 /// material or light in the scene is never asked for, so its code only took room.
+/// Likewise `1 << SCENE_KIND_GUIDED_GLOSSY` where a glossy material is wide enough
+/// to take guided directions ([`crate::guide::glossy_guided`]): without one the
+/// guided kernel evaluates the mixture of diffuse vertices alone.
 pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
-    let m = materials.iter().fold(0, |k, m| k | 1 << m.kind);
+    let m = materials.iter().fold(0, |k, m| {
+        let guided_glossy = if crate::guide::glossy_guided(m) { 1 << shared::SCENE_KIND_GUIDED_GLOSSY } else { 0 };
+        k | 1 << m.kind | guided_glossy
+    });
     lights.iter().fold(m, |k, l| k | 1 << (shared::SCENE_KIND_LIGHT_SHIFT + l.kind))
 }
 
@@ -634,11 +640,25 @@ mod tests {
         assert_eq!(kinds("seed-exp1"), quad_lit);
         assert_eq!(kinds("door"), quad_lit);
         let all_materials = (0..=shared::MAT_EMISSIVE).fold(0, |k, m| k | mat(m));
+        // Their glossy balls (roughness 0.3 and 0.08) are too narrow to take guided directions.
         assert_eq!(kinds("seed-exp2"), all_materials | light(shared::LIGHT_QUAD));
         assert_eq!(kinds("seed-exp3"), all_materials | light(shared::LIGHT_QUAD) | light(shared::LIGHT_SPHERE));
         assert_eq!(kinds("smallpt"), all_materials & !mat(shared::MAT_GLOSSY) | light(shared::LIGHT_SPHERE));
         // No lights at all (the furnace lights the ball from the environment).
         assert_eq!(kinds("furnace-open"), mat(shared::MAT_DIFFUSE));
+        // A copper of roughness 0.36 (4 alpha^2 = 0.067, at least 1/16) takes guided
+        // directions; 0.35 (0.060) does not.
+        let copper = |roughness: &str| {
+            let path = format!("{}/scenes/seed-exp2.toml", env!("CARGO_MANIFEST_DIR"));
+            let text = std::fs::read_to_string(path).unwrap();
+            assert!(text.contains("roughness = 0.3\n"));
+            let s = Scene::parse(&text.replace("roughness = 0.3\n", &format!("roughness = {roughness}\n")), "edited")
+                .unwrap();
+            PreparedScene::new(&s, &RenderOptions::from_scene(&s)).params.scene_kinds
+        };
+        let guided_glossy = 1u32 << shared::SCENE_KIND_GUIDED_GLOSSY;
+        assert_eq!(copper("0.36"), kinds("seed-exp2") | guided_glossy);
+        assert_eq!(copper("0.35"), kinds("seed-exp2"));
     }
 
     /// door.toml: the partition's three pieces (both rooms lie on both sides of

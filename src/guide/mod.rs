@@ -436,12 +436,42 @@ pub fn learned(row: &[AliasBin]) -> bool {
 /// 1.17; this share, next to none on the seed's glossy balls, gave 1.15 in the full
 /// run of BENCHMARKS.md, against an unguided kernel 2 % faster by then. The share
 /// is a function of the vertex alone and the mixture density uses it wherever it
-/// is evaluated, so the estimate stays unbiased. `glsl/pathtrace.comp` `lobe_share`.
+/// is evaluated, so the estimate stays unbiased. Lobes narrower still take none
+/// ([`glossy_share`]). `glsl/pathtrace.comp` `lobe_share`.
 pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
     match b.kind {
-        crate::scene::MaterialKind::Glossy => (4.0 * b.alpha * b.alpha).min(1.0),
+        crate::scene::MaterialKind::Glossy => glossy_share(b.alpha),
         _ => 1.0,
     }
+}
+
+/// The share of the guided fraction at a glossy vertex of GGX width `alpha`:
+/// 4 alpha^2, at most 1, and 0 below 1 / `GLOSSY_SHARE_MIN_INV` (1/16, roughness
+/// below 0.354). Below it at most 1 direction in 32 would come from the table at
+/// the default fraction, too few to find light the lobe misses, while the kernel
+/// pays for such vertices with a second copy of the GGX evaluation, where the
+/// mixture's density is computed: the host sets `SCENE_KIND_GUIDED_GLOSSY` only for
+/// scenes with a glossy material at or above the bound ([`glossy_guided`]), and
+/// without it the kernel leaves that copy out. Seed-exp2's copper (roughness 0.3,
+/// 4 alpha^2 = 0.032) and seed-exp3's gold (0.08) are below it: their guided
+/// frames got 3.3 and 3.9 % shorter (H200, same session), and their relMSE at
+/// 10 s of equal time went from 1.07 to 1.04 and 1.03 times unguided's
+/// (BENCHMARKS.md). `glsl/pathtrace.comp` `glossy_share` is the same arithmetic.
+pub fn glossy_share(alpha: f32) -> f32 {
+    let s = 4.0 * alpha * alpha;
+    if s * (crate::shared::GLOSSY_SHARE_MIN_INV as f32) < 1.0 {
+        0.0
+    } else {
+        s.min(1.0)
+    }
+}
+
+/// Whether a material takes guided directions as a glossy lobe ([`glossy_share`]
+/// above zero), from its kernel record (`albedo_roughness.w` is the roughness, alpha
+/// its square, as `material_bsdf` in both renderers).
+pub fn glossy_guided(m: &crate::prepared::GpuMaterial) -> bool {
+    let r = m.albedo_roughness[3];
+    m.kind == crate::shared::MAT_GLOSSY && glossy_share(r * r) > 0.0
 }
 
 /// Fills one sampling row from non-negative bin weights (`row[b].pdf` holds the
