@@ -9,7 +9,7 @@ use common::*;
 use rlpt::cpu::camera_ray;
 use rlpt::film::Film;
 use rlpt::math::geometry::intersect_sphere;
-use rlpt::prepared::PreparedScene;
+use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 
@@ -138,6 +138,12 @@ fn same_seed_same_image_on_one_device() {
 /// tiles on the back wall come first, the walls and the lamp after them, so hits
 /// on primitives of all three sources shape the image.
 fn crowded_scene() -> Scene {
+    Scene::parse(&crowded_text(|_| None, |_| true), "crowded").expect("the crowded test scene loads")
+}
+
+/// The crowded scene's text: `after_ball(i)` may add a sphere after ball i, and
+/// `wall(name)` leaves a wall quad out where it says false.
+fn crowded_text(after_ball: impl Fn(usize) -> Option<String>, wall: impl Fn(&str) -> bool) -> String {
     let mut t = String::from(
         r#"
 [camera]
@@ -170,6 +176,7 @@ emission = [10.0, 10.0, 10.0]
     for i in 0..72 {
         let (x, z) = (6.0 + 11.0 * (i % 8) as f64, 8.0 + 12.0 * (i / 8) as f64);
         t += &format!("\n[[sphere]]\ncenter = [{x}, 4.0, {z}]\nradius = 4.0\nmaterial = \"green\"\n");
+        t += &after_ball(i).unwrap_or_default();
     }
     for i in 0..64 {
         let (x, y) = (4.0 + 12.0 * (i % 8) as f64, 4.0 + 9.0 * (i / 8) as f64);
@@ -177,17 +184,21 @@ emission = [10.0, 10.0, 10.0]
             "\n[[quad]]\norigin = [{x}, {y}, 1.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 5.0, 0.0]\nmaterial = \"green\"\n"
         );
     }
-    for (origin, u, v, material) in [
-        ([0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], "white"), // floor
-        ([0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"), // ceiling
-        ([0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 80.0, 0.0], "white"),  // back wall
-        ([0.0, 0.0, 0.0], [0.0, 80.0, 0.0], [0.0, 0.0, 160.0], "white"),  // left wall
-        ([100.0, 0.0, 0.0], [0.0, 0.0, 160.0], [0.0, 80.0, 0.0], "white"), // right wall
-        ([35.0, 79.9, 60.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0], "lamp"), // lamp, facing down
+    for (name, origin, u, v, material) in [
+        ("floor", [0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], "white"),
+        ("ceiling", [0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"),
+        ("back", [0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 80.0, 0.0], "white"),
+        ("left", [0.0, 0.0, 0.0], [0.0, 80.0, 0.0], [0.0, 0.0, 160.0], "white"),
+        ("right", [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], [0.0, 80.0, 0.0], "white"),
+        ("lamp", [35.0, 79.9, 60.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0], "lamp"), // facing down
     ] {
-        t += &format!("\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n");
+        if wall(name) {
+            t += &format!(
+                "\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n"
+            );
+        }
     }
-    Scene::parse(&t, "crowded").expect("the crowded test scene loads")
+    t
 }
 
 /// Both GPU pipelines, unguided and guided, test the specialized primitives,
@@ -200,19 +211,63 @@ fn gpu_and_cpu_agree_past_the_uniform_primitives() {
     // Shadow rays walk both loops too: 64 panels and the lamp can block them, the
     // room's five walls cannot (`prepared::occluding_order`).
     assert_eq!(PreparedScene::new(&scene, &opts).params.occluding_quads, 65);
-    let ctx = gpu();
-    let g = render_gpu(&ctx, &scene, &opts);
-    opts.seed = 99;
-    let c = render_cpu(&scene, &opts);
+    let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [99, 3], "crowded scene");
     let (mean, _, _) = region_stats(&g, |_, _| true);
     assert!(mean > 0.01, "the crowded scene renders lit (mean {mean})");
-    let z = assert_films_agree(&g, &c, 4, K, "crowded scene: GPU vs CPU");
-    eprintln!("crowded scene: worst block differs by {z:.2} sigma");
-    opts.seed = 3;
+}
+
+/// An unguided GPU render of `scene` (seed `opts.seed`), a CPU render (seed
+/// `seeds[0]`) and a guided GPU render (sphere, seed `seeds[1]`) agree region by
+/// region; returns the unguided GPU film.
+fn gpu_unguided_and_guided_agree_with_cpu(
+    scene: &Scene,
+    opts: &mut RenderOptions,
+    seeds: [u32; 2],
+    what: &str,
+) -> Film {
+    let ctx = gpu();
+    let g = render_gpu(&ctx, scene, opts);
+    opts.seed = seeds[0];
+    let c = render_cpu(scene, opts);
+    let z = assert_films_agree(&g, &c, 4, K, &format!("{what}: GPU vs CPU"));
+    eprintln!("{what}: worst block differs by {z:.2} sigma");
+    opts.seed = seeds[1];
     opts.guiding = rlpt::guide::GuidingMode::Sphere;
-    let guided = render_gpu(&ctx, &scene, &opts);
-    let z = assert_films_agree(&guided, &c, 4, K, "crowded scene: guided GPU vs CPU");
-    eprintln!("crowded scene, guided: worst block differs by {z:.2} sigma");
+    let guided = render_gpu(&ctx, scene, opts);
+    let z = assert_films_agree(&guided, &c, 4, K, &format!("{what}: guided GPU vs CPU"));
+    eprintln!("{what}, guided: worst block differs by {z:.2} sigma");
+    g
+}
+
+/// Spheres too large for their centre's test (2r > |C|, tested from the anchor on
+/// their surface, `intersect_sphere_anchored` and `sphere_blocks_at`) past the
+/// specialized slots: the crowded scene's floor and right wall as smallpt's walls
+/// are made, spheres of radius 1e5, the floor after ball 20 (the uniform buffer's
+/// spheres) and the wall after the last ball (the storage buffer's). Most of the
+/// image is lit by light off them.
+#[test]
+fn gpu_and_cpu_agree_on_anchored_spheres_past_the_slots() {
+    let wall = |center: [f64; 3]| format!("\n[[sphere]]\ncenter = {center:?}\nradius = 1e5\nmaterial = \"white\"\n");
+    let text = crowded_text(
+        |i| match i {
+            20 => Some(wall([50.0, -1e5, 80.0])),
+            71 => Some(wall([1e5 + 100.0, 40.0, 80.0])),
+            _ => None,
+        },
+        |name| name != "floor" && name != "right",
+    );
+    let scene = Scene::parse(&text, "crowded, sphere walls").expect("the test scene loads");
+    let mut opts = options(&scene, 32, 24, 512);
+    let prepared = PreparedScene::new(&scene, &opts);
+    assert_eq!(prepared.spheres.len(), 74);
+    for i in [21, 73] {
+        assert!(!prepared.spheres[i].compact(), "sphere {i} is a wall, tested from its anchor");
+    }
+    assert!(prepared.spheres[..21].iter().all(|s| s.compact()), "the balls are compact");
+    let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [77, 5], "sphere walls");
+    // The floor's pixels, the lowest rows.
+    let (floor, _, _) = region_stats(&g, |_, y| y >= 20);
+    assert!(floor > 0.01, "the sphere floor is lit (mean {floor})");
 }
 
 /// The kernel is compiled for the render's flags and bounce limit
