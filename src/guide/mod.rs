@@ -428,16 +428,17 @@ pub fn learned(row: &[AliasBin]) -> bool {
 /// at the default 0.5 for no gain. The width is measured by the peak density of
 /// the sampled directions, 1 / pi for the cosine lobe and 1 / (4 pi alpha^2) for
 /// GGX reflection (D(n) / 4 at normal incidence), so the share is min(1, 4 alpha^2):
-/// roughness 0.3 (alpha 0.09, seed-exp2's and exp3's copper) 0.032, roughness 0.08
-/// (seed-exp3's gold) 0.00016, roughness 0.71 and above 1. On the H200 at equal
-/// time (one session), glossy vertices without guided sampling took seed-exp3's
-/// relMSE at 1 s from 1.25 to 1.11 of unguided's, and a share of the lobe over one
-/// bin's solid angle instead (1.04 for the copper, 0.005 for the gold) only to
-/// 1.17; this share, next to none on the seed's glossy balls, gave 1.15 in the full
-/// run of BENCHMARKS.md, against an unguided kernel 2 % faster by then. The share
-/// is a function of the vertex alone and the mixture density uses it wherever it
-/// is evaluated, so the estimate stays unbiased. Lobes narrower still take none
-/// ([`glossy_share`]). `glsl/pathtrace.comp` `lobe_share`.
+/// 0.25 at roughness 0.5, 1 from roughness 0.71 up; below 1/16 (roughness 0.354)
+/// none ([`glossy_share`]), so seed-exp2's and exp3's copper (roughness 0.3, 4
+/// alpha^2 = 0.032) and seed-exp3's gold (0.08, 0.00016) take none. On the H200 at
+/// equal time (one session), glossy vertices without guided sampling took
+/// seed-exp3's relMSE at 1 s from 1.25 to 1.11 of unguided's, and a share of the
+/// lobe over one bin's solid angle instead (1.04 for the copper, 0.005 for the
+/// gold) only to 1.17; min(1, 4 alpha^2) without the cut-off, next to none on the
+/// seed's glossy balls, gave 1.15 in the full run of BENCHMARKS.md at `1a15e67`,
+/// and with it 1.10. The share is a function of the vertex alone and the mixture
+/// density uses it wherever it is evaluated, so the estimate stays unbiased.
+/// `glsl/pathtrace.comp` `lobe_share`.
 pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
     match b.kind {
         crate::scene::MaterialKind::Glossy => glossy_share(b.alpha),
