@@ -3,6 +3,7 @@
 
 mod common;
 
+use common::readback;
 use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
 use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
@@ -11,16 +12,6 @@ use rlpt::math::Vec3;
 use rlpt::prepared::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
 use rlpt::scene::MaterialKind;
 use rlpt::shared;
-
-fn readback(ctx: &std::sync::Arc<rlpt::gpu::Context>, src: &Buffer) -> Vec<u8> {
-    let rb = Buffer::new(ctx, "probe readback", src.size, BufferUsage::Readback).unwrap();
-    ctx.run_commands("probe readback", |cmd| {
-        ctx.barrier(cmd);
-        src.cmd_copy_to(cmd, &rb);
-    })
-    .unwrap();
-    rb.read().to_vec()
-}
 
 #[test]
 fn reduction_sums_64_samples_exactly_on_this_subgroup_size() {

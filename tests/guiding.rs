@@ -688,16 +688,6 @@ fn the_table_learns_on_schedule() {
     assert_no_validation_messages(&ctx);
 }
 
-fn readback(ctx: &Arc<Context>, src: &Buffer) -> Vec<u8> {
-    let rb = Buffer::new(ctx, "probe readback", src.size, BufferUsage::Readback).unwrap();
-    ctx.run_commands("probe readback", |cmd| {
-        ctx.barrier(cmd);
-        src.cmd_copy_to(cmd, &rb);
-    })
-    .unwrap();
-    rb.read().to_vec()
-}
-
 #[test]
 fn glsl_guided_sampler_matches_rust_and_follows_its_pdf() {
     let ctx = gpu();

@@ -18,6 +18,17 @@ pub fn gpu() -> Arc<Context> {
         .expect("a Vulkan device (lavapipe: apt install mesa-vulkan-drivers) and the validation layer")
 }
 
+/// The bytes of a device buffer (a probe kernel's output), copied back after a barrier.
+pub fn readback(ctx: &Arc<Context>, src: &rlpt::gpu::Buffer) -> Vec<u8> {
+    let rb = rlpt::gpu::Buffer::new(ctx, "probe readback", src.size, rlpt::gpu::BufferUsage::Readback).unwrap();
+    ctx.run_commands("probe readback", |cmd| {
+        ctx.barrier(cmd);
+        src.cmd_copy_to(cmd, &rb);
+    })
+    .unwrap();
+    rb.read().to_vec()
+}
+
 /// Asserts the validation layer said nothing on `ctx` so far.
 pub fn assert_no_validation_messages(ctx: &Context) {
     assert!(ctx.validation_enabled());
