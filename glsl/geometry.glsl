@@ -87,14 +87,15 @@ bool sphere_blocks_anchored(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, 
     return segment_crosses(dot(g, g) + 2.0 * r * dot(g, axis) < 0.0, dot(ge, ge) + 2.0 * r * dot(ge, axis) < 0.0, b, t_max);
 }
 
-// axis.w: 1 for a compact sphere (src/prepared.rs `GpuSphere::compact`).
-bool sphere_blocks_at(vec3 center, vec4 anchor_radius, vec4 axis, vec3 o, vec3 d, float t_max) {
-    if (axis.w != 0.0) return sphere_blocks_compact(center, anchor_radius.w, o, d, t_max);
-    return sphere_blocks_anchored(center, anchor_radius, axis.xyz, o, d, t_max);
+// compact: src/prepared.rs `GpuSphere::compact`, the sphere's axis.w != 0 or a
+// specialized slot's bit of COMPACT_SPHERES.
+bool sphere_blocks_at(vec3 center, vec4 anchor_radius, vec3 axis, bool compact, vec3 o, vec3 d, float t_max) {
+    if (compact) return sphere_blocks_compact(center, anchor_radius.w, o, d, t_max);
+    return sphere_blocks_anchored(center, anchor_radius, axis, o, d, t_max);
 }
 
 bool sphere_blocks(Sphere s, vec3 o, vec3 d, float t_max) {
-    return sphere_blocks_at(s.center_radius.xyz, s.anchor_radius, s.axis, o, d, t_max);
+    return sphere_blocks_at(s.center_radius.xyz, s.anchor_radius, s.axis.xyz, s.axis.w != 0.0, o, d, t_max);
 }
 
 // src/math/geometry.rs `intersect_sphere_compact`: the roots b -+ sqrt(r^2 - l^2)
@@ -109,14 +110,14 @@ float intersect_sphere_compact(vec3 center, float r, vec3 o, vec3 d, float t_max
     return -1.0;
 }
 
-// axis.w: 1 for a compact sphere (src/prepared.rs `GpuSphere::compact`).
-float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec4 axis, vec3 o, vec3 d, float t_max) {
-    if (axis.w != 0.0) return intersect_sphere_compact(center, anchor_radius.w, o, d, t_max);
-    return intersect_sphere_anchored(center, anchor_radius, axis.xyz, o, d, t_max);
+// compact: as for sphere_blocks_at.
+float intersect_sphere_at(vec3 center, vec4 anchor_radius, vec3 axis, bool compact, vec3 o, vec3 d, float t_max) {
+    if (compact) return intersect_sphere_compact(center, anchor_radius.w, o, d, t_max);
+    return intersect_sphere_anchored(center, anchor_radius, axis, o, d, t_max);
 }
 
 float intersect_sphere(Sphere s, vec3 o, vec3 d, float t_max) {
-    return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis, o, d, t_max);
+    return intersect_sphere_at(s.center_radius.xyz, s.anchor_radius, s.axis.xyz, s.axis.w != 0.0, o, d, t_max);
 }
 
 // The quad's plane (normal, offset in w), origin and dual edges; denom is
@@ -209,16 +210,12 @@ layout(constant_id = SPEC_COMPACT_SPHERES) const uint COMPACT_SPHERES = 0u;
     intersect_quad_inv(vec4(sq##i##_0, sq##i##_1, sq##i##_2, sq##i##_3), vec3(sq##i##_4, sq##i##_5, sq##i##_6), \
                       vec3(sq##i##_7, sq##i##_8, sq##i##_9), vec3(sq##i##_10, sq##i##_11, sq##i##_12), o, d, inv_d, t_max)
 #define SPEC_SPHERE_COMPACT(i) (((COMPACT_SPHERES >> i) & 1u) != 0u)
-#define SPEC_SPHERE_HIT(i, o, d, t_max) \
-    (SPEC_SPHERE_COMPACT(i) \
-        ? intersect_sphere_compact(vec3(ss##i##_0, ss##i##_1, ss##i##_2), ss##i##_6, o, d, t_max) \
-        : intersect_sphere_anchored(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
-                                    vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max))
-#define SPEC_SPHERE_BLOCKS(i, o, d, t_max) \
-    (SPEC_SPHERE_COMPACT(i) \
-        ? sphere_blocks_compact(vec3(ss##i##_0, ss##i##_1, ss##i##_2), ss##i##_6, o, d, t_max) \
-        : sphere_blocks_anchored(vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
-                                 vec3(ss##i##_7, ss##i##_8, ss##i##_9), o, d, t_max))
+// Slot i's sphere as the arguments of intersect_sphere_at and sphere_blocks_at.
+#define SPEC_SPHERE_ARGS(i) \
+    vec3(ss##i##_0, ss##i##_1, ss##i##_2), vec4(ss##i##_3, ss##i##_4, ss##i##_5, ss##i##_6), \
+        vec3(ss##i##_7, ss##i##_8, ss##i##_9), SPEC_SPHERE_COMPACT(i)
+#define SPEC_SPHERE_HIT(i, o, d, t_max) intersect_sphere_at(SPEC_SPHERE_ARGS(i), o, d, t_max)
+#define SPEC_SPHERE_BLOCKS(i, o, d, t_max) sphere_blocks_at(SPEC_SPHERE_ARGS(i), o, d, t_max)
 // A statement per slot, for the slots 0 to 15 (SPEC_QUADS, SPEC_SPHERES).
 #define FOR_SPEC_SLOTS(S) \
     S(0) S(1) S(2) S(3) S(4) S(5) S(6) S(7) S(8) S(9) S(10) S(11) S(12) S(13) S(14) S(15)
@@ -233,11 +230,13 @@ uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
 // The hit tests of primitive i of the uniform buffer.
 float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 3u * i;
-    return intersect_sphere_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u], o, d, t_max);
+    return intersect_sphere_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u].xyz,
+                               const_spheres[k + 2u].w != 0.0, o, d, t_max);
 }
 bool const_sphere_blocks(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 3u * i;
-    return sphere_blocks_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u], o, d, t_max);
+    return sphere_blocks_at(const_spheres[k].xyz, const_spheres[k + 1u], const_spheres[k + 2u].xyz,
+                            const_spheres[k + 2u].w != 0.0, o, d, t_max);
 }
 float const_quad(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 4u * i;
