@@ -295,3 +295,45 @@ fn set_params_recompiles_the_kernel_for_new_flags() {
     assert_no_validation_messages(&ctx);
     assert_eq!(switched.pixels, fresh.pixels, "set_params switched NEE off and the bounces to 2");
 }
+
+/// The rays a frame traces (camera, bounce and shadow rays), as the GPU kernels
+/// count them and as the CPU renderer does, with roulette (door: the kernels keep
+/// the count in the high half of the depth's register, `depth_rays` in
+/// `glsl/pathtrace.comp`) and without (seed-exp1), unguided and guided. The two
+/// renderers trace independent paths, so the totals differ by noise: each path's
+/// count lies in [1, 2 (bounces + 1)], which bounds its standard deviation by half
+/// that range, and the totals must agree within K of those deviations.
+#[test]
+fn gpu_and_cpu_count_the_same_rays() {
+    let ctx = gpu();
+    for name in ["door.toml", "seed-exp1.toml"] {
+        for guiding in [rlpt::guide::GuidingMode::Off, rlpt::guide::GuidingMode::Sphere] {
+            let scene = scene(name);
+            let mut opts = options(&scene, 32, 24, 256);
+            opts.guiding = guiding;
+            let prepared = PreparedScene::new(&scene, &opts);
+            let mut gpu = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+            let mut cpu = rlpt::cpu::CpuRenderer::new(&prepared);
+            let (mut g, mut c) = (0u64, 0u64);
+            for _ in 0..opts.frames() {
+                g += gpu.render_frames(1).expect("render").segments;
+                cpu.render_frame();
+                c += cpu.last_counters.segments;
+            }
+            assert_no_validation_messages(&ctx);
+            let paths = (opts.width * opts.height * opts.frames() * rlpt::shared::SAMPLES_PER_FRAME) as f64;
+            let half_range = (2.0 * (opts.max_bounces as f64 + 1.0) - 1.0) / 2.0;
+            let sd = (2.0 * paths).sqrt() * half_range;
+            let z = (g as f64 - c as f64).abs() / sd;
+            eprintln!(
+                "{name} {guiding:?}: GPU {g} rays, CPU {c} ({:.4} per path), {z:.3} bound deviations",
+                g as f64 / paths
+            );
+            assert!(
+                g >= paths as u64 && c >= paths as u64,
+                "{name} {guiding:?}: at least one ray per path: GPU {g}, CPU {c}"
+            );
+            assert!(z < K, "{name} {guiding:?}: GPU counted {g} rays, CPU {c}: {z:.2} deviations apart");
+        }
+    }
+}
