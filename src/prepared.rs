@@ -20,6 +20,28 @@ pub struct GpuMaterial {
     pub pad: [u32; 2],
 }
 
+impl GpuMaterial {
+    /// The BSDF of this record, as `material_bsdf` in `glsl/pathtrace.comp` reads
+    /// it: the roughness in `albedo_roughness.w`, alpha its square.
+    pub fn bsdf(&self) -> crate::math::bsdf::Bsdf {
+        use crate::scene::MaterialKind;
+        let kind = match self.kind {
+            shared::MAT_DIFFUSE => MaterialKind::Diffuse,
+            shared::MAT_SPECULAR => MaterialKind::Specular,
+            shared::MAT_GLOSSY => MaterialKind::Glossy,
+            shared::MAT_DIELECTRIC => MaterialKind::Dielectric,
+            _ => MaterialKind::Emissive,
+        };
+        let [r, g, b, roughness] = self.albedo_roughness;
+        crate::math::bsdf::Bsdf {
+            kind,
+            albedo: Vec3::new(r, g, b),
+            alpha: roughness * roughness,
+            ior: self.emission_ior[3],
+        }
+    }
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuSphere {

@@ -38,16 +38,7 @@ pub fn camera_ray(p: &RenderParams, x: u32, y: u32, u: [f32; 2]) -> (Vec3, Vec3)
 }
 
 fn material_bsdf(scene: &PreparedScene, mat: u32) -> Bsdf {
-    let m = &scene.materials[mat as usize];
-    let kind = match m.kind {
-        shared::MAT_DIFFUSE => MaterialKind::Diffuse,
-        shared::MAT_SPECULAR => MaterialKind::Specular,
-        shared::MAT_GLOSSY => MaterialKind::Glossy,
-        shared::MAT_DIELECTRIC => MaterialKind::Dielectric,
-        _ => MaterialKind::Emissive,
-    };
-    let r = m.albedo_roughness[3];
-    Bsdf { kind, albedo: xyz(m.albedo_roughness), alpha: r * r, ior: m.emission_ior[3] }
+    scene.materials[mat as usize].bsdf()
 }
 
 /// The guiding state a path reads: configuration and the table of the previous frames.

@@ -468,11 +468,10 @@ pub fn glossy_share(alpha: f32) -> f32 {
 }
 
 /// Whether a material takes guided directions as a glossy lobe ([`glossy_share`]
-/// above zero), from its kernel record (`albedo_roughness.w` is the roughness, alpha
-/// its square, as `material_bsdf` in both renderers).
+/// above zero), from its kernel record.
 pub fn glossy_guided(m: &crate::prepared::GpuMaterial) -> bool {
-    let r = m.albedo_roughness[3];
-    m.kind == crate::shared::MAT_GLOSSY && glossy_share(r * r) > 0.0
+    let b = m.bsdf();
+    b.kind == crate::scene::MaterialKind::Glossy && glossy_share(b.alpha) > 0.0
 }
 
 /// Fills one sampling row from non-negative bin weights (`row[b].pdf` holds the
