@@ -37,6 +37,8 @@
 #define FLAG_RUSSIAN_ROULETTE 2
 // MIS heuristic: power (beta = 2) when set, balance otherwise.
 #define FLAG_POWER_HEURISTIC 4
+// Each cell learns its guided fraction (src/guide/mod.rs `FractionState`).
+#define FLAG_LEARN_FRACTION 8
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
 #define ABLATE_RECORD 1
@@ -59,6 +61,9 @@
 // The first primitives of the scene, as the hit tests read them (geometry.glsl):
 // a uniform buffer of CONST_SPHERES spheres and CONST_QUADS quads.
 #define BINDING_SCENE_CONSTANTS 11
+// Learned guiding (pathtrace.comp): the guided fraction of each sampling row,
+// 0 where the row is unlearned (src/guide/mod.rs `QTable::fractions`).
+#define BINDING_FRACTIONS 12
 #define CONST_SPHERES 64
 #define CONST_QUADS 64
 // Specialization constants of pathtrace.comp (their constant_id): what a render
@@ -127,6 +132,15 @@
 // second frame, it left door.toml (CPU, 96x64, sphere) at relMSE 0.104 after 2
 // frames and 8.4e-4 after 64; started at the fifth, 0.034 and 6.4e-4.
 #define LEARNED_RR_FRAMES 4
+// Learned guided fraction (src/guide/mod.rs `FractionState`): each cell's
+// fraction is sigmoid(theta), theta moved by Adam (step FRACTION_RATE, decay
+// rates FRACTION_BETA1, FRACTION_BETA2) down the gradient of the KL divergence
+// between the normalised integrand and the mixture, and kept within
+// [FRACTION_MIN, 1 - FRACTION_MIN].
+#define FRACTION_RATE 0.1
+#define FRACTION_BETA1 0.9
+#define FRACTION_BETA2 0.999
+#define FRACTION_MIN 0.1
 // Which paths hand their Q-learning targets to the table (src/guide/mod.rs
 // `RecordSchedule`): all of them in the first RECORD_ALL_FRAMES frames, then those
 // of one pixel row in a stride, a different row each frame. The stride starts at
@@ -208,7 +222,7 @@ struct RenderParams {
     uint guide_bins;         // rows * cols; 0 = guiding off
     uint guide_rows;
     uint guide_cols;
-    vec4 guide_min;          // xyz grid minimum, w guided-sampling fraction
+    vec4 guide_min;          // xyz grid minimum, w guided fraction (fixed, or the cells' start; the kernel reads row_fractions)
     vec4 guide_inv_cell;     // xyz cells per unit length, w solid angle of a bin
     uint guide_res_x;
     uint guide_res_y;

@@ -17,6 +17,8 @@ layout(std430, set = 0, binding = BINDING_FRAME_SUMS) buffer FrameSums { float f
 layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uint frame_counts[]; };
 // Per bin of each sampling row: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
 layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uvec2 sampler_table[]; };
+// Per sampling row: its guided fraction, 0 where it is unlearned; src/guide/mod.rs `QTable::fractions`.
+layout(std430, set = 0, binding = BINDING_FRACTIONS) readonly buffer Fractions { float row_fractions[]; };
 
 #ifdef RLPT_SPECIALIZED
 // The table's shape as specialization constants: bin and cell arithmetic by
@@ -27,6 +29,7 @@ layout(constant_id = SPEC_GUIDE_RES_X) const uint GUIDE_RES_X = 1u;
 layout(constant_id = SPEC_GUIDE_RES_Y) const uint GUIDE_RES_Y = 1u;
 layout(constant_id = SPEC_GUIDE_RES_Z) const uint GUIDE_RES_Z = 1u;
 const uint GUIDE_BINS = GUIDE_ROWS * GUIDE_COLS;
+const uint GUIDE_ENTRIES = GUIDE_RES_X * GUIDE_RES_Y * GUIDE_RES_Z * GUIDE_BINS;
 #else
 #define GUIDE_ROWS params.guide_rows
 #define GUIDE_COLS params.guide_cols
@@ -34,6 +37,7 @@ const uint GUIDE_BINS = GUIDE_ROWS * GUIDE_COLS;
 #define GUIDE_RES_Y params.guide_res_y
 #define GUIDE_RES_Z params.guide_res_z
 #define GUIDE_BINS params.guide_bins
+#define GUIDE_ENTRIES (params.guide_cells * params.guide_bins)
 #endif
 
 float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
@@ -99,7 +103,9 @@ float bin_pdf(uint row, uint b) { return uintBitsToFloat(sampler_table[row + b].
 
 float guided_pdf(uint row, vec3 dir) { return bin_pdf(row, bin_index(dir)); }
 
-bool guide_learned(uint row) { return sampler_table[row].x != uint(UNLEARNED); }
+// The guided fraction of the sampling row whose first bin is `row`: 0 where
+// the row has learned nothing (src/cpu/mod.rs reads QTable::fractions).
+float row_fraction(uint row) { return row_fractions[row / GUIDE_BINS]; }
 
 #include "record.glsl"
 

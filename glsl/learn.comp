@@ -7,6 +7,10 @@
 // phase 1, one invocation per (cell, normal class): rebuilds that sampling row,
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
+// Where cells learn their guided fractions (push.learn_fraction), phase 0's
+// first `cells` invocations also take one Adam step on their cell's fraction
+// from the gradients summed after the table's entries (`FractionState::step`),
+// and phase 1 writes each row's fraction (`QTable::learn`).
 #include "common.glsl"
 #include "sampling.glsl"
 
@@ -17,6 +21,10 @@ layout(std430, set = 0, binding = 2) buffer FrameSums { float frame_sums[]; };
 layout(std430, set = 0, binding = 3) buffer FrameCounts { uint frame_counts[]; };
 // Per bin: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
 layout(std430, set = 0, binding = 4) buffer Sampler { uvec2 sampler_table[]; };
+// Per sampling row: its guided fraction, 0 where unlearned (`QTable::fractions`).
+layout(std430, set = 0, binding = 5) buffer Fractions { float row_fractions[]; };
+// Per cell: theta, Adam's m and v, steps (`FractionState`).
+layout(std430, set = 0, binding = 6) buffer FractionStates { vec4 fraction_states[]; };
 layout(push_constant) uniform Push {
     uint phase;
     uint entries;
@@ -24,7 +32,30 @@ layout(push_constant) uniform Push {
     float floor_factor;
     uint rows;
     uint cols;
+    uint cells;
+    float start_fraction;  // fixed, or each cell's start where learn_fraction
+    uint learn_fraction;
 } push;
+
+// src/guide/mod.rs `FractionState::fraction`.
+float cell_fraction(vec4 s) {
+    float logit = log(push.start_fraction / (1.0 - push.start_fraction)) + s.x;
+    return clamp(1.0 / (1.0 + exp(-logit)), FRACTION_MIN, 1.0 - FRACTION_MIN);
+}
+
+// src/guide/mod.rs `FractionState::step`.
+vec4 fraction_step(vec4 s, float gradient) {
+    s.w += 1.0;
+    s.y = FRACTION_BETA1 * s.y + (1.0 - FRACTION_BETA1) * gradient;
+    s.z = FRACTION_BETA2 * s.z + (1.0 - FRACTION_BETA2) * gradient * gradient;
+    float m_hat = s.y / (1.0 - pow(FRACTION_BETA1, s.w));
+    float v_hat = s.z / (1.0 - pow(FRACTION_BETA2, s.w));
+    if (v_hat > 0.0) s.x -= FRACTION_RATE * m_hat / sqrt(v_hat);
+    float bound = log((1.0 - FRACTION_MIN) / FRACTION_MIN);
+    float start_logit = log(push.start_fraction / (1.0 - push.start_fraction));
+    s.x = clamp(s.x, -bound - start_logit, bound - start_logit);
+    return s;
+}
 
 // src/guide/mod.rs `Bins::center` and `bin_cosine` for the axis of `class_`.
 float bin_cosine(uint b, uint class_) {
@@ -108,6 +139,15 @@ void build_alias_row(uint n, float total) {
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (push.phase == 0u) {
+        if (push.learn_fraction != 0u && i < push.cells) {
+            uint k = push.entries + i;
+            uint c = frame_counts[k];
+            if (c != 0u) {
+                fraction_states[i] = fraction_step(fraction_states[i], frame_sums[k] / float(c));
+                frame_sums[k] = 0.0;
+                frame_counts[k] = 0u;
+            }
+        }
         if (i >= push.entries) return;
         uint c = frame_counts[i];
         if (c == 0u) return;
@@ -148,8 +188,10 @@ void main() {
     }
     if (!(total > 0.0)) {
         for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = uvec2(uint(UNLEARNED), 0u);
+        row_fractions[i] = 0.0;
         return;
     }
+    row_fractions[i] = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
     build_alias_row(push.bins, total);
     if (in_shared) {
         for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = staged[stage_start + b * LEARN_GROUP];

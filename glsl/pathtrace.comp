@@ -107,6 +107,13 @@ float lobe_share(Bsdf b) {
     if (scene_has_material(MAT_GLOSSY) && b.kind == MAT_GLOSSY) return glossy_share(b.alpha);
     return 1.0;
 }
+// src/cpu/mod.rs `record_to`: the target of the ray that left through `key`,
+// and where `factor` is not 0 its cell's fraction-gradient sample,
+// -factor * counted, summed after the table's entries (src/guide/mod.rs `FrameSums`).
+void record(uint key, float target, float counted, float factor) {
+    record_target(key, target);
+    if (factor != 0.0) record_target(GUIDE_ENTRIES + key / GUIDE_BINS, -factor * counted);
+}
 #define GUIDED 1
 #else
 #define GUIDED 0
@@ -153,6 +160,11 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
     // made guided frames 0.7 (door) to 2.7 % (seed-exp2) faster on the H200.
     uint end_key = NO_KEY;
     float end_target = 0.0;
+    // Where cells learn their fractions (recording kernel only): the
+    // fraction-gradient factor of the ray being traced, 0 where its vertex did
+    // not mix (src/guide/mod.rs `fraction_gradient_factor`).
+    bool learn_fraction = learn && (FLAGS & FLAG_LEARN_FRACTION) != 0u;
+    float prev_factor = 0.0;
 #endif
     for (;;) {
         COUNT_RAY();
@@ -169,12 +181,14 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         }
         vec3 wo = -d;
         vec3 le = emitted(hit.material, hit.n, wo);
+        // The emission's MIS weight, which the fraction's gradient applies too
+        // (src/cpu/mod.rs `record_to`).
+        float w_le = 1.0;
         if (max_component(le) > 0.0) {
-            float w = 1.0;
             if (nee && !prev_delta && hit.light != NO_LIGHT) {
-                w = mis_weight(prev_pdf, light_pdf(hit.light, prev_p, d), power);
+                w_le = mis_weight(prev_pdf, light_pdf(hit.light, prev_p, d), power);
             }
-            radiance += beta * le * w;
+            radiance += beta * le * w_le;
         }
         Bsdf bsdf = material_bsdf(hit.material);
         vec3 n = (is_kind(bsdf, MAT_DIELECTRIC) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
@@ -193,19 +207,25 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             qrow = cell * GUIDE_BINS;
             row = sampler_row(cell, normal_class(n));
         }
+        float fraction = 0.0;
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
             if (learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY) {
                 end_key = prev_key;
                 end_target = mean3(le);
+                // The gradient weighs the emission as the image does.
+                prev_factor *= w_le;
             }
 #endif
             break;
         }
         float g_frac = 0.0;
 #if GUIDED
-        if (guide && DEPTH < GUIDE_VERTICES && !bsdf_is_delta(bsdf) && guide_learned(row)) g_frac = params.guide_min.w * lobe_share(bsdf);
+        if (guide && DEPTH < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
+            fraction = row_fraction(row);
+            g_frac = fraction * lobe_share(bsdf);
+        }
 #endif
         bool last = DEPTH >= MAX_BOUNCES;
 
@@ -254,6 +274,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         // The bin of wi where something reads it (qrow set): a guided direction
         // comes with its bin, a BSDF direction's is found once, below.
         uint wi_bin = 0u;
+        float factor = 0.0;
 #endif
         // First the direction, from the table or the BSDF; then, where the two
         // are mixed, one evaluation of the BSDF and the mixture density for
@@ -285,14 +306,17 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             vec3 wi_local = to_local(frame, wi);
             float pdf_bsdf;
             vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-            pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * bin_pdf(row, wi_bin);
+            float pdf_guided = bin_pdf(row, wi_bin);
+            pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * pdf_guided;
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
+            // share * g (1 - g) is g_frac (1 - g).
+            if (learn_fraction && ok) factor = g_frac * (1.0 - fraction) * (pdf_guided - pdf_bsdf) / pdf * mean3(weight);
         }
         if (wants_target) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
             float reflected = ok ? mean3(weight) * q_table[qrow + wi_bin] : 0.0;
-            record_target(prev_key, mean3(le) + reflected);
+            record(prev_key, mean3(le) + reflected, mean3(le) * w_le + reflected, prev_factor);
         }
 #endif
         if (last || !ok) break;
@@ -302,6 +326,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         prev_p = hit.p;
 #if GUIDED
         prev_key = qrow == NO_KEY ? NO_KEY : qrow + wi_bin;
+        prev_factor = factor;
 #endif
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
@@ -317,7 +342,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         if (max_component(beta) <= 0.0) break;
     }
 #if GUIDED
-    if (end_key != NO_KEY) record_target(end_key, end_target);
+    if (end_key != NO_KEY) record(end_key, end_target, end_target, prev_factor);
 #endif
     if (PACK_RAYS) segments += depth_rays >> 16u;
     return radiance;

@@ -105,10 +105,11 @@ struct Settings {
     /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in phi).
     #[arg(long, default_value = "8x16", value_parser = parse_bins)]
     bins: Bins,
-    /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF sampling).
-    /// With octant, 0.25 did better than the default on every scene measured (BENCHMARKS.md).
-    #[arg(long, default_value_t = 0.5, value_parser = parse_fraction)]
-    guided_fraction: f32,
+    /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF
+    /// sampling): `learned` (each cell learns its own, starting at 0.5, within [0.1, 0.9]),
+    /// or a fixed number in [0, 1).
+    #[arg(long, default_value = "learned", value_parser = parse_fraction)]
+    guided_fraction: FractionArg,
     /// Guided sampling at the first N vertices of each path (1: the camera ray's hit
     /// alone); deeper vertices sample the BSDF alone. Default: 2 with NEE, every
     /// vertex without (where only guided sampling aims at the lights).
@@ -138,7 +139,13 @@ impl Settings {
             GuidingArg::Sphere => GuidingMode::Sphere,
         };
         opts.bins = self.bins;
-        opts.guided_fraction = self.guided_fraction;
+        match self.guided_fraction {
+            FractionArg::Fixed(f) => {
+                opts.guided_fraction = f;
+                opts.learn_fraction = false;
+            }
+            FractionArg::Learned => opts.learn_fraction = true,
+        }
         opts.guided_vertices = self.guided_vertices;
         opts
     }
@@ -260,12 +267,22 @@ fn parse_bins(s: &str) -> Result<Bins, String> {
     Bins::parse(s)
 }
 
-fn parse_fraction(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+/// `--guided-fraction`: a fixed probability, or learned per cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum FractionArg {
+    Fixed(f32),
+    Learned,
+}
+
+fn parse_fraction(s: &str) -> Result<FractionArg, String> {
+    if s == "learned" {
+        return Ok(FractionArg::Learned);
+    }
+    let v: f32 = s.parse().map_err(|_| format!("`{s}` is neither a number nor `learned`"))?;
     if !(0.0..=1.0).contains(&v) || (v == 1.0) {
         return Err(format!("{v} is not in [0, 1): some BSDF sampling must remain so that no direction has pdf zero"));
     }
-    Ok(v)
+    Ok(FractionArg::Fixed(v))
 }
 
 fn main() {

@@ -4,7 +4,7 @@
 //! The GPU renderer uploads them; the CPU renderer reads the same values, so
 //! precomputed normals, light probabilities and camera vectors agree exactly.
 
-use crate::guide::{Bins, Grid, GuideConfig, GuidingMode};
+use crate::guide::{self, Bins, Grid, GuideConfig, GuidingMode};
 use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::shared;
@@ -230,8 +230,11 @@ pub struct RenderOptions {
     pub guiding: GuidingMode,
     /// Bins of `GuidingMode::Sphere`.
     pub bins: Bins,
-    /// Probability of guided sampling at a non-delta vertex.
+    /// Probability of guided sampling at a non-delta vertex: fixed, or each
+    /// cell's starting value where `learn_fraction`.
     pub guided_fraction: f32,
+    /// Whether each cell learns its own guided fraction (`guide::FractionState`).
+    pub learn_fraction: bool,
     /// Exploration floor of the guided distribution (see `GuideConfig::floor`).
     pub guide_floor: f32,
     /// Guided sampling at the first this many vertices (at least 1) of each path
@@ -257,6 +260,7 @@ impl RenderOptions {
             guiding: GuidingMode::Off,
             bins: Bins::SPHERE_DEFAULT,
             guided_fraction: 0.5,
+            learn_fraction: true,
             guide_floor: 0.5,
             guided_vertices: None,
         }
@@ -424,6 +428,9 @@ impl PreparedScene {
         if opts.power_heuristic {
             flags |= shared::FLAG_POWER_HEURISTIC;
         }
+        if opts.learn_fraction && opts.guiding != GuidingMode::Off {
+            flags |= shared::FLAG_LEARN_FRACTION;
+        }
         let mut params = RenderParams {
             cam_position_near: [0.0; 4],
             cam_forward_tan: [0.0; 4],
@@ -462,8 +469,19 @@ impl PreparedScene {
         };
         if let Some(bins) = bins {
             let grid = Grid::for_scene(&prepared, &scene.guiding);
-            let cfg =
-                GuideConfig { mode: opts.guiding, bins, grid, fraction: opts.guided_fraction, floor: opts.guide_floor };
+            let cfg = GuideConfig {
+                mode: opts.guiding,
+                bins,
+                grid,
+                // A learned fraction starts within the bounds it learns in.
+                fraction: if opts.learn_fraction {
+                    opts.guided_fraction.clamp(guide::FRACTION_MIN, 1.0 - guide::FRACTION_MIN)
+                } else {
+                    opts.guided_fraction
+                },
+                learn_fraction: opts.learn_fraction,
+                floor: opts.guide_floor,
+            };
             let p = &mut prepared.params;
             p.guide_bins = bins.count();
             p.guide_rows = bins.rows;

@@ -3,7 +3,7 @@
 //! reference the GPU renderer is tested against.
 
 use crate::film::Film;
-use crate::guide::{self, FrameSums, GuideConfig, QTable};
+use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
 use crate::math::geometry::{emitted, intersect, light_pdf, occluded, offset_origin, sample_light};
 use crate::math::rng::Rng;
@@ -47,6 +47,15 @@ pub struct Guide<'a> {
     pub cfg: &'a GuideConfig,
     pub q: &'a [f32],
     pub rows: &'a [guide::AliasBin],
+    /// The guided fraction of each sampling row, 0 where it is unlearned ([`QTable::fractions`]).
+    pub fractions: &'a [f32],
+}
+
+impl<'a> Guide<'a> {
+    /// The guiding state of a learned table.
+    pub fn new(cfg: &'a GuideConfig, table: &'a QTable) -> Guide<'a> {
+        Guide { cfg, q: &table.q, rows: &table.rows, fractions: &table.fractions }
+    }
 }
 
 /// Russian roulette with guiding: the probability that a path goes on, from its
@@ -81,7 +90,8 @@ pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32, frames_traced
 /// carries and the number of rays it traced. With guiding and a `learn`
 /// (the path records), every ray that leaves a vertex of depth below
 /// [`guide::record_vertices`] and reaches a surface or escapes hands its
-/// Q-learning target to `learn(key, target)`.
+/// Q-learning target to `learn`, and where cells learn their fractions and the
+/// vertex mixed, the gradient sample of its cell's fraction.
 pub fn trace_path(
     scene: &PreparedScene,
     guide: Option<Guide>,
@@ -89,7 +99,7 @@ pub fn trace_path(
     mut d: Vec3,
     rng: &mut Rng,
     pixel_estimate: f32,
-    mut learn: Option<&mut dyn FnMut(u32, f32)>,
+    mut learn: Option<&mut dyn Recorder>,
 ) -> (Vec3, u32) {
     let record = learn.is_some();
     let p = &scene.params;
@@ -106,6 +116,11 @@ pub fn trace_path(
     let mut prev_p = o;
     // Q-table entry of the ray being traced (none for camera rays).
     let mut prev_key = shared::NO_KEY;
+    // The fraction-gradient factor of that ray (guide::fraction_gradient_factor),
+    // 0 where its vertex did not mix or the path does not learn fractions.
+    let mut prev_factor = 0.0f32;
+    let learn_fraction = record && guide.is_some_and(|g| g.cfg.learn_fraction);
+    let cells_bins = guide.map_or(1, |g| g.cfg.bins.count());
     let mut depth = 0u32;
     let mut segments = 0u32;
     loop {
@@ -113,13 +128,16 @@ pub fn trace_path(
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                learn(prev_key, guide::mean3(env));
+                record_to(&mut **learn, prev_key, guide::mean3(env), guide::mean3(env), prev_factor, cells_bins);
             }
             radiance += beta * env;
             break;
         };
         let wo = -d;
         let le = emitted(scene, hit.material, hit.n, wo);
+        // The emission as the image counts it here (MIS-weighted against light
+        // sampling), which is what the fraction's gradient weighs.
+        let mut le_counted = 0.0f32;
         if le.max_element() > 0.0 {
             let w = if !nee || prev_delta || hit.light == shared::NO_LIGHT {
                 1.0
@@ -127,6 +145,7 @@ pub fn trace_path(
                 mis_weight(prev_pdf, light_pdf(scene, hit.light, prev_p, d), power)
             };
             radiance += beta * le * w;
+            le_counted = guide::mean3(le) * w;
         }
         let bsdf = material_bsdf(scene, hit.material);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
@@ -137,25 +156,27 @@ pub fn trace_path(
         // Guiding at this vertex: its cell's row of the table and sampling row.
         let mut cell_key = 0u32;
         let mut sampler: &[guide::AliasBin] = &[];
+        let mut row_fraction = 0.0f32;
         if let Some(g) = guide {
             let (cell, bins) = (g.cfg.grid.cell(hit.p), g.cfg.bins.count());
             cell_key = cell * bins;
             let row = guide::sampler_row(cell, guide::normal_class(n), bins);
             sampler = &g.rows[row..row + bins as usize];
+            row_fraction = g.fractions[row / bins as usize];
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                learn(prev_key, guide::mean3(le));
+                record_to(&mut **learn, prev_key, guide::mean3(le), le_counted, prev_factor, cells_bins);
             }
             break;
         }
-        // Probability of guided sampling here: zero at delta vertices, past the
-        // guided vertices and where nothing is learned; less on narrow glossy lobes.
+        // Probability of guided sampling here: the row's fraction (0 where
+        // nothing is learned) times the lobe's share (less on narrow glossy
+        // lobes); zero at delta vertices and past the guided vertices.
+        let share = guide::lobe_share(&bsdf);
         let g_frac = match guide {
-            Some(g) if depth < guided_vertices && !bsdf.is_delta() && guide::learned(sampler) => {
-                g.cfg.fraction * guide::lobe_share(&bsdf)
-            }
+            Some(_) if depth < guided_vertices && !bsdf.is_delta() => row_fraction * share,
             _ => 0.0,
         };
         // The density of the mixture of BSDF and guided sampling at a direction
@@ -167,12 +188,22 @@ pub fn trace_path(
         // The bin of a direction, where guiding reads it.
         let bin_of = |wi: Vec3| guide.map_or(0, |g| g.cfg.bins.index(wi));
         // A direction of the mixture, whichever sampler chose it: (wi, BSDF x cos / pdf,
-        // mixture pdf, not delta, bin), or None where the BSDF or the density is zero.
+        // mixture pdf, not delta, bin, fraction-gradient factor), or None where the
+        // BSDF or the density is zero.
         let mixture_sample = |wi: Vec3, bin: u32| {
             let wi_local = frame.to_local(wi);
             let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
             let pdf = mix_pdf(bin, pb);
-            (pdf > 0.0 && f.max_element() > 0.0).then(|| (wi, f * (wi_local.z.abs() / pdf), pdf, false, bin))
+            (pdf > 0.0 && f.max_element() > 0.0).then(|| {
+                let weight = f * (wi_local.z.abs() / pdf);
+                let factor = if learn_fraction {
+                    let pg = guide::bin_pdf(sampler, bin);
+                    guide::fraction_gradient_factor(g_frac, row_fraction, pg, pb, pdf, guide::mean3(weight))
+                } else {
+                    0.0
+                };
+                (wi, weight, pdf, false, bin, factor)
+            })
         };
         let last = depth >= p.max_bounces;
 
@@ -224,7 +255,7 @@ pub fn trace_path(
                 }
                 Some(s) => {
                     let wi = frame.to_world(s.wi).normalize();
-                    Some((wi, s.weight, s.pdf, s.delta, bin_of(wi)))
+                    Some((wi, s.weight, s.pdf, s.delta, bin_of(wi), 0.0))
                 }
                 None => None,
             }
@@ -232,21 +263,29 @@ pub fn trace_path(
         if let (Some(g), Some(learn)) = (guide, learn.as_mut().filter(|_| wants_target)) {
             // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
             let reflected = match sampled {
-                Some((_, weight, _, _, bin)) => guide::mean3(weight) * g.q[(cell_key + bin) as usize],
+                Some((_, weight, _, _, bin, _)) => guide::mean3(weight) * g.q[(cell_key + bin) as usize],
                 None => 0.0,
             };
-            learn(prev_key, guide::mean3(le) + reflected);
+            record_to(
+                &mut **learn,
+                prev_key,
+                guide::mean3(le) + reflected,
+                le_counted + reflected,
+                prev_factor,
+                cells_bins,
+            );
         }
         if last {
             break;
         }
-        let Some((wi, weight, pdf, delta, bin)) = sampled else { break };
+        let Some((wi, weight, pdf, delta, bin, factor)) = sampled else { break };
         beta *= weight;
         prev_pdf = pdf;
         prev_delta = delta;
         prev_p = hit.p;
         if guide.is_some() {
             prev_key = cell_key + bin;
+            prev_factor = factor;
         }
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
@@ -269,6 +308,19 @@ pub fn trace_path(
         }
     }
     (radiance, segments)
+}
+
+/// Hands the target of the ray that left through `key` to `r`, and where `factor`
+/// is not 0 the fraction-gradient sample of the ray's cell, `-factor * counted`
+/// (`guide::FractionState`): `counted` is the target with the emission the ray
+/// met weighted as the image weighs it (MIS against light sampling), since the
+/// fraction should serve what BSDF and guided sampling contribute, and with NEE
+/// most direct light is light sampling's. `glsl/pathtrace.comp` `record`.
+fn record_to(r: &mut dyn Recorder, key: u32, target: f32, counted: f32, factor: f32, bins: u32) {
+    r.target(key, target);
+    if factor != 0.0 {
+        r.fraction_gradient(key / bins, -factor * counted);
+    }
 }
 
 /// What a frame measured besides the image.
@@ -304,9 +356,9 @@ impl CpuRenderer {
     pub fn new(scene: &PreparedScene) -> CpuRenderer {
         let (w, h) = (scene.params.width, scene.params.height);
         let learning = scene.guide.map(|g| Learning {
-            table: QTable::new(g.entries()),
+            table: QTable::new(&g),
             schedule: guide::RecordSchedule::for_render(&g, w, h),
-            pending: FrameSums::new(g.entries()),
+            pending: FrameSums::for_config(&g),
         });
         CpuRenderer {
             scene: scene.clone(),
@@ -338,9 +390,9 @@ impl CpuRenderer {
         let accum_frames = self.film.frames;
         let scene = &self.scene;
         let learning = self.learning.as_ref();
-        let guide =
-            scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide { cfg, q: &l.table.q, rows: &l.table.rows });
+        let guide = scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide::new(cfg, &l.table));
         let entries = scene.guide.map_or(0, |g| g.entries());
+        let cells = scene.guide.map_or(0, |g| g.grid.cells() as usize);
         let schedule = learning.map(|l| &l.schedule);
         let (sums, counters) = self
             .film
@@ -348,7 +400,7 @@ impl CpuRenderer {
             .par_chunks_mut(p.width as usize)
             .enumerate()
             .fold(
-                || (FrameSums::new(entries), FrameCounters::default()),
+                || (FrameSums::new(entries, cells), FrameCounters::default()),
                 |(mut sums, mut counters), (y, row)| {
                     let record = schedule.is_some_and(|s| s.records(frame, y as u32));
                     for (x, acc) in row.iter_mut().enumerate() {
@@ -358,12 +410,11 @@ impl CpuRenderer {
                             Some(_) => roulette_estimate(Vec3::from_slice(&acc.sum[..3]), accum_frames, frame),
                             None => 0.0,
                         };
-                        let mut add = |k, t| sums.add(k, t);
                         for sample in 0..shared::SAMPLES_PER_FRAME {
                             let mut rng = Rng::new(p.seed, pixel, frame, sample);
                             let u = pixel_jitter(sample, rng.next_2d());
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                            let learn = record.then_some(&mut add as &mut dyn FnMut(u32, f32));
+                            let learn = record.then_some(&mut sums as &mut dyn Recorder);
                             let (l, segs) = trace_path(scene, guide, o, d, &mut rng, estimate, learn);
                             counters.segments += segs as u64;
                             // A NaN or infinite sample would poison the pixel forever; it is dropped
@@ -381,7 +432,7 @@ impl CpuRenderer {
                 },
             )
             .reduce(
-                || (FrameSums::new(entries), FrameCounters::default()),
+                || (FrameSums::new(entries, cells), FrameCounters::default()),
                 |(a, ca), (b, cb)| {
                     (
                         a.merge(b),
@@ -396,7 +447,7 @@ impl CpuRenderer {
             l.pending.add_all(&sums);
             if l.schedule.learns_after(self.frames_traced) {
                 l.table.learn(cfg, &l.pending);
-                l.pending = FrameSums::new(cfg.entries());
+                l.pending = FrameSums::for_config(cfg);
             }
         }
         self.film.frames += 1;

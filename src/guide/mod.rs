@@ -25,8 +25,9 @@
 //!   ([`RecordSchedule`]).
 //! - **Sampling** at a non-delta vertex among a path's first `guided_vertices`
 //!   (by default two with NEE, all without; deeper vertices sample the BSDF
-//!   alone, see `prepared::DEFAULT_GUIDED_VERTICES_NEE`) is a one-sample mixture: with probability
-//!   `fraction` a bin is drawn from the cell's sampling row for the vertex's
+//!   alone, see `prepared::DEFAULT_GUIDED_VERTICES_NEE`) is a one-sample mixture: with the
+//!   guided fraction of the vertex's cell (learned per cell by default,
+//!   [`FractionState`], or fixed), times the lobe's share ([`lobe_share`]), a bin is drawn from the cell's sampling row for the vertex's
 //!   orientation class (the signed axis nearest its shading normal,
 //!   [`normal_class`]), in proportion to `(Q + floor * Qbar) cos(axis, bin)`
 //!   (an alias table, rebuilt as [`RecordSchedule::learns_after`] says: one or two loads per
@@ -209,8 +210,11 @@ pub struct GuideConfig {
     pub mode: GuidingMode,
     pub bins: Bins,
     pub grid: Grid,
-    /// Probability of guided sampling at a non-delta vertex.
+    /// Probability of guided sampling at a non-delta vertex: fixed, or where
+    /// `learn_fraction`, each cell's starting value.
     pub fraction: f32,
+    /// Whether each cell learns its own fraction ([`FractionState`]).
+    pub learn_fraction: bool,
     /// Exploration floor: bins are sampled in proportion to `(Q + floor * mean Q of
     /// the cell) f |cos|`, so directions not yet learned keep some guided probability.
     pub floor: f32,
@@ -219,6 +223,11 @@ pub struct GuideConfig {
 impl GuideConfig {
     pub fn entries(&self) -> usize {
         (self.grid.cells() * self.bins.count()) as usize
+    }
+
+    /// Sampling rows of the table: [`NORMAL_CLASSES`] per cell.
+    pub fn sampling_rows(&self) -> usize {
+        self.grid.cells() as usize * NORMAL_CLASSES as usize
     }
 }
 
@@ -631,32 +640,69 @@ pub struct QTable {
     pub visits: Vec<u32>,
     /// Sampling rows, [`NORMAL_CLASSES`] per cell (see [`build_sampling_rows`]).
     pub rows: Vec<AliasBin>,
+    /// The guided fraction of each sampling row: its cell's, 0 where the row is
+    /// [`UNLEARNED`] (so one load tells a vertex both).
+    pub fractions: Vec<f32>,
+    /// Per cell, the state of its learned fraction.
+    pub fraction_states: Vec<FractionState>,
 }
 
-/// Targets summed per entry: a frame's, or those of the frames since the table
-/// last learned.
+/// What a path that records hands over: Q-learning targets, and where each
+/// cell learns its guided fraction, the gradient samples of its fraction.
+pub trait Recorder {
+    /// The target of the ray that left through table entry `key`.
+    fn target(&mut self, key: u32, target: f32);
+    /// A sample of the gradient of the KL divergence with respect to the logit
+    /// of `cell`'s fraction ([`FractionState`]).
+    fn fraction_gradient(&mut self, cell: u32, gradient: f32);
+}
+
+/// Targets summed per entry, and fraction gradients per cell: a frame's, or
+/// those of the frames since the table last learned.
 #[derive(Clone, Debug)]
 pub struct FrameSums {
     pub sums: Vec<f32>,
     pub counts: Vec<u32>,
+    pub gradients: Vec<f32>,
+    pub gradient_counts: Vec<u32>,
 }
 
-impl FrameSums {
-    pub fn new(entries: usize) -> FrameSums {
-        FrameSums { sums: vec![0.0; entries], counts: vec![0; entries] }
-    }
-    pub fn add(&mut self, key: u32, target: f32) {
+impl Recorder for FrameSums {
+    fn target(&mut self, key: u32, target: f32) {
         self.sums[key as usize] += target;
         self.counts[key as usize] += 1;
     }
+    fn fraction_gradient(&mut self, cell: u32, gradient: f32) {
+        self.gradients[cell as usize] += gradient;
+        self.gradient_counts[cell as usize] += 1;
+    }
+}
+
+impl FrameSums {
+    /// Empty sums for `entries` table entries over `cells` cells.
+    pub fn new(entries: usize, cells: usize) -> FrameSums {
+        FrameSums {
+            sums: vec![0.0; entries],
+            counts: vec![0; entries],
+            gradients: vec![0.0; cells],
+            gradient_counts: vec![0; cells],
+        }
+    }
+    /// Empty sums for a table of `cfg`'s shape.
+    pub fn for_config(cfg: &GuideConfig) -> FrameSums {
+        FrameSums::new(cfg.entries(), cfg.grid.cells() as usize)
+    }
     /// Adds `other`'s sums and counts to these.
     pub fn add_all(&mut self, other: &FrameSums) {
-        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
-            *a += b;
+        fn add<T: Copy + std::ops::AddAssign>(a: &mut [T], b: &[T]) {
+            for (a, &b) in a.iter_mut().zip(b) {
+                *a += b;
+            }
         }
-        for (a, b) in self.counts.iter_mut().zip(&other.counts) {
-            *a += b;
-        }
+        add(&mut self.sums, &other.sums);
+        add(&mut self.counts, &other.counts);
+        add(&mut self.gradients, &other.gradients);
+        add(&mut self.gradient_counts, &other.gradient_counts);
     }
     pub fn merge(mut self, other: FrameSums) -> FrameSums {
         self.add_all(&other);
@@ -664,19 +710,89 @@ impl FrameSums {
     }
 }
 
+/// A cell's learned guided fraction: `sigmoid(theta)`, within [`FRACTION_MIN`,
+/// 1 - `FRACTION_MIN`], `theta` moved by Adam (Kingma & Ba 2015) down the
+/// gradient of the Kullback-Leibler divergence between the product of BSDF,
+/// cosine and incident radiance, normalised, and the mixture density
+/// `q = (1 - g) p_bsdf + g p_guided` (g the fraction times the lobe's share),
+/// as in Müller, "Practical Path Guiding in Production" (SIGGRAPH 2019 course
+/// notes, learning the BSDF-sampling fraction). For a direction sampled from q
+/// with `F / q` its contribution (the weight `f |cos| / q` times the ray's
+/// Q-learning target, the one-step estimate of the radiance it brings), the
+/// gradient's sample is `-(F / q) (p_guided - p_bsdf) / q * share * g (1 - g)`;
+/// a cell's samples since the table last learned are averaged and take one Adam
+/// step ([`QTable::learn`]). The divergence is scale-free per cell: its gradient
+/// up to the cell's total radiance, which Adam's normalisation cancels.
+/// `glsl/learn.comp` is the same.
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+pub struct FractionState {
+    /// The fraction's logit, relative to the starting fraction's.
+    pub theta: f32,
+    /// Adam's first and second moments of the gradient.
+    pub m: f32,
+    pub v: f32,
+    /// Adam steps taken (bias correction), as a float for the GPU's layout.
+    pub steps: f32,
+}
+
+/// Smallest learned fraction, and 1 minus the largest. `glsl/common.glsl`.
+pub const FRACTION_MIN: f32 = crate::shared::FRACTION_MIN;
+
+impl FractionState {
+    /// The fraction for starting value `start` (in (0, 1)).
+    pub fn fraction(&self, start: f32) -> f32 {
+        let logit = (start / (1.0 - start)).ln() + self.theta;
+        (1.0 / (1.0 + (-logit).exp())).clamp(FRACTION_MIN, 1.0 - FRACTION_MIN)
+    }
+
+    /// One Adam step on the mean gradient `gradient`, `theta` kept where the
+    /// fraction stays within its bounds.
+    pub fn step(&mut self, gradient: f32, start: f32) {
+        use crate::shared::{FRACTION_BETA1, FRACTION_BETA2, FRACTION_RATE};
+        self.steps += 1.0;
+        self.m = FRACTION_BETA1 * self.m + (1.0 - FRACTION_BETA1) * gradient;
+        self.v = FRACTION_BETA2 * self.v + (1.0 - FRACTION_BETA2) * gradient * gradient;
+        let m_hat = self.m / (1.0 - FRACTION_BETA1.powf(self.steps));
+        let v_hat = self.v / (1.0 - FRACTION_BETA2.powf(self.steps));
+        if v_hat > 0.0 {
+            self.theta -= FRACTION_RATE * m_hat / v_hat.sqrt();
+        }
+        let bound = ((1.0 - FRACTION_MIN) / FRACTION_MIN).ln();
+        let start_logit = (start / (1.0 - start)).ln();
+        self.theta = self.theta.clamp(-bound - start_logit, bound - start_logit);
+    }
+}
+
+/// The gradient factor of a direction sampled at a vertex that mixes:
+/// `share * g (1 - g) (p_guided - p_bsdf) / q` times the mean of its weight `f
+/// |cos| / q`, for the row's fraction `g` and the lobe's share, whose product
+/// `g_frac` is the mixture's guided probability. The recorder multiplies it by
+/// minus the ray's Q-learning target ([`FractionState`]). `glsl/pathtrace.comp`
+/// is the same arithmetic.
+pub fn fraction_gradient_factor(g_frac: f32, g: f32, p_guided: f32, p_bsdf: f32, q: f32, mean_weight: f32) -> f32 {
+    g_frac * (1.0 - g) * (p_guided - p_bsdf) / q * mean_weight
+}
+
 impl QTable {
-    pub fn new(entries: usize) -> QTable {
+    pub fn new(cfg: &GuideConfig) -> QTable {
+        let entries = cfg.entries();
+        let rows = cfg.sampling_rows();
         QTable {
             q: vec![0.0; entries],
             visits: vec![0; entries],
             rows: vec![AliasBin { column: UNLEARNED, pdf: 0.0 }; entries * NORMAL_CLASSES as usize],
+            fractions: vec![0.0; rows],
+            fraction_states: vec![FractionState::default(); cfg.grid.cells() as usize],
         }
     }
 
     /// Folds the targets recorded since the last call into the running means,
     /// Q <- (Q n + S) / (n + c) (the learning rate 1/(1 + visits) applied to each
-    /// target in turn), then rebuilds the sampling rows; after the frames that
-    /// [`RecordSchedule::learns_after`] names. `glsl/learn.comp` is the same.
+    /// target in turn), takes an Adam step on each cell's fraction where it
+    /// learns them and has gradients, then rebuilds the sampling rows and their
+    /// fractions; after the frames that [`RecordSchedule::learns_after`] names.
+    /// `glsl/learn.comp` is the same.
     pub fn learn(&mut self, cfg: &GuideConfig, targets: &FrameSums) {
         for i in 0..self.q.len() {
             let c = targets.counts[i];
@@ -686,10 +802,79 @@ impl QTable {
                 self.visits[i] += c;
             }
         }
+        if cfg.learn_fraction {
+            for (cell, state) in self.fraction_states.iter_mut().enumerate() {
+                let c = targets.gradient_counts[cell];
+                if c > 0 {
+                    state.step(targets.gradients[cell] / c as f32, cfg.fraction);
+                }
+            }
+        }
         let n = cfg.bins.count() as usize;
         let cosines = class_cosines(&cfg.bins);
-        for (q, rows) in self.q.chunks(n).zip(self.rows.chunks_mut(n * NORMAL_CLASSES as usize)) {
+        let classes = NORMAL_CLASSES as usize;
+        for (cell, (q, rows)) in self.q.chunks(n).zip(self.rows.chunks_mut(n * classes)).enumerate() {
             build_sampling_rows(&cosines, q, cfg.floor, rows);
+            let g = if cfg.learn_fraction { self.fraction_states[cell].fraction(cfg.fraction) } else { cfg.fraction };
+            for (class, row) in rows.chunks(n).enumerate() {
+                self.fractions[cell * classes + class] = if learned(row) { g } else { 0.0 };
+            }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fresh_state_gives_the_starting_fraction() {
+        for start in [0.1f32, 0.25, 0.5, 0.75, 0.9] {
+            let g = FractionState::default().fraction(start);
+            assert!((g - start).abs() < 1e-6, "start {start}: {g}");
+        }
+    }
+
+    /// Adam's first step is the rate itself (bias-corrected m / sqrt(v) is the
+    /// gradient's sign); steady gradients drive the fraction to the bound on
+    /// their side and no further; the gradient is that of the divergence, so a
+    /// negative one raises the fraction.
+    #[test]
+    fn adam_steps_move_the_fraction_against_the_gradient_within_bounds() {
+        for (gradient, sign) in [(-3.0e-4f32, 1.0f32), (2.5e3, -1.0)] {
+            let mut s = FractionState::default();
+            s.step(gradient, 0.5);
+            assert!((s.theta - sign * crate::shared::FRACTION_RATE).abs() < 1e-6, "{s:?}");
+            assert_eq!(s.steps, 1.0);
+            let mut last = s.fraction(0.5);
+            for _ in 0..200 {
+                s.step(gradient, 0.5);
+                let g = s.fraction(0.5);
+                assert!(sign * (g - last) >= 0.0, "the fraction moved the wrong way: {last} -> {g}");
+                last = g;
+            }
+            let bound = if sign > 0.0 { 1.0 - FRACTION_MIN } else { FRACTION_MIN };
+            assert!((last - bound).abs() < 1e-5, "after 201 steps {last}, bound {bound}");
+            // Turning back starts as soon as the momentum turns (7 steps of the
+            // opposite gradient): theta was held at the bound, not past it.
+            let before = s.fraction(0.5);
+            for _ in 0..15 {
+                s.step(-gradient, 0.5);
+            }
+            assert!(sign * (s.fraction(0.5) - before) < -0.01, "{before} -> {}", s.fraction(0.5));
+        }
+    }
+
+    #[test]
+    fn the_gradient_factor_favours_the_density_that_is_larger_where_light_is() {
+        // A direction the guided density likes more than the BSDF: a positive
+        // factor, so that a positive target gives a negative gradient sample,
+        // which raises the fraction.
+        assert!(fraction_gradient_factor(0.5, 0.5, 2.0, 0.3, 1.15, 0.8) > 0.0);
+        assert!(fraction_gradient_factor(0.5, 0.5, 0.1, 0.3, 0.2, 0.8) < 0.0);
+        // A narrow glossy lobe's share scales it; fractions at the bounds keep some.
+        let full = fraction_gradient_factor(0.5, 0.5, 2.0, 0.3, 1.15, 0.8);
+        let shared = fraction_gradient_factor(0.125, 0.5, 2.0, 0.3, 1.15, 0.8);
+        assert!((shared / full - 0.25).abs() < 1e-6);
     }
 }

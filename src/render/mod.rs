@@ -53,12 +53,21 @@ struct Learning {
     pipeline: Pipeline,
     q: Buffer,
     visits: Buffer,
+    /// Targets summed per entry since the table last learned, then the fraction
+    /// gradients per cell (`guide::FrameSums`); their counts likewise.
     sums: Buffer,
     counts: Buffer,
     sampler: Buffer,
+    /// Per sampling row, its guided fraction (`QTable::fractions`).
+    fractions: Buffer,
+    /// Per cell, its fraction's learning state (`guide::FractionState`).
+    fraction_states: Buffer,
     entries: u32,
+    cells: u32,
     bins: crate::guide::Bins,
     floor: f32,
+    fraction: f32,
+    learn_fraction: bool,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
     schedule: RecordSchedule,
 }
@@ -90,8 +99,18 @@ impl Learning {
     }
 
     /// learn.comp's push constants for a phase.
-    fn push(&self, phase: u32) -> [u32; 6] {
-        [phase, self.entries, self.bins.count(), self.floor.to_bits(), self.bins.rows, self.bins.cols]
+    fn push(&self, phase: u32) -> [u32; 9] {
+        [
+            phase,
+            self.entries,
+            self.bins.count(),
+            self.floor.to_bits(),
+            self.bins.rows,
+            self.bins.cols,
+            self.cells,
+            self.fraction.to_bits(),
+            self.learn_fraction as u32,
+        ]
     }
 }
 
@@ -225,13 +244,23 @@ impl GpuRenderer {
             None => None,
             Some(cfg) => {
                 let entries = cfg.entries() as u32;
+                let cells = cfg.grid.cells();
                 let size = 4 * entries as u64;
+                let sums_size = 4 * (entries + cells) as u64;
+                let rows = cfg.sampling_rows() as u64;
                 let l = Learning {
-                    pipeline: Pipeline::new(ctx, "learn", shader("learn"), &[Binding::Storage; 5], 24)?,
+                    pipeline: Pipeline::new(ctx, "learn", shader("learn"), &[Binding::Storage; 7], 36)?,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
-                    sums: Buffer::new(ctx, "frame target sums", size, BufferUsage::Storage)?,
-                    counts: Buffer::new(ctx, "frame target counts", size, BufferUsage::Storage)?,
+                    sums: Buffer::new(ctx, "frame target sums", sums_size, BufferUsage::Storage)?,
+                    counts: Buffer::new(ctx, "frame target counts", sums_size, BufferUsage::Storage)?,
+                    fractions: Buffer::new(ctx, "guided fractions", 4 * rows, BufferUsage::Storage)?,
+                    fraction_states: Buffer::new(
+                        ctx,
+                        "fraction states",
+                        cells as u64 * std::mem::size_of::<crate::guide::FractionState>() as u64,
+                        BufferUsage::Storage,
+                    )?,
                     sampler: Buffer::new(
                         ctx,
                         "sampling rows",
@@ -239,11 +268,14 @@ impl GpuRenderer {
                         BufferUsage::Storage,
                     )?,
                     entries,
+                    cells,
                     bins: cfg.bins,
                     floor: cfg.floor,
+                    fraction: cfg.fraction,
+                    learn_fraction: cfg.learn_fraction,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
-                l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler]);
+                l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states]);
                 Some(l)
             }
         };
@@ -251,7 +283,8 @@ impl GpuRenderer {
             accum.cmd_clear(cmd);
             counters.cmd_clear(cmd);
             if let Some(l) = &learning {
-                for b in [&l.q, &l.visits, &l.sums, &l.counts] {
+                // Fractions 0: every row unlearned.
+                for b in [&l.q, &l.visits, &l.sums, &l.counts, &l.fractions, &l.fraction_states] {
                     b.cmd_clear(cmd);
                 }
                 // Every row starts with nothing learned (and BSDF sampling alone).
@@ -294,6 +327,9 @@ impl GpuRenderer {
         }
         all.push(&self.counters);
         all.push(&self.scene_constants);
+        if let Some(l) = &self.learning {
+            all.push(&l.fractions);
+        }
         self.pipeline.bind(&all);
         if let Some(r) = &self.recording {
             r.bind(&all);
@@ -510,17 +546,23 @@ impl GpuRenderer {
         let rq = Buffer::new(&self.ctx, "Q readback", l.q.size, BufferUsage::Readback)?;
         let rv = Buffer::new(&self.ctx, "visits readback", l.visits.size, BufferUsage::Readback)?;
         let rc = Buffer::new(&self.ctx, "sampling rows readback", l.sampler.size, BufferUsage::Readback)?;
+        let rf = Buffer::new(&self.ctx, "fractions readback", l.fractions.size, BufferUsage::Readback)?;
+        let rs = Buffer::new(&self.ctx, "fraction states readback", l.fraction_states.size, BufferUsage::Readback)?;
         self.ctx.run_commands("read Q table", |cmd| {
             self.ctx.barrier(cmd);
             l.q.cmd_copy_to(cmd, &rq);
             l.visits.cmd_copy_to(cmd, &rv);
             l.sampler.cmd_copy_to(cmd, &rc);
+            l.fractions.cmd_copy_to(cmd, &rf);
+            l.fraction_states.cmd_copy_to(cmd, &rs);
         })?;
         let n = l.entries as usize * 4;
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
             visits: bytemuck::pod_collect_to_vec(&rv.read()[..n]),
             rows: bytemuck::pod_collect_to_vec(&rc.read()[..l.sampler.size as usize]),
+            fractions: bytemuck::pod_collect_to_vec(&rf.read()[..l.fractions.size as usize]),
+            fraction_states: bytemuck::pod_collect_to_vec(&rs.read()[..l.fraction_states.size as usize]),
         }))
     }
 }
@@ -563,6 +605,9 @@ fn path_pipeline(
     }
     bindings.push((shared::BINDING_COUNTERS, Binding::Storage));
     bindings.push((shared::BINDING_SCENE_CONSTANTS, Binding::Uniform));
+    if guided {
+        bindings.push((shared::BINDING_FRACTIONS, Binding::Storage));
+    }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
     constants.extend_from_slice(geometry);
