@@ -61,6 +61,9 @@ pub struct BenchReport {
     pub height: u32,
     pub samples_per_frame: u64,
     pub guiding: String,
+    /// The guided fraction: "learned" or the fixed number; None without guiding.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub guided_fraction: Option<String>,
     pub nee: bool,
     pub warmup_frames: u32,
     pub frames: Vec<FrameRecord>,
@@ -137,6 +140,7 @@ impl BenchReport {
             height,
             samples_per_frame,
             guiding,
+            guided_fraction: None,
             nee,
             warmup_frames,
             msamples_per_s: paths / total_ms * 1e-3,
@@ -152,13 +156,14 @@ impl BenchReport {
     /// The table `rlpt bench` prints.
     pub fn table(&self) -> String {
         let mut out = format!(
-            "{} on {} ({}), {}x{}, guiding {}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
+            "{} on {} ({}), {}x{}, guiding {}{}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
             self.scene,
             self.device,
             self.driver,
             self.width,
             self.height,
             self.guiding,
+            self.guided_fraction.as_ref().map_or(String::new(), |f| format!(" (fraction {f})")),
             if self.nee { "on" } else { "off" },
             self.frames.len(),
             self.warmup_frames,

@@ -381,12 +381,19 @@ fn render(args: RenderArgs) -> Result<()> {
         Renderer::Gpu(r) => r.context().info.name.clone(),
     };
     let mut stats = RenderStats {
-        label: format!("{} guiding={} nee={}", file_name(&args.scene), opts.guiding.name(), opts.nee),
+        label: format!(
+            "{} guiding={}{} nee={}",
+            file_name(&args.scene),
+            opts.guiding.name(),
+            opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
+            opts.nee
+        ),
         scene: args.scene.display().to_string(),
         device: device_name.clone(),
         width: opts.width,
         height: opts.height,
         guiding: opts.guiding.name().into(),
+        guided_fraction: opts.guided_fraction_name(),
         nee: opts.nee,
         frames: Vec::new(),
     };
@@ -591,7 +598,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             )
         }
     };
-    let report = rlpt::bench::BenchReport::new(
+    let mut report = rlpt::bench::BenchReport::new(
         args.scene.display().to_string(),
         device.clone(),
         driver,
@@ -604,6 +611,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         &times,
         pipelines,
     );
+    report.guided_fraction = opts.guided_fraction_name();
     print!("{}", report.table());
     if let Some(p) = &args.json {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)

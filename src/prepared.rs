@@ -266,6 +266,16 @@ impl RenderOptions {
         }
     }
 
+    /// The guided fraction as reports name it: `learned`, the fixed number, or
+    /// None without guiding.
+    pub fn guided_fraction_name(&self) -> Option<String> {
+        match (self.guiding, self.learn_fraction) {
+            (GuidingMode::Off, _) => None,
+            (_, true) => Some("learned".into()),
+            (_, false) => Some(self.guided_fraction.to_string()),
+        }
+    }
+
     /// Frames of 64 samples per pixel needed for at least `spp` samples.
     pub fn frames(&self) -> u32 {
         self.spp.div_ceil(shared::SAMPLES_PER_FRAME).max(1)

@@ -23,6 +23,10 @@ pub struct RenderStats {
     pub height: u32,
     /// "off" | "octant" | "sphere".
     pub guiding: String,
+    /// The guided fraction: "learned" or the fixed number; None without
+    /// guiding (and in files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guided_fraction: Option<String>,
     /// Whether next-event estimation was on.
     pub nee: bool,
     /// One entry per accumulated frame, in order.

@@ -134,6 +134,8 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     let frames = report["frames"].as_array().unwrap();
     assert_eq!(frames.len(), 3, "every measured frame, none of the warm-up");
     assert_eq!(frames[0]["frame"], 2);
+    assert_eq!(report["guided_fraction"], "learned", "the default guided fraction is learned per cell");
+    assert!(stdout.contains("guiding sphere (fraction learned)"), "{stdout}");
     for f in frames {
         let sum = f["pathtrace_ms"].as_f64().unwrap()
             + f["learn_fold_ms"].as_f64().unwrap()
@@ -198,4 +200,17 @@ fn guided_vertices_must_be_at_least_one() {
     assert!(!o.status.success());
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("--guided-vertices") && stderr.contains("0"), "{stderr}");
+}
+
+#[test]
+fn guided_fraction_is_learned_or_a_probability_below_one() {
+    for (arg, says) in [("1", "[0, 1)"), ("1.5", "[0, 1)"), ("half", "neither a number nor `learned`")] {
+        let o = rlpt()
+            .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--guided-fraction", arg])
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "--guided-fraction {arg} was accepted");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(stderr.contains("--guided-fraction") && stderr.contains(says), "{arg}: {stderr}");
+    }
 }

@@ -39,6 +39,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
         width: 640,
         height: 480,
         guiding: "sphere".to_string(),
+        guided_fraction: Some("learned".to_string()),
         nee: true,
         frames,
     }
