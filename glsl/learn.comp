@@ -45,6 +45,7 @@ float cell_fraction(vec4 s) {
 
 // src/guide/mod.rs `FractionState::step`.
 vec4 fraction_step(vec4 s, float gradient) {
+    if (isnan(gradient) || isinf(gradient)) return s;
     s.w += 1.0;
     s.y = FRACTION_BETA1 * s.y + (1.0 - FRACTION_BETA1) * gradient;
     s.z = FRACTION_BETA2 * s.z + (1.0 - FRACTION_BETA2) * gradient * gradient;

@@ -747,9 +747,13 @@ impl FractionState {
     }
 
     /// One Adam step on the mean gradient `gradient`, `theta` kept where the
-    /// fraction stays within its bounds.
+    /// fraction stays within its bounds. A gradient that is not finite (a sum
+    /// that overflowed) is skipped: Adam's moments would keep it for good.
     pub fn step(&mut self, gradient: f32, start: f32) {
         use crate::shared::{FRACTION_BETA1, FRACTION_BETA2, FRACTION_RATE};
+        if !gradient.is_finite() {
+            return;
+        }
         self.steps += 1.0;
         self.m = FRACTION_BETA1 * self.m + (1.0 - FRACTION_BETA1) * gradient;
         self.v = FRACTION_BETA2 * self.v + (1.0 - FRACTION_BETA2) * gradient * gradient;
@@ -862,6 +866,17 @@ mod tests {
                 s.step(-gradient, 0.5);
             }
             assert!(sign * (s.fraction(0.5) - before) < -0.01, "{before} -> {}", s.fraction(0.5));
+        }
+    }
+
+    #[test]
+    fn a_gradient_that_is_not_finite_leaves_the_state_as_it_was() {
+        let mut s = FractionState::default();
+        s.step(-1.0, 0.5);
+        let before = s;
+        for g in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            s.step(g, 0.5);
+            assert_eq!(s, before, "gradient {g}");
         }
     }
 
