@@ -207,7 +207,10 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             qrow = cell * GUIDE_BINS;
             row = sampler_row(cell, normal_class(n));
         }
-        float fraction = 0.0;
+        // The row's guided fraction, loaded at every vertex that may mix, before
+        // the emissive and delta tests rather than after them: seed-exp2's
+        // guided frame 1.5 % shorter so, door's 0.5 % longer (H200, BENCHMARKS.md).
+        float fraction = DEPTH < GUIDE_VERTICES ? row_fraction(row) : 0.0;
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
 #if GUIDED
@@ -223,7 +226,6 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         float g_frac = 0.0;
 #if GUIDED
         if (guide && DEPTH < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
-            fraction = row_fraction(row);
             g_frac = fraction * lobe_share(bsdf);
         }
 #endif
