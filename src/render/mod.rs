@@ -406,6 +406,22 @@ impl GpuRenderer {
         Ok(Some(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize])))
     }
 
+    /// The guided fractions of voxel `cell`'s sampling rows, one per normal class
+    /// (`QTable::fractions`: 0 where a row has learned nothing), or None without
+    /// guiding.
+    pub fn cell_fractions(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
+        let Some(l) = &self.learning else { return Ok(None) };
+        assert!(cell < l.cells, "voxel {cell} is outside the grid");
+        let classes = crate::guide::NORMAL_CLASSES as u64;
+        let size = 4 * classes;
+        let rb = Buffer::new(&self.ctx, "fractions readback", size, BufferUsage::Readback)?;
+        self.ctx.run_commands("read a voxel's fractions", |cmd| {
+            self.ctx.barrier(cmd);
+            l.fractions.cmd_copy_range_to(cmd, 4 * classes * cell as u64, &rb, size);
+        })?;
+        Ok(Some(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize])))
+    }
+
     /// Starts a new accumulation on the next frame; what guiding learned is kept.
     pub fn reset_accumulation(&mut self) -> Result<(), GpuError> {
         self.ctx.run_commands("reset accumulation", |cmd| self.accum.cmd_clear(cmd))?;

@@ -518,8 +518,12 @@ impl Viewer {
                 let (x, y, z) = (cell % g.res[0], (cell / g.res[0]) % g.res[1], cell / (g.res[0] * g.res[1]));
                 let best = values.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(i, _)| i as u32);
                 let dir = best.map(|b| bins.center(b)).unwrap_or_default();
+                // Every learned row of a cell has the cell's fraction.
+                let fraction = mr.renderer.cell_fractions(cell)?.unwrap_or_default().into_iter().fold(0.0f32, f32::max);
+                let fraction =
+                    if fraction > 0.0 { format!("guided fraction {fraction:.2}") } else { "nothing learned".into() };
                 println!(
-                    "voxel ({x}, {y}, {z}): brightest bin towards ({:.2}, {:.2}, {:.2}), Q max {:.4}",
+                    "voxel ({x}, {y}, {z}): brightest bin towards ({:.2}, {:.2}, {:.2}), Q max {:.4}, {fraction}",
                     dir.x,
                     dir.y,
                     dir.z,
