@@ -890,11 +890,14 @@ fn exp1_table(mode: GuidingMode, nee: bool, frames: u32, gpu: Option<&Arc<Contex
             let mut r = GpuRenderer::new(ctx, &prepared).unwrap();
             r.render_frames(frames).unwrap();
             let table = r.table().unwrap().unwrap();
-            // The viewer's per-voxel read (V) gives the same fractions as the whole table's.
+            // The viewer's per-voxel reads (V) give the same values and fractions as the whole table's.
             let classes = NORMAL_CLASSES as usize;
+            let bins = prepared.guide.unwrap().bins.count() as usize;
             for cell in 0..table.fraction_states.len() {
                 let read = r.cell_fractions(cell as u32).unwrap().unwrap();
                 assert_eq!(read, table.fractions[cell * classes..(cell + 1) * classes], "voxel {cell}");
+                let values = r.cell_values(cell as u32).unwrap().unwrap();
+                assert_eq!(values, table.q[cell * bins..(cell + 1) * bins], "voxel {cell}");
             }
             table
         }
@@ -930,7 +933,7 @@ fn cells_learn_their_fractions_from_the_light_they_find() {
 /// and the GPU's cells, tracing the same paths up to rounding, end where the
 /// CPU's do. Adam's steps are nearly the gradient's sign while it keeps its
 /// sign, so the two agree exactly but where a cell's mean gradient is near 0.
-/// (`exp1_table` also checks `GpuRenderer::cell_fractions`, the viewer's read.)
+/// (`exp1_table` also checks `GpuRenderer::cell_fractions` and `cell_values`, the viewer's reads.)
 #[test]
 fn gpu_learns_the_fractions_the_cpu_learns() {
     let ctx = gpu();

@@ -397,13 +397,8 @@ impl GpuRenderer {
     pub fn cell_values(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
         assert!(cell * l.bins.count() < l.entries, "voxel {cell} is outside the grid");
-        let size = 4 * l.bins.count() as u64;
-        let rb = Buffer::new(&self.ctx, "Q row readback", size, BufferUsage::Readback)?;
-        self.ctx.run_commands("read Q row", |cmd| {
-            self.ctx.barrier(cmd);
-            l.q.cmd_copy_range_to(cmd, 4 * (cell * l.bins.count()) as u64, &rb, size);
-        })?;
-        Ok(Some(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize])))
+        let n = l.bins.count();
+        self.read_floats(&l.q, cell * n, n, "read Q row").map(Some)
     }
 
     /// The guided fractions of voxel `cell`'s sampling rows, one per normal class
@@ -412,14 +407,20 @@ impl GpuRenderer {
     pub fn cell_fractions(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
         assert!(cell < l.cells, "voxel {cell} is outside the grid");
-        let classes = crate::guide::NORMAL_CLASSES as u64;
-        let size = 4 * classes;
-        let rb = Buffer::new(&self.ctx, "fractions readback", size, BufferUsage::Readback)?;
-        self.ctx.run_commands("read a voxel's fractions", |cmd| {
+        let classes = crate::guide::NORMAL_CLASSES;
+        self.read_floats(&l.fractions, cell * classes, classes, "read a voxel's fractions").map(Some)
+    }
+
+    /// `count` floats of `buffer` from float `first` on, read back after the
+    /// work submitted so far.
+    fn read_floats(&self, buffer: &Buffer, first: u32, count: u32, what: &str) -> Result<Vec<f32>, GpuError> {
+        let size = 4 * count as u64;
+        let rb = Buffer::new(&self.ctx, what, size, BufferUsage::Readback)?;
+        self.ctx.run_commands(what, |cmd| {
             self.ctx.barrier(cmd);
-            l.fractions.cmd_copy_range_to(cmd, 4 * classes * cell as u64, &rb, size);
+            buffer.cmd_copy_range_to(cmd, 4 * first as u64, &rb, size);
         })?;
-        Ok(Some(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize])))
+        Ok(bytemuck::pod_collect_to_vec(&rb.read()[..size as usize]))
     }
 
     /// Starts a new accumulation on the next frame; what guiding learned is kept.
