@@ -120,7 +120,7 @@ pub fn trace_path(
     // 0 where its vertex did not mix or the path does not learn fractions.
     let mut prev_factor = 0.0f32;
     let learn_fraction = record && guide.is_some_and(|g| g.cfg.learn_fraction);
-    let cells_bins = guide.map_or(1, |g| g.cfg.bins.count());
+    let bins_per_cell = guide.map_or(1, |g| g.cfg.bins.count());
     let mut depth = 0u32;
     let mut segments = 0u32;
     loop {
@@ -128,7 +128,7 @@ pub fn trace_path(
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                record_to(&mut **learn, prev_key, guide::mean3(env), guide::mean3(env), prev_factor, cells_bins);
+                record_to(&mut **learn, prev_key, guide::mean3(env), guide::mean3(env), prev_factor, bins_per_cell);
             }
             radiance += beta * env;
             break;
@@ -167,16 +167,15 @@ pub fn trace_path(
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                record_to(&mut **learn, prev_key, guide::mean3(le), le_counted, prev_factor, cells_bins);
+                record_to(&mut **learn, prev_key, guide::mean3(le), le_counted, prev_factor, bins_per_cell);
             }
             break;
         }
         // Probability of guided sampling here: the row's fraction (0 where
         // nothing is learned) times the lobe's share (less on narrow glossy
         // lobes); zero at delta vertices and past the guided vertices.
-        let share = guide::lobe_share(&bsdf);
         let g_frac = match guide {
-            Some(_) if depth < guided_vertices && !bsdf.is_delta() => row_fraction * share,
+            Some(_) if depth < guided_vertices && !bsdf.is_delta() => row_fraction * guide::lobe_share(&bsdf),
             _ => 0.0,
         };
         // The density of the mixture of BSDF and guided sampling at a direction
@@ -272,7 +271,7 @@ pub fn trace_path(
                 guide::mean3(le) + reflected,
                 le_counted + reflected,
                 prev_factor,
-                cells_bins,
+                bins_per_cell,
             );
         }
         if last {
