@@ -2,8 +2,9 @@
 // Between frames, with guiding, after the frames that src/guide/mod.rs
 // `RecordSchedule::learns_after` names (src/guide/mod.rs `QTable::learn`):
 // phase 0, one invocation per entry: folds the Q-learning targets recorded since
-// the last fold into the running means, Q <- (Q n + S) / (n + c), i.e. learning
-// rate 1 / (1 + visits) for each target, and clears the sums;
+// the last fold into the table, Q <- Q + w (S / c - Q) with w = batch_rate(n, c)
+// (learning rate 1 / i^omega for the i-th target; the running mean at omega = 1),
+// and clears the sums;
 // phase 1, one invocation per (cell, normal class): rebuilds that sampling row,
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
@@ -35,7 +36,21 @@ layout(push_constant) uniform Push {
     uint cells;
     float start_fraction;  // fixed, or each cell's start where learn_fraction
     uint learn_fraction;
+    float rate_exponent;  // omega of Q's learning rate 1 / i^omega
 } push;
+
+// src/guide/mod.rs `batch_rate`: the weight with which c targets move an entry
+// that has taken n towards their mean.
+float batch_rate(float n, float k) {
+    if (n <= 0.0) return 1.0;
+    float omega = push.rate_exponent;
+    if (omega >= 1.0) return k / (n + k);
+    float a = 1.0 - omega;
+    float x = k / n;
+    float growth = x < 1e-3 ? a * x * (1.0 + 0.5 * (a - 1.0) * x) : pow(1.0 + x, a) - 1.0;
+    float s = pow(n, a) / a * growth;
+    return s < 1e-3 ? s * (1.0 - 0.5 * s) : 1.0 - exp(-s);
+}
 
 // src/guide/mod.rs `FractionState::fraction`.
 float cell_fraction(vec4 s) {
@@ -152,8 +167,8 @@ void main() {
         if (i >= push.entries) return;
         uint c = frame_counts[i];
         if (c == 0u) return;
-        float n = float(visits[i]);
-        q_table[i] = (q_table[i] * n + frame_sums[i]) / (n + float(c));
+        float w = batch_rate(float(visits[i]), float(c));
+        q_table[i] += w * (frame_sums[i] / float(c) - q_table[i]);
         visits[i] += c;
         frame_sums[i] = 0.0;
         frame_counts[i] = 0u;

@@ -52,20 +52,9 @@ pub struct FrameRecord {
 /// What `rlpt bench` measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
-    pub scene: String,
-    pub device: String,
-    pub driver: String,
-    /// "GPU timestamps" or "wall clock" (the CPU renderer).
-    pub clock: String,
-    pub width: u32,
-    pub height: u32,
-    pub samples_per_frame: u64,
-    pub guiding: String,
-    /// The guided fraction: "learned" or the fixed number; None without guiding.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub guided_fraction: Option<String>,
-    pub nee: bool,
-    pub warmup_frames: u32,
+    /// What was measured (its fields sit at the top level of the JSON).
+    #[serde(flatten)]
+    pub setup: BenchSetup,
     pub frames: Vec<FrameRecord>,
     /// One row per pass, then "frame" (all passes).
     pub passes: Vec<Summary>,
@@ -83,6 +72,28 @@ pub struct BenchReport {
     pub pipelines: Vec<PipelineReport>,
 }
 
+/// What a bench run measured: the scene, the device and the settings.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchSetup {
+    pub scene: String,
+    pub device: String,
+    pub driver: String,
+    /// "GPU timestamps" or "wall clock" (the CPU renderer).
+    pub clock: String,
+    pub width: u32,
+    pub height: u32,
+    pub samples_per_frame: u64,
+    pub guiding: String,
+    /// The guided fraction: "learned" or the fixed number; None without guiding.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub guided_fraction: Option<String>,
+    /// The exponent of Q's learning rate (`guide::batch_rate`); None without guiding.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub learning_rate_exponent: Option<f32>,
+    pub nee: bool,
+    pub warmup_frames: u32,
+}
+
 /// Driver statistics of one pipeline.
 #[derive(Clone, Debug, Serialize)]
 pub struct PipelineReport {
@@ -93,24 +104,12 @@ pub struct PipelineReport {
 impl BenchReport {
     /// Builds the report from the measured frames (warm-up frames already left out).
     #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        scene: String,
-        device: String,
-        driver: String,
-        clock: &str,
-        (width, height): (u32, u32),
-        samples_per_frame: u64,
-        guiding: String,
-        nee: bool,
-        warmup_frames: u32,
-        times: &[PassTimes],
-        pipelines: Vec<PipelineReport>,
-    ) -> BenchReport {
+    pub fn new(setup: BenchSetup, times: &[PassTimes], pipelines: Vec<PipelineReport>) -> BenchReport {
         let frames: Vec<FrameRecord> = times
             .iter()
             .enumerate()
             .map(|(i, t)| FrameRecord {
-                frame: warmup_frames + i as u32 + 1,
+                frame: setup.warmup_frames + i as u32 + 1,
                 pathtrace_ms: t.pathtrace_ms,
                 learn_fold_ms: t.learn_fold_ms,
                 learn_rows_ms: t.learn_rows_ms,
@@ -121,7 +120,7 @@ impl BenchReport {
             .collect();
         let column = |f: fn(&FrameRecord) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
         let mut passes = vec![Summary::of("pathtrace", &column(|f| f.pathtrace_ms))];
-        if guiding != "off" {
+        if setup.guiding != "off" {
             passes.push(Summary::of("learn: fold targets", &column(|f| f.learn_fold_ms)));
             passes.push(Summary::of("learn: build sampling rows", &column(|f| f.learn_rows_ms)));
         }
@@ -130,19 +129,9 @@ impl BenchReport {
         let total_ms: f64 = frames.iter().map(|f| f.total_ms).sum();
         let segments: u64 = frames.iter().map(|f| f.segments).sum();
         let zero: u64 = frames.iter().map(|f| f.zero_paths).sum();
-        let paths = samples_per_frame as f64 * frames.len() as f64;
+        let paths = setup.samples_per_frame as f64 * frames.len() as f64;
         BenchReport {
-            scene,
-            device,
-            driver,
-            clock: clock.to_string(),
-            width,
-            height,
-            samples_per_frame,
-            guiding,
-            guided_fraction: None,
-            nee,
-            warmup_frames,
+            setup,
             msamples_per_s: paths / total_ms * 1e-3,
             msegments_per_s: segments as f64 / total_ms * 1e-3,
             segments_per_path: segments as f64 / paths,
@@ -155,19 +144,24 @@ impl BenchReport {
 
     /// The table `rlpt bench` prints.
     pub fn table(&self) -> String {
+        let s = &self.setup;
         let mut out = format!(
             "{} on {} ({}), {}x{}, guiding {}{}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
-            self.scene,
-            self.device,
-            self.driver,
-            self.width,
-            self.height,
-            self.guiding,
-            self.guided_fraction.as_ref().map_or(String::new(), |f| format!(" (fraction {f})")),
-            if self.nee { "on" } else { "off" },
+            s.scene,
+            s.device,
+            s.driver,
+            s.width,
+            s.height,
+            s.guiding,
+            match (&s.guided_fraction, s.learning_rate_exponent) {
+                (Some(f), Some(w)) => format!(" (fraction {f}, rate exponent {w})"),
+                (Some(f), None) => format!(" (fraction {f})"),
+                _ => String::new(),
+            },
+            if s.nee { "on" } else { "off" },
             self.frames.len(),
-            self.warmup_frames,
-            self.clock
+            s.warmup_frames,
+            s.clock
         );
         out += &format!("{:<22} {:>10} {:>10} {:>10} {:>10}\n", "pass", "median ms", "min ms", "max ms", "mean ms");
         for s in &self.passes {

@@ -115,6 +115,12 @@ struct Settings {
     /// vertex without (where only guided sampling aims at the lights).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     guided_vertices: Option<u32>,
+    /// Exponent W of the Q-learning rate 1/i^W for an entry's i-th target, in (0.5, 1]:
+    /// 1 is Dahm & Keller's running mean; below 1 forgets the first targets, learned from
+    /// a table that knew little, sooner, and converges to the same values (it did not pay
+    /// at equal time on the shipped scenes, see BENCHMARKS.md).
+    #[arg(long, value_name = "W", default_value_t = rlpt::guide::DEFAULT_RATE_EXPONENT, value_parser = parse_rate_exponent)]
+    learning_rate_exponent: f32,
 }
 
 impl Settings {
@@ -147,6 +153,7 @@ impl Settings {
             FractionArg::Learned => opts.learn_fraction = true,
         }
         opts.guided_vertices = self.guided_vertices;
+        opts.learning_rate_exponent = self.learning_rate_exponent;
         opts
     }
 }
@@ -285,6 +292,16 @@ fn parse_fraction(s: &str) -> Result<FractionArg, String> {
     Ok(FractionArg::Fixed(v))
 }
 
+fn parse_rate_exponent(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if !(v > 0.5 && v <= 1.0) {
+        return Err(format!(
+            "{v} is not in (0.5, 1]: a rate 1/i^W converges to the learned values only for W in that range"
+        ));
+    }
+    Ok(v)
+}
+
 fn main() {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         // The Vulkan loader complains on stderr without it.
@@ -382,10 +399,13 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let mut stats = RenderStats {
         label: format!(
-            "{} guiding={}{} nee={}",
+            "{} guiding={}{}{} nee={}",
             file_name(&args.scene),
             opts.guiding.name(),
             opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
+            opts.learning_rate_exponent_if_guided()
+                .filter(|&w| w != rlpt::guide::DEFAULT_RATE_EXPONENT)
+                .map_or(String::new(), |w| format!(" rate=1/i^{w}")),
             opts.nee
         ),
         scene: args.scene.display().to_string(),
@@ -394,6 +414,7 @@ fn render(args: RenderArgs) -> Result<()> {
         height: opts.height,
         guiding: opts.guiding.name().into(),
         guided_fraction: opts.guided_fraction_name(),
+        learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
         nee: opts.nee,
         frames: Vec::new(),
     };
@@ -598,20 +619,21 @@ fn bench(args: BenchArgs) -> Result<()> {
             )
         }
     };
-    let mut report = rlpt::bench::BenchReport::new(
-        args.scene.display().to_string(),
-        device.clone(),
+    let setup = rlpt::bench::BenchSetup {
+        scene: args.scene.display().to_string(),
+        device: device.clone(),
         driver,
-        clock,
-        (opts.width, opts.height),
+        clock: clock.to_string(),
+        width: opts.width,
+        height: opts.height,
         samples_per_frame,
-        opts.guiding.name().to_string(),
-        opts.nee,
-        args.warmup,
-        &times,
-        pipelines,
-    );
-    report.guided_fraction = opts.guided_fraction_name();
+        guiding: opts.guiding.name().to_string(),
+        guided_fraction: opts.guided_fraction_name(),
+        learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        nee: opts.nee,
+        warmup_frames: args.warmup,
+    };
+    let report = rlpt::bench::BenchReport::new(setup, &times, pipelines);
     print!("{}", report.table());
     if let Some(p) = &args.json {
         std::fs::write(p, serde_json::to_string_pretty(&report)?)

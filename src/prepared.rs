@@ -237,6 +237,8 @@ pub struct RenderOptions {
     pub learn_fraction: bool,
     /// Exploration floor of the guided distribution (see `GuideConfig::floor`).
     pub guide_floor: f32,
+    /// Exponent of Q's learning rate (see `guide::batch_rate`), in (1/2, 1].
+    pub learning_rate_exponent: f32,
     /// Guided sampling at the first this many vertices (at least 1) of each path
     /// (depth 0 is the camera ray's hit); deeper vertices sample the BSDF alone.
     /// None: [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
@@ -262,8 +264,14 @@ impl RenderOptions {
             guided_fraction: 0.5,
             learn_fraction: true,
             guide_floor: 0.5,
+            learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             guided_vertices: None,
         }
+    }
+
+    /// The exponent of Q's learning rate, as reports give it: None without guiding.
+    pub fn learning_rate_exponent_if_guided(&self) -> Option<f32> {
+        (self.guiding != GuidingMode::Off).then_some(self.learning_rate_exponent)
     }
 
     /// The guided fraction as reports name it: `learned`, the fixed number, or
@@ -491,6 +499,7 @@ impl PreparedScene {
                 },
                 learn_fraction: opts.learn_fraction,
                 floor: opts.guide_floor,
+                rate_exponent: opts.learning_rate_exponent,
             };
             let p = &mut prepared.params;
             p.guide_bins = bins.count();

@@ -27,6 +27,10 @@ pub struct RenderStats {
     /// guiding (and in files written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub guided_fraction: Option<String>,
+    /// The exponent of Q's learning rate (`guide::batch_rate`); None without
+    /// guiding (and in files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learning_rate_exponent: Option<f32>,
     /// Whether next-event estimation was on.
     pub nee: bool,
     /// One entry per accumulated frame, in order.

@@ -135,7 +135,8 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     assert_eq!(frames.len(), 3, "every measured frame, none of the warm-up");
     assert_eq!(frames[0]["frame"], 2);
     assert_eq!(report["guided_fraction"], "learned", "the default guided fraction is learned per cell");
-    assert!(stdout.contains("guiding sphere (fraction learned)"), "{stdout}");
+    assert_eq!(report["learning_rate_exponent"], 1.0, "the default exponent of Q's learning rate");
+    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1)"), "{stdout}");
     for f in frames {
         let sum = f["pathtrace_ms"].as_f64().unwrap()
             + f["learn_fold_ms"].as_f64().unwrap()
@@ -212,5 +213,27 @@ fn guided_fraction_is_learned_or_a_probability_below_one() {
         assert!(!o.status.success(), "--guided-fraction {arg} was accepted");
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(stderr.contains("--guided-fraction") && stderr.contains(says), "{arg}: {stderr}");
+    }
+}
+
+#[test]
+fn learning_rate_exponent_is_above_one_half_and_at_most_one() {
+    for (arg, says) in [("0.5", "(0.5, 1]"), ("1.25", "(0.5, 1]"), ("nan", "(0.5, 1]"), ("fast", "not a number")] {
+        let o = rlpt()
+            .args([
+                "render",
+                "scenes/smallpt.toml",
+                "-o",
+                "x.png",
+                "--guiding",
+                "sphere",
+                "--learning-rate-exponent",
+                arg,
+            ])
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "--learning-rate-exponent {arg} was accepted");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(stderr.contains("--learning-rate-exponent") && stderr.contains(says), "{arg}: {stderr}");
     }
 }

@@ -12,7 +12,7 @@ use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
     bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction,
     guided_direction_bin, guided_pdf, learned, lobe_share, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode,
-    QTable, RecordSchedule, Recorder, NORMAL_CLASSES, UNLEARNED,
+    QTable, RecordSchedule, Recorder, DEFAULT_RATE_EXPONENT, NORMAL_CLASSES, UNLEARNED,
 };
 use rlpt::math::bsdf::Bsdf;
 use rlpt::math::rng::Rng;
@@ -878,11 +878,13 @@ fn mean_fraction(t: &QTable) -> (f64, usize) {
     (learned.iter().sum::<f64>() / learned.len().max(1) as f64, learned.len())
 }
 
-/// Seed-exp1 at 48x32 guided by `mode` with NEE on or off: the table after `frames` frames.
-fn exp1_table(mode: GuidingMode, nee: bool, frames: u32, gpu: Option<&Arc<Context>>) -> QTable {
+/// Seed-exp1 at 48x32 guided by `mode` with NEE on or off and Q's learning rate
+/// 1/i^`rate`: the table after `frames` frames.
+fn exp1_table(mode: GuidingMode, nee: bool, rate: f32, frames: u32, gpu: Option<&Arc<Context>>) -> QTable {
     let scene = scene("seed-exp1.toml");
     let mut o = guided(&options(&scene, 48, 32, 64), mode);
     o.nee = nee;
+    o.learning_rate_exponent = rate;
     assert!(o.learn_fraction, "cells learn their fractions by default");
     let prepared = PreparedScene::new(&scene, &o);
     match gpu {
@@ -920,8 +922,9 @@ fn exp1_table(mode: GuidingMode, nee: bool, frames: u32, gpu: Option<&Arc<Contex
 /// 24 frames; at 128 the means are 0.32 and 0.87.)
 #[test]
 fn cells_learn_their_fractions_from_the_light_they_find() {
-    let (with_nee, rows) = mean_fraction(&exp1_table(GuidingMode::Sphere, true, 24, None));
-    let (without_nee, rows_without) = mean_fraction(&exp1_table(GuidingMode::Sphere, false, 24, None));
+    let (with_nee, rows) = mean_fraction(&exp1_table(GuidingMode::Sphere, true, DEFAULT_RATE_EXPONENT, 24, None));
+    let (without_nee, rows_without) =
+        mean_fraction(&exp1_table(GuidingMode::Sphere, false, DEFAULT_RATE_EXPONENT, 24, None));
     eprintln!("mean fraction of {rows} / {rows_without} learned rows: NEE on {with_nee:.3}, off {without_nee:.3}");
     assert!(rows > 1000 && rows_without > 1000, "learned rows: {rows}, {rows_without}");
     assert!(with_nee < 0.4, "with NEE the mean fraction is {with_nee}");
@@ -933,12 +936,21 @@ fn cells_learn_their_fractions_from_the_light_they_find() {
 /// and the GPU's cells, tracing the same paths up to rounding, end where the
 /// CPU's do. Adam's steps are nearly the gradient's sign while it keeps its
 /// sign, so the two agree exactly but where a cell's mean gradient is near 0.
-/// (`exp1_table` also checks `GpuRenderer::cell_fractions` and `cell_values`, the viewer's reads.)
+/// Likewise Q, folded with `batch_rate`, at the running mean's rate and at a
+/// polynomial one. (`exp1_table` also checks `GpuRenderer::cell_fractions` and
+/// `cell_values`, the viewer's reads.)
 #[test]
-fn gpu_learns_the_fractions_the_cpu_learns() {
+fn gpu_learns_the_fractions_and_values_the_cpu_learns() {
     let ctx = gpu();
-    let gpu_table = exp1_table(GuidingMode::Octant, true, 24, Some(&ctx));
-    let cpu_table = exp1_table(GuidingMode::Octant, true, 24, None);
+    for rate in [DEFAULT_RATE_EXPONENT, 0.75] {
+        let gpu_table = exp1_table(GuidingMode::Octant, true, rate, 24, Some(&ctx));
+        let cpu_table = exp1_table(GuidingMode::Octant, true, rate, 24, None);
+        assert_gpu_learns_what_the_cpu_learns(&gpu_table, &cpu_table, rate);
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+fn assert_gpu_learns_what_the_cpu_learns(gpu_table: &QTable, cpu_table: &QTable, rate: f32) {
     let classes = NORMAL_CLASSES as usize;
     let n = Bins::OCTANT.count() as usize;
     for (i, &f) in gpu_table.fractions.iter().enumerate() {
@@ -946,8 +958,8 @@ fn gpu_learns_the_fractions_the_cpu_learns() {
         let want = if learned(row) { gpu_table.fraction_states[i / classes].fraction(0.5) } else { 0.0 };
         assert!((f - want).abs() < 1e-6, "row {i}: fraction {f}, its cell's state says {want}");
     }
-    let (cpu_mean, _) = mean_fraction(&cpu_table);
-    assert!(cpu_mean < 0.45, "the CPU's fractions did not move from 0.5: mean {cpu_mean}");
+    let (cpu_mean, _) = mean_fraction(cpu_table);
+    assert!(cpu_mean < 0.45, "rate {rate}: the CPU's fractions did not move from 0.5: mean {cpu_mean}");
     let (mut compared, mut far, mut sum) = (0, 0, 0.0f64);
     for (g, c) in gpu_table.fraction_states.iter().zip(&cpu_table.fraction_states) {
         if g.steps > 0.0 && c.steps > 0.0 {
@@ -958,8 +970,32 @@ fn gpu_learns_the_fractions_the_cpu_learns() {
         }
     }
     let mean = sum / compared.max(1) as f64;
-    eprintln!("cells compared {compared}, mean |difference| {mean:.4}, over 0.1: {far}");
-    assert!(compared > 100, "cells that learned on both: {compared}");
-    assert!(mean < 0.03 && far * 20 < compared, "mean |difference| {mean}, {far} of {compared} differ by over 0.1");
-    assert_no_validation_messages(&ctx);
+    eprintln!("rate {rate}: cells compared {compared}, mean |difference| {mean:.4}, over 0.1: {far}");
+    assert!(compared > 100, "rate {rate}: cells that learned on both: {compared}");
+    assert!(
+        mean < 0.03 && far * 20 < compared,
+        "rate {rate}: mean |difference| {mean}, {far} of {compared} differ by over 0.1"
+    );
+    // Entries that took the same number of targets on both hold the same values,
+    // up to the rounding of sums taken in another order and of the GPU's pow and exp.
+    assert!(cpu_table.visits.iter().any(|&v| v > 0), "the CPU learned nothing");
+    let (mut same_visits, mut rel_sum, mut worst) = (0usize, 0.0f64, 0.0f64);
+    for i in 0..cpu_table.q.len() {
+        let (vg, vc) = (gpu_table.visits[i], cpu_table.visits[i]);
+        if vg == vc && vc > 0 {
+            let (qg, qc) = (gpu_table.q[i] as f64, cpu_table.q[i] as f64);
+            let rel = (qg - qc).abs() / qc.abs().max(1e-3);
+            same_visits += 1;
+            rel_sum += rel;
+            worst = worst.max(rel);
+        }
+    }
+    let nonzero = cpu_table.visits.iter().filter(|&&v| v > 0).count();
+    let rel_mean = rel_sum / same_visits.max(1) as f64;
+    eprintln!("rate {rate}: Q entries with the same visits {same_visits} of {nonzero}, relative difference mean {rel_mean:.2e}, worst {worst:.2e}");
+    assert!(
+        same_visits * 2 > nonzero,
+        "rate {rate}: only {same_visits} of {nonzero} entries took as many targets on both"
+    );
+    assert!(rel_mean < 1e-3, "rate {rate}: GPU and CPU Q differ by {rel_mean} on average (worst {worst})");
 }

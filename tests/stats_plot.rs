@@ -40,6 +40,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
         height: 480,
         guiding: "sphere".to_string(),
         guided_fraction: Some("learned".to_string()),
+        learning_rate_exponent: Some(0.75),
         nee: true,
         frames,
     }

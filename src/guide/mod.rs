@@ -9,16 +9,20 @@
 //!   directions (mean over RGB).
 //! - **Learning**: when a path leaves x through bin a, reaches y and continues from
 //!   y in the direction w it sampled there (weight f |cos| / pdf), Q(x, a) moves
-//!   towards `Le(y -> x) + (f |cos| / pdf)(w) Q(y, bin(w))`, with learning rate
-//!   1 / (1 + visits), so Q is the running mean of its targets. This target is the
+//!   towards `Le(y -> x) + (f |cos| / pdf)(w) Q(y, bin(w))`, the i-th target of
+//!   an entry with learning rate 1 / i^omega ([`batch_rate`]). At omega = 1, the
+//!   default, this is Dahm & Keller's 1 / (1 + visits), and Q the running mean of
+//!   its targets; omega in (1/2, 1) (`--learning-rate-exponent`) forgets sooner
+//!   the first targets, which were bootstrapped from a table that had learned
+//!   little, and converges to the same values (a polynomial rate: Even-Dar &
+//!   Mansour, "Learning Rates for Q-learning", JMLR 2003). This target is the
 //!   one-sample Monte Carlo estimate of Dahm & Keller's expected-SARSA target
 //!   `Le(y) + integral Q(y, bin(w)) f(y; w -> x) |cos w| dw`: its expectation is
-//!   that integral (over each bin, not only at its centre), so the running means
+//!   that integral (over each bin, not only at its centre), so the estimates
 //!   converge to the same values while each update costs O(1) instead of one BSDF
 //!   evaluation per bin. Delta vertices pass through the bin of the direction they
 //!   chose. Targets are summed per entry and folded in after the frames
-//!   [`RecordSchedule::learns_after`] names ([`QTable::learn`]): the same
-//!   running mean, taken in batches. Without
+//!   [`RecordSchedule::learns_after`] names ([`QTable::learn`]), in batches. Without
 //!   Russian roulette only the rays that leave guided vertices (below) record
 //!   targets ([`record_vertices`]), and after the first frames only the paths of
 //!   one pixel row in a stride that grows from 4 to 32 as the table fills
@@ -218,6 +222,9 @@ pub struct GuideConfig {
     /// Exploration floor: bins are sampled in proportion to `(Q + floor * mean Q of
     /// the cell) f |cos|`, so directions not yet learned keep some guided probability.
     pub floor: f32,
+    /// The exponent omega of Q's learning rate 1 / i^omega ([`batch_rate`]), in
+    /// (1/2, 1]; 1, the default, is the running mean.
+    pub rate_exponent: f32,
 }
 
 impl GuideConfig {
@@ -245,8 +252,9 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// Each stride starts at a frame that is a multiple of it, so that every row
 /// records once per cycle of `stride` frames.
 ///
-/// Q is a running mean of its targets, so recording fewer of them keeps it
-/// consistent; each target moves an entry that has seen n of them by 1/n. The
+/// Q is a weighted mean of its targets ([`batch_rate`]), so recording fewer of
+/// them keeps it consistent; each target moves an entry that has seen n of them
+/// by about 1/n^omega. The
 /// rows that record run a kernel that is slower than the one without its code
 /// (whole workgroups skip recording, since a group's pixels share a row): on the
 /// H200 a quarter of seed-exp2's rows recording, with the rows rebuilt every 4
@@ -314,8 +322,8 @@ impl RecordSchedule {
     /// the recording rows, one frame in `stride`, when every row has recorded once.
     /// In between, the targets are summed per entry, and paths read a table and
     /// sample rows a few frames old; the densities they evaluate are those of the
-    /// same rows, so the estimate stays unbiased, and Q is the running mean of the
-    /// same targets, folded later. The rebuild is a sequential loop per row,
+    /// same rows, so the estimate stays unbiased, and Q takes the same targets,
+    /// folded later. The rebuild is a sequential loop per row,
     /// about 0.16 ms on the H200 whatever the scene, the fold 0.009 ms (seed-exp1);
     /// a fold after every frame, as before, cost seed-exp1 0.6 % of a guided frame
     /// (BENCHMARKS.md). Rows go staler as the stride grows, but only once the table
@@ -778,6 +786,49 @@ pub fn fraction_gradient_factor(g_frac: f32, g: f32, p_guided: f32, p_bsdf: f32,
     g_frac * (1.0 - g) * (p_guided - p_bsdf) / q * mean_weight
 }
 
+/// The default exponent of Q's learning rate ([`batch_rate`]): 1, the running
+/// mean. A polynomial rate, 0.6 to 0.85, gave 9 to 11 % less variance on a
+/// 96x64 door.toml on the CPU renderer (2048 and 8192 spp, where few targets
+/// reach each entry), but on the H200 at door's own size it did not pay at equal
+/// time: 0.75 took 4 to 6 % less relMSE per sample with NEE, and learned roulette,
+/// reading a Q that follows its latest targets, kept paths longer, so that 5 to
+/// 8 % fewer samples fitted in 10 s (relMSE 0.99 of the running mean's at 10 s
+/// with sphere and NEE, 1.09 without; seed-exp1 within 2 %; BENCHMARKS.md).
+pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
+
+/// The weight with which `k` targets, folded in at once, move an entry that has
+/// already taken `n` towards their mean: `Q <- Q + w (S / k - Q)`.
+///
+/// Taken one by one, the i-th target of an entry has learning rate `1 / i^omega`,
+/// and the k steps leave `prod (1 - 1 / i^omega)` (i = n+1 .. n+k) of the old
+/// value; that product is taken as `exp(-sum 1 / i^omega)` with the sum as its
+/// integral from n to n + k, `F(n + k) - F(n)`, `F(x) = x^(1-omega) / (1 - omega)`
+/// (`ln x` at omega = 1). Batches then compose (a batch of k1 and one of k2 with
+/// the same mean move Q as one of k1 + k2 does), and at omega = 1 the product is
+/// exact: `w = k / (n + k)`, the running mean. An entry's first batch sets it to
+/// the batch's mean (w = 1: the first step's rate is 1). Written so that a fold
+/// into an entry of millions of targets keeps its precision in f32.
+/// `glsl/learn.comp` `batch_rate` is the same.
+pub fn batch_rate(n: f32, k: f32, omega: f32) -> f32 {
+    if n <= 0.0 {
+        return 1.0;
+    }
+    if omega >= 1.0 {
+        return k / (n + k);
+    }
+    let a = 1.0 - omega;
+    // (1 + x)^a - 1, by its series where x is small.
+    let x = k / n;
+    let growth = if x < 1e-3 { a * x * (1.0 + 0.5 * (a - 1.0) * x) } else { (1.0 + x).powf(a) - 1.0 };
+    let s = n.powf(a) / a * growth;
+    // 1 - exp(-s), likewise.
+    if s < 1e-3 {
+        s * (1.0 - 0.5 * s)
+    } else {
+        1.0 - (-s).exp()
+    }
+}
+
 impl QTable {
     pub fn new(cfg: &GuideConfig) -> QTable {
         let entries = cfg.entries();
@@ -791,9 +842,9 @@ impl QTable {
         }
     }
 
-    /// Folds the targets recorded since the last call into the running means,
-    /// Q <- (Q n + S) / (n + c) (the learning rate 1/(1 + visits) applied to each
-    /// target in turn), takes an Adam step on each cell's fraction where it
+    /// Folds the targets recorded since the last call into the table,
+    /// Q <- Q + w (S / c - Q) with w = [`batch_rate`]`(n, c, omega)` (n the
+    /// entry's visits, c its new targets, S their sum), takes an Adam step on each cell's fraction where it
     /// learns them and has gradients, then rebuilds the sampling rows and their
     /// fractions; after the frames that [`RecordSchedule::learns_after`] names.
     /// `glsl/learn.comp` is the same.
@@ -801,8 +852,8 @@ impl QTable {
         for i in 0..self.q.len() {
             let c = targets.counts[i];
             if c > 0 {
-                let n = self.visits[i] as f32;
-                self.q[i] = (self.q[i] * n + targets.sums[i]) / (n + c as f32);
+                let w = batch_rate(self.visits[i] as f32, c as f32, cfg.rate_exponent);
+                self.q[i] += w * (targets.sums[i] / c as f32 - self.q[i]);
                 self.visits[i] += c;
             }
         }
@@ -830,6 +881,90 @@ impl QTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// At omega = 1 a batch's weight is the running mean's, k / (n + k); an
+    /// entry's first batch sets it; a single target's weight lies between the
+    /// rates 1/(n+1)^omega and 1/n^omega that the integral brackets, also where
+    /// n is in the millions (the series keep f32's precision there).
+    #[test]
+    fn batch_rate_is_the_running_mean_at_one_and_a_polynomial_rate_below() {
+        for n in [1u32, 2, 7, 100, 4095, 1 << 20, 10_000_000] {
+            for k in [1u32, 3, 64, 5000] {
+                let w = batch_rate(n as f32, k as f32, 1.0);
+                assert_eq!(w, k as f32 / (n + k) as f32, "n {n}, k {k}");
+            }
+            for omega in [0.6f32, 0.75, 0.9] {
+                let (n, w) = (n as f64, batch_rate(n as f32, 1.0, omega) as f64);
+                let (lo, hi) = (1.0 - (-(n + 1.0).powf(-omega as f64)).exp(), n.powf(-omega as f64));
+                assert!(
+                    w >= lo * (1.0 - 1e-4) && w <= hi * (1.0 + 1e-4),
+                    "n {n}, omega {omega}: {w} not in [{lo}, {hi}]"
+                );
+            }
+        }
+        for omega in [0.6f32, 0.75, 1.0] {
+            assert_eq!(batch_rate(0.0, 1.0, omega), 1.0);
+            assert_eq!(batch_rate(0.0, 300.0, omega), 1.0);
+        }
+    }
+
+    /// Folding targets in one batch or in two moves Q the same way (the rates
+    /// compose), where the two batches have the same mean.
+    #[test]
+    fn batches_compose() {
+        for omega in [0.6f32, 0.75, 1.0] {
+            for (n, k1, k2) in [(1.0f32, 1.0f32, 1.0f32), (10.0, 5.0, 20.0), (1000.0, 900.0, 3.0), (2.0e6, 64.0, 64.0)]
+            {
+                let (q0, t) = (0.25f64, 3.0f64);
+                let w1 = batch_rate(n, k1, omega) as f64;
+                let w2 = batch_rate(n + k1, k2, omega) as f64;
+                let two = (q0 + w1 * (t - q0)) + w2 * (t - (q0 + w1 * (t - q0)));
+                let one = q0 + batch_rate(n, k1 + k2, omega) as f64 * (t - q0);
+                assert!((two - one).abs() <= 1e-5 * t, "omega {omega}, n {n}, {k1} + {k2}: {two} against {one}");
+            }
+        }
+    }
+
+    /// What the rate is for: an entry whose first targets were too low (bootstrapped
+    /// from a table that knew little) and whose later ones are right. Both rates
+    /// converge to the right value; the polynomial one gets there sooner. And with
+    /// noisy targets of a fixed mean it still converges to that mean.
+    #[test]
+    fn a_polynomial_rate_forgets_early_targets_sooner_and_converges_to_the_mean() {
+        let run = |omega: f32, noisy: bool| {
+            let (mut q, mut n) = (0.0f32, 0.0f32);
+            let mut rng = Rng::new(3, 0, 0, 0);
+            let mut at = Vec::new();
+            for batch in 0..2000 {
+                let k = 64.0;
+                let sum: f32 = (0..64)
+                    .map(|_| {
+                        let mean = if noisy || batch >= 20 { 1.0 } else { 0.2 };
+                        if noisy {
+                            mean * 2.0 * rng.next_f32()
+                        } else {
+                            mean
+                        }
+                    })
+                    .sum();
+                q += batch_rate(n, k, omega) * (sum / k - q);
+                n += k;
+                if [99, 1999].contains(&batch) {
+                    at.push(q);
+                }
+            }
+            at
+        };
+        let (linear, polynomial) = (run(1.0, false), run(0.75, false));
+        // After 100 batches the running mean still holds a fifth of the early error.
+        assert!((linear[0] - 0.84).abs() < 1e-3, "{linear:?}");
+        assert!(1.0 - polynomial[0] < 0.5 * (1.0 - linear[0]), "{polynomial:?} against {linear:?}");
+        assert!(1.0 - polynomial[1] < 1e-3 && 1.0 - linear[1] < 0.01, "{polynomial:?} {linear:?}");
+        for omega in [0.75, 1.0] {
+            let q = run(omega, true)[1];
+            assert!((q - 1.0).abs() < 0.01, "omega {omega}: noisy targets of mean 1 gave {q}");
+        }
+    }
 
     #[test]
     fn a_fresh_state_gives_the_starting_fraction() {

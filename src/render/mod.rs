@@ -68,9 +68,13 @@ struct Learning {
     floor: f32,
     fraction: f32,
     learn_fraction: bool,
+    rate_exponent: f32,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
     schedule: RecordSchedule,
 }
+
+/// Words in learn.comp's push constants (`Learning::push`).
+const LEARN_PUSH_WORDS: usize = 10;
 
 impl Learning {
     /// Phase 0 of learn.comp: fold the targets recorded since the last fold into the table.
@@ -99,7 +103,7 @@ impl Learning {
     }
 
     /// learn.comp's push constants for a phase.
-    fn push(&self, phase: u32) -> [u32; 9] {
+    fn push(&self, phase: u32) -> [u32; LEARN_PUSH_WORDS] {
         [
             phase,
             self.entries,
@@ -110,6 +114,7 @@ impl Learning {
             self.cells,
             self.fraction.to_bits(),
             self.learn_fraction as u32,
+            self.rate_exponent.to_bits(),
         ]
     }
 }
@@ -249,7 +254,13 @@ impl GpuRenderer {
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
                 let l = Learning {
-                    pipeline: Pipeline::new(ctx, "learn", shader("learn"), &[Binding::Storage; 7], 36)?,
+                    pipeline: Pipeline::new(
+                        ctx,
+                        "learn",
+                        shader("learn"),
+                        &[Binding::Storage; 7],
+                        4 * LEARN_PUSH_WORDS as u32,
+                    )?,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
                     sums: Buffer::new(ctx, "frame target sums", sums_size, BufferUsage::Storage)?,
@@ -273,6 +284,7 @@ impl GpuRenderer {
                     floor: cfg.floor,
                     fraction: cfg.fraction,
                     learn_fraction: cfg.learn_fraction,
+                    rate_exponent: cfg.rate_exponent,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
                 l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states]);
