@@ -16,6 +16,9 @@
 # settings:   for each SCENE, a reference (unguided, NEE on, 30 s), then 2 s of
 #             GPU time per guiding setting (guided fraction, bins, and for door
 #             the grid), NEE on, with --stats against it: which settings pay.
+# learning-rate: for each SCENE, what equal-time runs, and every guided setting
+#             again with Q's learning-rate exponent 1 and 0.75 (stats-wW-...),
+#             against the same reference.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -76,8 +79,24 @@ settings)
         fi
     done
     ;;
+learning-rate)
+    for s in "$@"; do
+        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7
+        for nee in on off; do
+            "$rlpt" render "scenes/$s.toml" -o "$out/$s-off-nee-$nee.exr" --spp 100000000 --time 10 \
+                --guiding off --nee "$nee" --reference "$out/ref-$s.exr" --stats "$out/stats-$s-off-nee-$nee.json"
+            for g in octant sphere; do
+                for w in 1 0.75; do
+                    "$rlpt" render "scenes/$s.toml" -o "$out/$s-$g-nee-$nee-w$w.exr" --spp 100000000 --time 10 \
+                        --guiding "$g" --nee "$nee" --learning-rate-exponent "$w" --reference "$out/ref-$s.exr" \
+                        --stats "$out/stats-w$w-$s-$g-nee-$nee.json"
+                done
+            done
+        done
+    done
+    ;;
 *)
-    echo "unknown stage $stage: timing, equal-time or settings" >&2
+    echo "unknown stage $stage: timing, equal-time, settings or learning-rate" >&2
     exit 2
     ;;
 esac
