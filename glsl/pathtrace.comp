@@ -109,8 +109,10 @@ float lobe_share(Bsdf b) {
 }
 // src/cpu/mod.rs `record_to`: the target of the ray that left through `key`,
 // and where `factor` is not 0 its cell's fraction-gradient sample,
-// -factor * counted, summed after the table's entries (src/guide/mod.rs `FrameSums`).
+// -factor * counted, summed after the table's entries (src/guide/mod.rs `FrameSums`);
+// nothing where the target is not finite (it would poison its entry for good).
 void record(uint key, float target, float counted, float factor) {
+    if (isnan(target) || isinf(target)) return;
     record_target(key, target);
     if (factor != 0.0) record_target(GUIDE_ENTRIES + key / GUIDE_BINS, -factor * counted);
 }

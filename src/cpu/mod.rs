@@ -314,8 +314,14 @@ pub fn trace_path(
 /// (`guide::FractionState`): `counted` is the target with the emission the ray
 /// met weighted as the image weighs it (MIS against light sampling), since the
 /// fraction should serve what BSDF and guided sampling contribute, and with NEE
-/// most direct light is light sampling's. `glsl/pathtrace.comp` `record`.
+/// most direct light is light sampling's. A target that is not finite (a
+/// direction whose density underflowed, say) is dropped with its gradient, as
+/// non-finite samples are dropped from the image: summed in, it would make its
+/// entry NaN or infinite for good. `glsl/pathtrace.comp` `record`.
 fn record_to(r: &mut dyn Recorder, key: u32, target: f32, counted: f32, factor: f32, bins: u32) {
+    if !target.is_finite() {
+        return;
+    }
     r.target(key, target);
     if factor != 0.0 {
         r.fraction_gradient(key / bins, -factor * counted);
@@ -474,6 +480,37 @@ pub fn render(scene: &PreparedScene, film: &mut Film, frames: u32, mut on_frame:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What `record_to` hands on.
+    #[derive(Default)]
+    struct Seen {
+        targets: Vec<(u32, f32)>,
+        gradients: Vec<(u32, f32)>,
+    }
+
+    impl Recorder for Seen {
+        fn target(&mut self, key: u32, target: f32) {
+            self.targets.push((key, target));
+        }
+        fn fraction_gradient(&mut self, cell: u32, gradient: f32) {
+            self.gradients.push((cell, gradient));
+        }
+    }
+
+    /// A finite target goes to its key and, where the vertex mixed, the gradient
+    /// sample to its cell; a target that is not finite goes nowhere, gradient included.
+    #[test]
+    fn targets_that_are_not_finite_are_dropped() {
+        let mut seen = Seen::default();
+        record_to(&mut seen, 130, 2.0, 1.5, 0.25, 128);
+        assert_eq!(seen.targets, [(130, 2.0)]);
+        assert_eq!(seen.gradients, [(1, -0.375)]);
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut seen = Seen::default();
+            record_to(&mut seen, 130, bad, bad, 0.25, 128);
+            assert!(seen.targets.is_empty() && seen.gradients.is_empty(), "{bad}");
+        }
+    }
 
     #[test]
     fn learned_roulette_waits_for_a_table_of_several_frames() {
