@@ -52,10 +52,13 @@ float batch_rate(float n, float k) {
     return s < 1e-3 ? s * (1.0 - 0.5 * s) : 1.0 - exp(-s);
 }
 
+// src/guide/mod.rs `logit`.
+float logit(float p) { return log(p / (1.0 - p)); }
+
 // src/guide/mod.rs `FractionState::fraction`.
 float cell_fraction(vec4 s) {
-    float logit = log(push.start_fraction / (1.0 - push.start_fraction)) + s.x;
-    return clamp(1.0 / (1.0 + exp(-logit)), FRACTION_MIN, 1.0 - FRACTION_MIN);
+    float l = logit(push.start_fraction) + s.x;
+    return clamp(1.0 / (1.0 + exp(-l)), FRACTION_MIN, 1.0 - FRACTION_MIN);
 }
 
 // src/guide/mod.rs `FractionState::step`.
@@ -68,7 +71,7 @@ vec4 fraction_step(vec4 s, float gradient) {
     float v_hat = s.z / (1.0 - pow(FRACTION_BETA2, s.w));
     if (v_hat > 0.0) s.x -= FRACTION_RATE * m_hat / sqrt(v_hat);
     float bound = log((1.0 - FRACTION_MIN) / FRACTION_MIN);
-    float start_logit = log(push.start_fraction / (1.0 - push.start_fraction));
+    float start_logit = logit(push.start_fraction);
     s.x = clamp(s.x, -bound - start_logit, bound - start_logit);
     return s;
 }

@@ -396,8 +396,8 @@ impl CpuRenderer {
         let scene = &self.scene;
         let learning = self.learning.as_ref();
         let guide = scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide::new(cfg, &l.table));
-        let entries = scene.guide.map_or(0, |g| g.entries());
-        let cells = scene.guide.map_or(0, |g| g.grid.cells() as usize);
+        // Empty sums for the table (none without guiding).
+        let no_sums = || scene.guide.as_ref().map_or_else(|| FrameSums::new(0, 0), FrameSums::for_config);
         let schedule = learning.map(|l| &l.schedule);
         let (sums, counters) = self
             .film
@@ -405,7 +405,7 @@ impl CpuRenderer {
             .par_chunks_mut(p.width as usize)
             .enumerate()
             .fold(
-                || (FrameSums::new(entries, cells), FrameCounters::default()),
+                || (no_sums(), FrameCounters::default()),
                 |(mut sums, mut counters), (y, row)| {
                     let record = schedule.is_some_and(|s| s.records(frame, y as u32));
                     for (x, acc) in row.iter_mut().enumerate() {
@@ -437,7 +437,7 @@ impl CpuRenderer {
                 },
             )
             .reduce(
-                || (FrameSums::new(entries, cells), FrameCounters::default()),
+                || (no_sums(), FrameCounters::default()),
                 |(a, ca), (b, cb)| {
                     (
                         a.merge(b),

@@ -747,11 +747,16 @@ pub struct FractionState {
 /// Smallest learned fraction, and 1 minus the largest. `glsl/common.glsl`.
 pub const FRACTION_MIN: f32 = crate::shared::FRACTION_MIN;
 
+/// ln(p / (1 - p)), for p in (0, 1).
+fn logit(p: f32) -> f32 {
+    (p / (1.0 - p)).ln()
+}
+
 impl FractionState {
     /// The fraction for starting value `start` (in (0, 1)).
     pub fn fraction(&self, start: f32) -> f32 {
-        let logit = (start / (1.0 - start)).ln() + self.theta;
-        (1.0 / (1.0 + (-logit).exp())).clamp(FRACTION_MIN, 1.0 - FRACTION_MIN)
+        let l = logit(start) + self.theta;
+        (1.0 / (1.0 + (-l).exp())).clamp(FRACTION_MIN, 1.0 - FRACTION_MIN)
     }
 
     /// One Adam step on the mean gradient `gradient`, `theta` kept where the
@@ -771,7 +776,7 @@ impl FractionState {
             self.theta -= FRACTION_RATE * m_hat / v_hat.sqrt();
         }
         let bound = ((1.0 - FRACTION_MIN) / FRACTION_MIN).ln();
-        let start_logit = (start / (1.0 - start)).ln();
+        let start_logit = logit(start);
         self.theta = self.theta.clamp(-bound - start_logit, bound - start_logit);
     }
 }

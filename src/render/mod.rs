@@ -4,7 +4,7 @@
 
 use crate::film::Film;
 use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, PipelineStatistic, Timer};
-use crate::guide::{AliasBin, QTable, RecordSchedule};
+use crate::guide::{AliasBin, GuideConfig, QTable, RecordSchedule};
 use crate::prepared::{AccumPixel, PreparedScene};
 use crate::shared;
 use std::sync::Arc;
@@ -62,13 +62,10 @@ struct Learning {
     fractions: Buffer,
     /// Per cell, its fraction's learning state (`guide::FractionState`).
     fraction_states: Buffer,
+    /// The table's shape and learning settings.
+    cfg: GuideConfig,
+    /// Entries of the table (`GuideConfig::entries`).
     entries: u32,
-    cells: u32,
-    bins: crate::guide::Bins,
-    floor: f32,
-    fraction: f32,
-    learn_fraction: bool,
-    rate_exponent: f32,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
     schedule: RecordSchedule,
 }
@@ -86,7 +83,7 @@ impl Learning {
     /// Phase 1 of learn.comp: rebuild the sampling row of each cell and normal class.
     fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(1);
-        let rows = self.entries / self.bins.count() * shared::NORMAL_CLASSES;
+        let rows = self.cfg.sampling_rows() as u32;
         self.pipeline.cmd_dispatch(cmd, [rows.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
     }
 
@@ -107,14 +104,14 @@ impl Learning {
         [
             phase,
             self.entries,
-            self.bins.count(),
-            self.floor.to_bits(),
-            self.bins.rows,
-            self.bins.cols,
-            self.cells,
-            self.fraction.to_bits(),
-            self.learn_fraction as u32,
-            self.rate_exponent.to_bits(),
+            self.cfg.bins.count(),
+            self.cfg.floor.to_bits(),
+            self.cfg.bins.rows,
+            self.cfg.bins.cols,
+            self.cfg.grid.cells(),
+            self.cfg.fraction.to_bits(),
+            self.cfg.learn_fraction as u32,
+            self.cfg.rate_exponent.to_bits(),
         ]
     }
 }
@@ -278,13 +275,8 @@ impl GpuRenderer {
                         (entries * shared::NORMAL_CLASSES) as u64 * std::mem::size_of::<AliasBin>() as u64,
                         BufferUsage::Storage,
                     )?,
+                    cfg: *cfg,
                     entries,
-                    cells,
-                    bins: cfg.bins,
-                    floor: cfg.floor,
-                    fraction: cfg.fraction,
-                    learn_fraction: cfg.learn_fraction,
-                    rate_exponent: cfg.rate_exponent,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
                 l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states]);
@@ -408,8 +400,8 @@ impl GpuRenderer {
     /// The learned values Q of every direction bin of voxel `cell` (None without guiding).
     pub fn cell_values(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
-        assert!(cell * l.bins.count() < l.entries, "voxel {cell} is outside the grid");
-        let n = l.bins.count();
+        assert!(cell < l.cfg.grid.cells(), "voxel {cell} is outside the grid");
+        let n = l.cfg.bins.count();
         self.read_floats(&l.q, cell * n, n, "read Q row").map(Some)
     }
 
@@ -418,7 +410,7 @@ impl GpuRenderer {
     /// guiding.
     pub fn cell_fractions(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
-        assert!(cell < l.cells, "voxel {cell} is outside the grid");
+        assert!(cell < l.cfg.grid.cells(), "voxel {cell} is outside the grid");
         let classes = crate::guide::NORMAL_CLASSES;
         self.read_floats(&l.fractions, cell * classes, classes, "read a voxel's fractions").map(Some)
     }
