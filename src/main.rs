@@ -75,13 +75,13 @@ enum Heuristic {
 #[derive(clap::Args)]
 struct Settings {
     /// Image width in pixels (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::prepared::MAX_IMAGE_SIDE as i64))]
     width: Option<u32>,
     /// Image height in pixels (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::prepared::MAX_IMAGE_SIDE as i64))]
     height: Option<u32>,
     /// Scattering events per path (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=rlpt::prepared::MAX_BOUNCES as i64))]
     max_bounces: Option<u32>,
     /// Random seed; the same seed gives the same image on the same device (with
     /// guiding, to rounding only: learning adds its targets in the order threads finish).
@@ -108,7 +108,7 @@ struct Settings {
     /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF
     /// sampling): `learned` (each cell learns its own, starting at 0.5, within [0.1, 0.9]),
     /// or a fixed number in [0, 1).
-    #[arg(long, default_value = "learned", value_parser = parse_fraction)]
+    #[arg(long, default_value = "learned", value_parser = parse_fraction, allow_negative_numbers = true)]
     guided_fraction: FractionArg,
     /// Guided sampling at the first N vertices of each path (1: the camera ray's hit
     /// alone); deeper vertices sample the BSDF alone. Default: 2 with NEE, every
@@ -119,7 +119,7 @@ struct Settings {
     /// 1 is Dahm & Keller's running mean; below 1 forgets the first targets, learned from
     /// a table that knew little, sooner, and converges to the same values (it did not pay
     /// at equal time on the shipped scenes, see BENCHMARKS.md).
-    #[arg(long, value_name = "W", default_value_t = rlpt::guide::DEFAULT_RATE_EXPONENT, value_parser = parse_rate_exponent)]
+    #[arg(long, value_name = "W", default_value_t = rlpt::guide::DEFAULT_RATE_EXPONENT, value_parser = parse_rate_exponent, allow_negative_numbers = true)]
     learning_rate_exponent: f32,
 }
 
@@ -286,19 +286,13 @@ fn parse_fraction(s: &str) -> Result<FractionArg, String> {
         return Ok(FractionArg::Learned);
     }
     let v: f32 = s.parse().map_err(|_| format!("`{s}` is neither a number nor `learned`"))?;
-    if !(0.0..=1.0).contains(&v) || (v == 1.0) {
-        return Err(format!("{v} is not in [0, 1): some BSDF sampling must remain so that no direction has pdf zero"));
-    }
+    rlpt::prepared::check_guided_fraction(v).map_err(|e| format!("{v}: expected {e}"))?;
     Ok(FractionArg::Fixed(v))
 }
 
 fn parse_rate_exponent(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-    if !(v > 0.5 && v <= 1.0) {
-        return Err(format!(
-            "{v} is not in (0.5, 1]: a rate 1/i^W converges to the learned values only for W in that range"
-        ));
-    }
+    rlpt::guide::check_rate_exponent(v).map_err(|e| format!("{v}: expected {e}"))?;
     Ok(v)
 }
 
@@ -376,7 +370,7 @@ fn render(args: RenderArgs) -> Result<()> {
             shared::SAMPLES_PER_FRAME
         );
     }
-    let prepared = PreparedScene::new(&scene, &opts);
+    let prepared = PreparedScene::new(&scene, &opts)?;
 
     let bar = ProgressBar::with_draw_target(Some(frames as u64), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -567,7 +561,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     }
     let scene = Scene::load(&args.scene)?;
     let opts = args.settings.options(&scene);
-    let prepared = PreparedScene::new(&scene, &opts);
+    let prepared = PreparedScene::new(&scene, &opts)?;
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
     let mut times = Vec::with_capacity(args.frames as usize);
     let (device, driver, clock, pipelines) = match args.settings.device {

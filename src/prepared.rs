@@ -212,7 +212,38 @@ const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 /// costs (door 0.22 against 0.38): then every vertex is guided.
 pub const DEFAULT_GUIDED_VERTICES_NEE: u32 = 2;
 
+/// Largest image width or height, in pixels, a scene or an option may ask for.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest `max_bounces`: a path's ray count shares a 32-bit register with its
+/// depth in kernels with roulette (`glsl/pathtrace.comp` `depth_rays`), 16 bits
+/// each, and a path of 1024 bounces traces at most 2050 rays.
+pub const MAX_BOUNCES: u32 = 1024;
+
+/// A render option outside the values the renderers can honour: which option,
+/// its value and what was expected. [`RenderOptions::check`] finds it, and
+/// [`PreparedScene::new`] refuses to prepare a render with one.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("render option `{option}` is {value}: {expected}")]
+pub struct OptionError {
+    pub option: &'static str,
+    pub value: String,
+    pub expected: String,
+}
+
+/// `guided_fraction`: a probability in [0, 1), since some BSDF sampling must remain
+/// so that no direction where the BSDF is non-zero has density zero. The message
+/// is what was expected (shared with the command line's parser).
+pub fn check_guided_fraction(f: f32) -> Result<(), String> {
+    if (0.0..1.0).contains(&f) {
+        Ok(())
+    } else {
+        Err("a number in [0, 1): some BSDF sampling must remain so that no direction has pdf zero".into())
+    }
+}
+
 /// How to render: the scene's `[render]` table with command-line overrides.
+/// Every field is public; [`RenderOptions::check`] says whether the values are
+/// ones the renderers can honour.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
     pub width: u32,
@@ -282,6 +313,48 @@ impl RenderOptions {
             (_, true) => Some("learned".into()),
             (_, false) => Some(self.guided_fraction.to_string()),
         }
+    }
+
+    /// The first option whose value the renderers cannot honour, if any: an
+    /// image side outside 1..=[`MAX_IMAGE_SIDE`], no samples, more than
+    /// [`MAX_BOUNCES`] bounces, bins outside [`Bins::check`]'s limits, a guided
+    /// fraction outside [0, 1), an exploration floor that is negative or not
+    /// finite, a learning-rate exponent outside (1/2, 1], or guided sampling at
+    /// zero vertices. The command line refuses these as it parses them; this is
+    /// the library's own check, which [`PreparedScene::new`] makes.
+    pub fn check(&self) -> Result<(), OptionError> {
+        let err = |option: &'static str, value: String, expected: String| Err(OptionError { option, value, expected });
+        for (option, v) in [("width", self.width), ("height", self.height)] {
+            if !(1..=MAX_IMAGE_SIDE).contains(&v) {
+                return err(option, v.to_string(), format!("image sides are 1 to {MAX_IMAGE_SIDE} pixels"));
+            }
+        }
+        if self.spp == 0 {
+            return err("spp", "0".into(), "at least 1 sample per pixel".into());
+        }
+        if self.max_bounces > MAX_BOUNCES {
+            return err("max_bounces", self.max_bounces.to_string(), format!("at most {MAX_BOUNCES} bounces"));
+        }
+        if let Err(e) = Bins::check(self.bins.rows, self.bins.cols) {
+            return err("bins", format!("{}x{}", self.bins.rows, self.bins.cols), e);
+        }
+        if let Err(e) = check_guided_fraction(self.guided_fraction) {
+            return err("guided_fraction", self.guided_fraction.to_string(), e);
+        }
+        if !(self.guide_floor.is_finite() && self.guide_floor >= 0.0) {
+            return err("guide_floor", self.guide_floor.to_string(), "a finite number >= 0".into());
+        }
+        if let Err(e) = guide::check_rate_exponent(self.learning_rate_exponent) {
+            return err("learning_rate_exponent", self.learning_rate_exponent.to_string(), e);
+        }
+        if self.guided_vertices == Some(0) {
+            return err(
+                "guided_vertices",
+                "0".into(),
+                "at least 1 (the camera ray's hit), or None for the default".into(),
+            );
+        }
+        Ok(())
     }
 
     /// Frames of 64 samples per pixel needed for at least `spp` samples.
@@ -354,7 +427,10 @@ impl PreparedScene {
         out
     }
 
-    pub fn new(scene: &Scene, opts: &RenderOptions) -> PreparedScene {
+    /// The scene's arrays and the render's parameters; an error where an option
+    /// is out of range ([`RenderOptions::check`]).
+    pub fn new(scene: &Scene, opts: &RenderOptions) -> Result<PreparedScene, OptionError> {
+        opts.check()?;
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -514,7 +590,7 @@ impl PreparedScene {
             p.guide_vertices = opts.guided_vertices.unwrap_or(0);
             prepared.guide = Some(cfg);
         }
-        prepared
+        Ok(prepared)
     }
 }
 
@@ -590,6 +666,48 @@ mod tests {
     use super::*;
     use crate::guide::guided_vertices;
 
+    /// Each option out of range is refused, by name, by the check and by
+    /// `PreparedScene::new`; the edges of each range are accepted.
+    #[test]
+    fn options_out_of_range_are_refused_by_name() {
+        let s = scene("door");
+        let good = RenderOptions { guiding: GuidingMode::Sphere, ..RenderOptions::from_scene(&s) };
+        assert_eq!(good.check(), Ok(()));
+        assert!(PreparedScene::new(&s, &good).is_ok());
+        // The edges that are allowed.
+        for ok in [
+            RenderOptions { width: 1, height: MAX_IMAGE_SIDE, max_bounces: MAX_BOUNCES, ..good.clone() },
+            RenderOptions { bins: Bins { rows: 32, cols: 32 }, guided_fraction: 0.0, guide_floor: 0.0, ..good.clone() },
+            RenderOptions { learning_rate_exponent: 0.500001, guided_vertices: Some(1), ..good.clone() },
+        ] {
+            assert_eq!(ok.check(), Ok(()), "{ok:?}");
+        }
+        let cases: Vec<(RenderOptions, &str)> = vec![
+            (RenderOptions { width: 0, ..good.clone() }, "width"),
+            (RenderOptions { height: MAX_IMAGE_SIDE + 1, ..good.clone() }, "height"),
+            (RenderOptions { spp: 0, ..good.clone() }, "spp"),
+            (RenderOptions { max_bounces: MAX_BOUNCES + 1, ..good.clone() }, "max_bounces"),
+            (RenderOptions { bins: Bins { rows: 0, cols: 16 }, ..good.clone() }, "bins"),
+            (RenderOptions { bins: Bins { rows: 65536, cols: 65536 }, ..good.clone() }, "bins"),
+            (RenderOptions { guided_fraction: 1.0, ..good.clone() }, "guided_fraction"),
+            (RenderOptions { guided_fraction: f32::NAN, ..good.clone() }, "guided_fraction"),
+            (RenderOptions { guided_fraction: -0.25, learn_fraction: true, ..good.clone() }, "guided_fraction"),
+            (RenderOptions { guide_floor: -1.0, ..good.clone() }, "guide_floor"),
+            (RenderOptions { guide_floor: f32::INFINITY, ..good.clone() }, "guide_floor"),
+            (RenderOptions { learning_rate_exponent: 0.5, ..good.clone() }, "learning_rate_exponent"),
+            (RenderOptions { learning_rate_exponent: 1.01, ..good.clone() }, "learning_rate_exponent"),
+            (RenderOptions { learning_rate_exponent: f32::NAN, ..good.clone() }, "learning_rate_exponent"),
+            (RenderOptions { guided_vertices: Some(0), ..good.clone() }, "guided_vertices"),
+        ];
+        for (opts, option) in cases {
+            let e = opts.check().expect_err(option);
+            assert_eq!(e.option, option, "{e}");
+            let text = e.to_string();
+            assert!(text.starts_with(&format!("render option `{option}` is ")), "{text}");
+            assert_eq!(PreparedScene::new(&s, &opts).err(), Some(e));
+        }
+    }
+
     /// The default follows the NEE flag of the params, also when it is switched
     /// after the scene was prepared; an explicit count stays.
     #[test]
@@ -616,7 +734,7 @@ mod tests {
     #[test]
     fn geometry_specialization_holds_each_primitive_in_its_slot() {
         let s = scene("seed-exp3");
-        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s));
+        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options");
         let c = p.geometry_specialization();
         assert_eq!(c.len() as u32, shared::NUM_SPEC_CONSTANTS - shared::SPEC_QUAD_BASE);
         let at = |id: u32| f32::from_bits(c[(id - shared::SPEC_QUAD_BASE) as usize]);
@@ -654,7 +772,7 @@ mod tests {
         };
         assert_eq!(mask(&p), (1u32 << p.spheres.len()) - 1);
         let smallpt = scene("smallpt");
-        let sp = PreparedScene::new(&smallpt, &RenderOptions::from_scene(&smallpt));
+        let sp = PreparedScene::new(&smallpt, &RenderOptions::from_scene(&smallpt)).expect("valid options");
         let want = sp.spheres.iter().enumerate().fold(0, |m, (i, s)| m | ((s.center_radius[3] < 100.0) as u32) << i);
         assert_eq!(mask(&sp), want);
         assert!(want != 0 && want != (1u32 << sp.spheres.len()) - 1, "smallpt has both kinds: {want:b}");
@@ -668,7 +786,7 @@ mod tests {
         let mut seen = 0;
         for name in ["door", "seed-exp1", "seed-exp3"] {
             let s = scene(name);
-            let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s));
+            let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options");
             for q in &p.quads {
                 let m = |v: [f32; 4]| v[..3].iter().fold(0.0f32, |a, x| a.max(x.abs()));
                 let want = m(q.origin) + m(q.edge_u) + m(q.edge_v);
@@ -691,7 +809,7 @@ mod tests {
     fn scene_kinds_name_the_materials_and_lights_of_the_scene() {
         let kinds = |name: &str| {
             let s = scene(name);
-            PreparedScene::new(&s, &RenderOptions::from_scene(&s)).params.scene_kinds
+            PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options").params.scene_kinds
         };
         let mat = |k: u32| 1u32 << k;
         let light = |k: u32| 1u32 << (shared::SCENE_KIND_LIGHT_SHIFT + k);
@@ -713,7 +831,7 @@ mod tests {
             assert!(text.contains("roughness = 0.3\n"));
             let s = Scene::parse(&text.replace("roughness = 0.3\n", &format!("roughness = {roughness}\n")), "edited")
                 .unwrap();
-            PreparedScene::new(&s, &RenderOptions::from_scene(&s)).params.scene_kinds
+            PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options").params.scene_kinds
         };
         let guided_glossy = 1u32 << shared::SCENE_KIND_GUIDED_GLOSSY;
         assert_eq!(copper("0.36"), kinds("seed-exp2") | guided_glossy);
@@ -730,7 +848,7 @@ mod tests {
         let (order, n) = occluding_order(&s);
         assert_eq!(n, 4);
         assert_eq!(order, vec![6, 7, 8, 9, 0, 1, 2, 3, 4, 5]);
-        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s));
+        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options");
         assert_eq!(p.params.occluding_quads, 4);
         for (j, &i) in order.iter().enumerate() {
             assert_eq!(p.quads[j].origin[..3], s.quads[i].origin.to_array());

@@ -205,7 +205,13 @@ fn guided_vertices_must_be_at_least_one() {
 
 #[test]
 fn guided_fraction_is_learned_or_a_probability_below_one() {
-    for (arg, says) in [("1", "[0, 1)"), ("1.5", "[0, 1)"), ("half", "neither a number nor `learned`")] {
+    for (arg, says) in [
+        ("1", "[0, 1)"),
+        ("1.5", "[0, 1)"),
+        ("-0.1", "[0, 1)"),
+        ("nan", "[0, 1)"),
+        ("half", "neither a number nor `learned`"),
+    ] {
         let o = rlpt()
             .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--guided-fraction", arg])
             .output()
@@ -218,7 +224,9 @@ fn guided_fraction_is_learned_or_a_probability_below_one() {
 
 #[test]
 fn learning_rate_exponent_is_above_one_half_and_at_most_one() {
-    for (arg, says) in [("0.5", "(0.5, 1]"), ("1.25", "(0.5, 1]"), ("nan", "(0.5, 1]"), ("fast", "not a number")] {
+    for (arg, says) in
+        [("0.5", "(0.5, 1]"), ("-1", "(0.5, 1]"), ("1.25", "(0.5, 1]"), ("nan", "(0.5, 1]"), ("fast", "not a number")]
+    {
         let o = rlpt()
             .args([
                 "render",
@@ -235,5 +243,29 @@ fn learning_rate_exponent_is_above_one_half_and_at_most_one() {
         assert!(!o.status.success(), "--learning-rate-exponent {arg} was accepted");
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(stderr.contains("--learning-rate-exponent") && stderr.contains(says), "{arg}: {stderr}");
+    }
+}
+
+#[test]
+fn bins_are_rows_by_columns_within_the_limit() {
+    // 65536 x 65536 overflows 32 bits to 0: it once passed the check that way, and
+    // panicked in debug builds.
+    for (arg, says) in [
+        ("0x16", "at least 1"),
+        ("8x0", "at least 1"),
+        ("33x32", "at most 1024 bins"),
+        ("65536x65536", "at most 1024 bins"),
+        ("4294967295x2", "at most 1024 bins"),
+        ("8by16", "expected ROWSxCOLS"),
+        ("ax16", "not a positive integer"),
+    ] {
+        let o = rlpt()
+            .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--bins", arg])
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "--bins {arg} was accepted");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!stderr.contains("panicked"), "--bins {arg}: {stderr}");
+        assert!(stderr.contains("--bins") && stderr.contains(says), "{arg}: {stderr}");
     }
 }

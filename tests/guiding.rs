@@ -136,7 +136,7 @@ fn guided_frames_trace_every_pixel_once() {
     let scene = edited_scene("furnace-open.toml", "look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 8.0]");
     let mut o = guided(&options(&scene, 9, 13, 64), GuidingMode::Sphere);
     o.seed = 3;
-    let prepared = PreparedScene::new(&scene, &o);
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     assert!(prepared.guide.is_some(), "the render is guided");
     let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     let stride = rlpt::shared::RECORD_ROW_STRIDE;
@@ -231,7 +231,7 @@ fn guiding_limited_to_first_vertices_stays_unbiased() {
 
 /// The table a guided CPU render has learned after 4 frames.
 fn cpu_table(scene: &Scene, o: &RenderOptions) -> QTable {
-    let mut cpu = CpuRenderer::new(&PreparedScene::new(scene, o));
+    let mut cpu = CpuRenderer::new(&PreparedScene::new(scene, o).expect("valid options"));
     for _ in 0..4 {
         cpu.render_frame();
     }
@@ -243,7 +243,7 @@ fn cpu_table(scene: &Scene, o: &RenderOptions) -> QTable {
 fn cpu_paths(scene: &Scene, o: &RenderOptions, limit: u32, table: &QTable) -> Vec<([u32; 3], u32, u32)> {
     let mut o = o.clone();
     o.guided_vertices = Some(limit);
-    let prepared = PreparedScene::new(scene, &o);
+    let prepared = PreparedScene::new(scene, &o).expect("valid options");
     let cfg = prepared.guide.expect("guided");
     let g = Guide::new(&cfg, table);
     let mut out = Vec::new();
@@ -295,7 +295,7 @@ fn paths_record_only_from_guided_vertices_without_roulette() {
     let per_path = |scene: &Scene, limit: u32| {
         let mut o = guided(&options(scene, 16, 8, 64), GuidingMode::Sphere);
         o.guided_vertices = Some(limit);
-        let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(scene, &o)).unwrap();
+        let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(scene, &o).expect("valid options")).unwrap();
         r.render_frames(frames).unwrap();
         let visits: u64 = r.table().unwrap().unwrap().visits.iter().map(|&v| v as u64).sum();
         if o.russian_roulette_depth.is_none() {
@@ -518,7 +518,7 @@ fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) {
     o.guiding = GuidingMode::Sphere;
     o.bins = bins;
     o.guide_floor = 0.2;
-    let prepared = PreparedScene::new(&scene, &o);
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     let cfg = prepared.guide.unwrap();
     let mut r = GpuRenderer::new(ctx, &prepared).unwrap();
     r.render_frames(3).unwrap();
@@ -577,7 +577,7 @@ fn recording_stride_doubles_as_the_table_fills() {
     // (pixels, entries): a thumbnail, door.toml's size and table, a large image over a small table.
     let door_scene = scene("door.toml");
     let door = guided(&options(&door_scene, 480, 320, 64), GuidingMode::Sphere);
-    let door_entries = PreparedScene::new(&door_scene, &door).guide.unwrap().entries() as u64;
+    let door_entries = PreparedScene::new(&door_scene, &door).expect("valid options").guide.unwrap().entries() as u64;
     for (pixels, entries) in [(48 * 32, door_entries), (480 * 320, door_entries), (640 * 480, 4096)] {
         let s = RecordSchedule::new(pixels, entries);
         let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries as f64;
@@ -649,7 +649,7 @@ fn the_table_learns_on_schedule() {
     let mut scene = scene("door.toml");
     scene.guiding.resolution = Some([1, 1, 1]);
     let o = guided(&options(&scene, 32, 24, 64), GuidingMode::Sphere);
-    let prepared = PreparedScene::new(&scene, &o);
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     let cfg = prepared.guide.unwrap();
     let schedule = RecordSchedule::for_render(&cfg, 32, 24);
     let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
@@ -704,7 +704,7 @@ fn glsl_guided_sampler_matches_rust_and_follows_its_pdf() {
     let scene = scene("furnace-open.toml");
     let mut o = RenderOptions::from_scene(&scene);
     o.guiding = GuidingMode::Sphere;
-    let prepared = PreparedScene::new(&scene, &o);
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     let bins = prepared.guide.unwrap().bins;
     let n = 400_000usize;
     for seed in [7u32, 8] {
@@ -818,7 +818,7 @@ fn variance_from_pair(a: &Film, b: &Film) -> (f64, f64) {
 
 /// Renders `frames` frames after `warmup` frames of learning whose image is discarded.
 fn render_after_warmup(ctx: &Arc<Context>, scene: &Scene, opts: &RenderOptions, warmup: u32, frames: u32) -> Film {
-    let prepared = PreparedScene::new(scene, opts);
+    let prepared = PreparedScene::new(scene, opts).expect("valid options");
     let mut r = GpuRenderer::new(ctx, &prepared).unwrap();
     if warmup > 0 {
         r.render_frames(warmup).unwrap();
@@ -886,7 +886,7 @@ fn exp1_table(mode: GuidingMode, nee: bool, rate: f32, frames: u32, gpu: Option<
     o.nee = nee;
     o.learning_rate_exponent = rate;
     assert!(o.learn_fraction, "cells learn their fractions by default");
-    let prepared = PreparedScene::new(&scene, &o);
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     match gpu {
         Some(ctx) => {
             let mut r = GpuRenderer::new(ctx, &prepared).unwrap();

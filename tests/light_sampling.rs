@@ -43,7 +43,7 @@ material = "glow"
 #[test]
 fn light_directions_follow_light_pdf() {
     let scene = Scene::parse(SCENE, "lights.toml").unwrap();
-    let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene));
+    let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene)).expect("valid options");
     let points = [Vec3::new(0.3, -1.2, 1.0), Vec3::new(3.2, 1.3, -0.8)];
     let significance = sidak(0.01, points.len());
     for (k, p) in points.iter().enumerate() {

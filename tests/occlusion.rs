@@ -36,7 +36,7 @@ fn shadow_rays_skip_only_quads_that_cannot_block_them() {
     let mut skipped_somewhere = false;
     for path in &scenes {
         let scene = Scene::load(path).unwrap();
-        let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene));
+        let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene)).expect("valid options");
         let n_occ = prepared.params.occluding_quads as usize;
         skipped_somewhere |= n_occ < prepared.quads.len();
         let bounding = &prepared.quads[n_occ..];

@@ -42,7 +42,7 @@ fn check_furnace_open(film: &Film, prepared: &PreparedScene, what: &str) {
 fn furnace_open_gpu_and_cpu() {
     let scene = scene("furnace-open.toml");
     let opts = options(&scene, 48, 48, 512);
-    let prepared = PreparedScene::new(&scene, &opts);
+    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
     let ctx = gpu();
     check_furnace_open(&render_gpu(&ctx, &scene, &opts), &prepared, "GPU");
     check_furnace_open(&render_cpu(&scene, &opts), &prepared, "CPU");
@@ -53,7 +53,7 @@ fn furnace_open_without_nee_gpu() {
     let scene = scene("furnace-open.toml");
     let mut opts = options(&scene, 48, 48, 512);
     opts.nee = false;
-    let prepared = PreparedScene::new(&scene, &opts);
+    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
     check_furnace_open(&render_gpu(&gpu(), &scene, &opts), &prepared, "GPU, NEE off");
 }
 
@@ -210,7 +210,7 @@ fn gpu_and_cpu_agree_past_the_uniform_primitives() {
     let mut opts = options(&scene, 32, 24, 512);
     // Shadow rays walk both loops too: 64 panels and the lamp can block them, the
     // room's five walls cannot (`prepared::occluding_order`).
-    assert_eq!(PreparedScene::new(&scene, &opts).params.occluding_quads, 65);
+    assert_eq!(PreparedScene::new(&scene, &opts).expect("valid options").params.occluding_quads, 65);
     let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [99, 3], "crowded scene");
     let (mean, _, _) = region_stats(&g, |_, _| true);
     assert!(mean > 0.01, "the crowded scene renders lit (mean {mean})");
@@ -258,7 +258,7 @@ fn gpu_and_cpu_agree_on_anchored_spheres_past_the_slots() {
     );
     let scene = Scene::parse(&text, "crowded, sphere walls").expect("the test scene loads");
     let mut opts = options(&scene, 32, 24, 512);
-    let prepared = PreparedScene::new(&scene, &opts);
+    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
     assert_eq!(prepared.spheres.len(), 74);
     for i in [21, 73] {
         assert!(!prepared.spheres[i].compact(), "sphere {i} is a wall, tested from its anchor");
@@ -281,7 +281,7 @@ fn set_params_recompiles_the_kernel_for_new_flags() {
     let scene = scene("seed-exp1.toml");
     let mut opts = options(&scene, 24, 16, 64);
     let first = render_gpu(&ctx, &scene, &opts);
-    let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &opts)).expect("renderer");
+    let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &opts).expect("valid options")).expect("renderer");
     opts.nee = false;
     opts.max_bounces = 2;
     let fresh = render_gpu(&ctx, &scene, &opts);
@@ -314,7 +314,7 @@ fn gpu_and_cpu_count_the_same_rays() {
             let scene = scene(name);
             let mut opts = options(&scene, 32, 24, 256);
             opts.guiding = guiding;
-            let prepared = PreparedScene::new(&scene, &opts);
+            let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
             let mut gpu = GpuRenderer::new(&ctx, &prepared).expect("renderer");
             let mut cpu = rlpt::cpu::CpuRenderer::new(&prepared);
             let (mut g, mut c) = (0u64, 0u64);

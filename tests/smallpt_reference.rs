@@ -179,7 +179,7 @@ fn render_reference(scene: &Scene, width: u32, height: u32, frames: u32) -> Film
 #[test]
 fn f32_intersection_matches_f64_on_the_huge_walls() {
     let scene = scene("smallpt.toml");
-    let prepared = rlpt::prepared::PreparedScene::new(&scene, &options(&scene, 640, 480, 64));
+    let prepared = rlpt::prepared::PreparedScene::new(&scene, &options(&scene, 640, 480, 64)).expect("valid options");
     let f32v = |x: V| glam::Vec3::new(x[0] as f32, x[1] as f32, x[2] as f32);
     let bound = 16.0 * f32::EPSILON as f64 * 300.0;
     let surface_distance = |p: V, i: usize| {

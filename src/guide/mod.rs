@@ -126,10 +126,24 @@ impl Bins {
         let (r, c) = s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}`: expected ROWSxCOLS, e.g. 8x16"))?;
         let rows: u32 = r.trim().parse().map_err(|_| format!("`{s}`: rows `{r}` is not a positive integer"))?;
         let cols: u32 = c.trim().parse().map_err(|_| format!("`{s}`: columns `{c}` is not a positive integer"))?;
-        if rows == 0 || cols == 0 || rows * cols > 1024 {
-            return Err(format!("`{s}`: rows and columns must be at least 1, and at most 1024 bins in all"));
-        }
+        Bins::check(rows, cols).map_err(|e| format!("`{s}`: {e}"))?;
         Ok(Bins { rows, cols })
+    }
+
+    /// Most bins a table may have. Finer tables learn too slowly to pay (512
+    /// bins already had too few targets per entry at the CPU renderer's test
+    /// sizes, BENCHMARKS.md), and the bound keeps a row's 16-bit alias indices
+    /// far from the marker [`UNLEARNED`].
+    pub const MAX_COUNT: u64 = 1024;
+
+    /// Whether `rows` x `cols` bins are a table the renderers can build: at least
+    /// one of each, at most [`Bins::MAX_COUNT`] in all. The message says what was
+    /// expected.
+    pub fn check(rows: u32, cols: u32) -> Result<(), String> {
+        if rows == 0 || cols == 0 || rows as u64 * cols as u64 > Bins::MAX_COUNT {
+            return Err(format!("rows and columns must be at least 1, and at most {} bins in all", Bins::MAX_COUNT));
+        }
+        Ok(())
     }
 }
 
@@ -800,6 +814,18 @@ pub fn fraction_gradient_factor(g_frac: f32, g: f32, p_guided: f32, p_bsdf: f32,
 /// 8 % fewer samples fitted in 10 s (relMSE 0.99 of the running mean's at 10 s
 /// with sphere and NEE, 1.09 without; seed-exp1 within 2 %; BENCHMARKS.md).
 pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
+
+/// Whether `w` is an exponent of Q's learning rate 1 / i^w that converges to the
+/// learned values: (1/2, 1] (Even-Dar & Mansour 2003). Below 1/2 [`batch_rate`]
+/// still runs, but the weighted mean no longer settles. The message says what was
+/// expected (shared with the command line's parser).
+pub fn check_rate_exponent(w: f32) -> Result<(), String> {
+    if w > 0.5 && w <= 1.0 {
+        Ok(())
+    } else {
+        Err("a number in (0.5, 1]: a rate 1/i^W converges to the learned values only for W in that range".into())
+    }
+}
 
 /// The weight with which `k` targets, folded in at once, move an entry that has
 /// already taken `n` towards their mean: `Q <- Q + w (S / k - Q)`.

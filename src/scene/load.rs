@@ -72,9 +72,9 @@ pub(super) fn parse_str(text: &str, name: &str) -> Result<Scene, SceneError> {
 // Limits.
 
 /// Largest accepted image width or height, in pixels.
-const MAX_IMAGE_SIDE: i64 = 16384;
+const MAX_IMAGE_SIDE: i64 = crate::prepared::MAX_IMAGE_SIDE as i64;
 /// Largest accepted `max_bounces`.
-const MAX_BOUNCES: i64 = 1024;
+const MAX_BOUNCES: i64 = crate::prepared::MAX_BOUNCES as i64;
 /// Two directions whose angle has a sine below this count as parallel
 /// (camera `up` against the view direction, quad edges against each other).
 const PARALLEL_SINE: f64 = 1e-6;

@@ -689,7 +689,7 @@ impl Viewer {
 fn make_renderer(ctx: &Arc<Context>, scene: &Scene, base: &RenderOptions, mode: GuidingMode) -> Result<ModeRenderer> {
     let mut opts = base.clone();
     opts.guiding = mode;
-    let prepared = PreparedScene::new(scene, &opts);
+    let prepared = PreparedScene::new(scene, &opts)?;
     let renderer = GpuRenderer::new(ctx, &prepared)?;
     Ok(ModeRenderer { mode, prepared, renderer })
 }

@@ -49,7 +49,7 @@ pub fn options(scene: &Scene, width: u32, height: u32, spp: u32) -> RenderOption
 }
 
 pub fn render_gpu(ctx: &Arc<Context>, scene: &Scene, opts: &RenderOptions) -> Film {
-    let prepared = PreparedScene::new(scene, opts);
+    let prepared = PreparedScene::new(scene, opts).expect("valid options");
     let mut r = GpuRenderer::new(ctx, &prepared).expect("renderer");
     r.render_frames(opts.frames()).expect("render");
     let film = r.film().expect("readback");
@@ -58,7 +58,7 @@ pub fn render_gpu(ctx: &Arc<Context>, scene: &Scene, opts: &RenderOptions) -> Fi
 }
 
 pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Film {
-    let prepared = PreparedScene::new(scene, opts);
+    let prepared = PreparedScene::new(scene, opts).expect("valid options");
     let mut film = Film::new(opts.width, opts.height);
     rlpt::cpu::render(&prepared, &mut film, opts.frames(), |_| {});
     film
