@@ -23,11 +23,24 @@ pub struct Image {
     pub pixels: Vec<[f32; 3]>,
 }
 
-/// The file formats [`Image::save`] and [`Image::load`] know, by extension.
+/// The file formats [`Image::save`] and [`Image::load`] know: by extension
+/// when saving, by content when loading.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Format {
+pub enum Format {
+    /// 8-bit sRGB, clamped to [0, 1]: for viewing, not for measuring.
     Png,
+    /// 32-bit float linear RGB.
     Exr,
+}
+
+impl Format {
+    /// The format as error messages name it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Format::Png => "a PNG (8-bit sRGB, clamped to 1)",
+            Format::Exr => "an EXR (linear float)",
+        }
+    }
 }
 
 const SUPPORTED: &str = ".png (8-bit sRGB) and .exr (32-bit float linear)";
@@ -123,7 +136,12 @@ impl Image {
     /// alpha is dropped) into linear RGB; a .png is decoded from sRGB to linear.
     /// Errors name the path.
     pub fn load(path: &Path) -> anyhow::Result<Image> {
-        let load = || -> anyhow::Result<Image> {
+        Ok(Image::load_format(path)?.0)
+    }
+
+    /// [`load`](Self::load), and the format the file's content turned out to be.
+    pub fn load_format(path: &Path) -> anyhow::Result<(Image, Format)> {
+        let load = || -> anyhow::Result<(Image, Format)> {
             let file = File::open(path)?;
             let mut reader = ImageReader::new(BufReader::new(file)).with_guessed_format()?;
             reader.no_limits();
@@ -133,16 +151,30 @@ impl Image {
                 Some(other) => bail!("unsupported image format {other:?}; supported: {SUPPORTED}"),
                 None => bail!("not a recognised image file; supported: {SUPPORTED}"),
             };
-            let decoded = reader.decode()?;
+            // The decoder's own message, once: its error repeats its source in
+            // its text, which an error chain would print twice.
+            let decoded = reader.decode().map_err(|e| {
+                let what = match format {
+                    Format::Exr => "an EXR that rlpt can read (it needs float R, G and B channels; truncated?)",
+                    Format::Png => "a PNG that rlpt can read (truncated?)",
+                };
+                anyhow::anyhow!("not {what}: {e}")
+            })?;
             let (width, height) = (decoded.width(), decoded.height());
             let rgb = decoded.into_rgb32f();
             let pixels = match format {
                 Format::Exr => rgb.pixels().map(|p| p.0).collect(),
                 Format::Png => rgb.pixels().map(|p| p.0.map(srgb_decode)).collect(),
             };
-            Ok(Image { width, height, pixels })
+            Ok((Image { width, height, pixels }, format))
         };
         load().with_context(|| format!("cannot load image {}", path.display()))
+    }
+
+    /// The first pixel `(x, y)`, row by row, with a NaN or infinite channel.
+    pub fn first_non_finite(&self) -> Option<(u32, u32)> {
+        let i = self.pixels.iter().position(|p| p.iter().any(|c| !c.is_finite()))?;
+        Some((i as u32 % self.width, i as u32 / self.width))
     }
 }
 

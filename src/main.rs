@@ -96,20 +96,21 @@ struct Settings {
     /// Next-event estimation: sample lights and combine with BSDF sampling by MIS.
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     nee: OnOff,
-    /// MIS heuristic for combining light and BSDF sampling.
-    #[arg(long, value_enum, default_value_t = Heuristic::Power)]
-    mis: Heuristic,
+    /// MIS heuristic for combining light and BSDF sampling (with NEE) [default: power].
+    #[arg(long, value_enum)]
+    mis: Option<Heuristic>,
     /// Learned guiding: off, octant (the seed's 8 octants) or sphere (finer bins, see --bins).
     #[arg(long, value_enum, default_value_t = GuidingArg::Off)]
     guiding: GuidingArg,
-    /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in phi).
-    #[arg(long, default_value = "8x16", value_parser = parse_bins)]
-    bins: Bins,
+    /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in
+    /// phi) [default: 8x16].
+    #[arg(long, value_parser = parse_bins)]
+    bins: Option<Bins>,
     /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF
     /// sampling): `learned` (each cell learns its own, starting at 0.5, within [0.1, 0.9]),
-    /// or a fixed number in [0, 1).
-    #[arg(long, default_value = "learned", value_parser = parse_fraction, allow_negative_numbers = true)]
-    guided_fraction: FractionArg,
+    /// or a fixed number in [0, 1) [default: learned].
+    #[arg(long, value_parser = parse_fraction, allow_negative_numbers = true)]
+    guided_fraction: Option<FractionArg>,
     /// Guided sampling at the first N vertices of each path (1: the camera ray's hit
     /// alone); deeper vertices sample the BSDF alone. Default: 2 with NEE, every
     /// vertex without (where only guided sampling aims at the lights).
@@ -118,9 +119,9 @@ struct Settings {
     /// Exponent W of the Q-learning rate 1/i^W for an entry's i-th target, in (0.5, 1]:
     /// 1 is Dahm & Keller's running mean; below 1 forgets the first targets, learned from
     /// a table that knew little, sooner, and converges to the same values (it did not pay
-    /// at equal time on the shipped scenes, see BENCHMARKS.md).
-    #[arg(long, value_name = "W", default_value_t = rlpt::guide::DEFAULT_RATE_EXPONENT, value_parser = parse_rate_exponent, allow_negative_numbers = true)]
-    learning_rate_exponent: f32,
+    /// at equal time on the shipped scenes, see BENCHMARKS.md) [default: 1].
+    #[arg(long, value_name = "W", value_parser = parse_rate_exponent, allow_negative_numbers = true)]
+    learning_rate_exponent: Option<f32>,
 }
 
 impl Settings {
@@ -138,14 +139,14 @@ impl Settings {
         }
         opts.seed = self.seed;
         opts.nee = self.nee == OnOff::On;
-        opts.power_heuristic = self.mis == Heuristic::Power;
+        opts.power_heuristic = self.mis.unwrap_or(Heuristic::Power) == Heuristic::Power;
         opts.guiding = match self.guiding {
             GuidingArg::Off => GuidingMode::Off,
             GuidingArg::Octant => GuidingMode::Octant,
             GuidingArg::Sphere => GuidingMode::Sphere,
         };
-        opts.bins = self.bins;
-        match self.guided_fraction {
+        opts.bins = self.bins.unwrap_or(Bins::SPHERE_DEFAULT);
+        match self.guided_fraction.unwrap_or(FractionArg::Learned) {
             FractionArg::Fixed(f) => {
                 opts.guided_fraction = f;
                 opts.learn_fraction = false;
@@ -153,8 +154,46 @@ impl Settings {
             FractionArg::Learned => opts.learn_fraction = true,
         }
         opts.guided_vertices = self.guided_vertices;
-        opts.learning_rate_exponent = self.learning_rate_exponent;
+        opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
         opts
+    }
+
+    /// The options given that the other settings leave without effect, as notes
+    /// for stderr: a flag that changes nothing should not pass without a word.
+    fn ignored(&self) -> Vec<String> {
+        let mut notes = Vec::new();
+        let guiding = match self.guiding {
+            GuidingArg::Off => "off",
+            GuidingArg::Octant => "octant",
+            GuidingArg::Sphere => "sphere",
+        };
+        if self.bins.is_some() && self.guiding != GuidingArg::Sphere {
+            notes.push(format!("--bins sets the bins of --guiding sphere; ignored with --guiding {guiding}"));
+        }
+        if self.guiding == GuidingArg::Off {
+            let given = [
+                ("--guided-fraction", self.guided_fraction.is_some()),
+                ("--guided-vertices", self.guided_vertices.is_some()),
+                ("--learning-rate-exponent", self.learning_rate_exponent.is_some()),
+            ];
+            for (flag, _) in given.iter().filter(|(_, g)| *g) {
+                notes.push(format!("{flag} is a setting of learned guiding; ignored with --guiding off"));
+            }
+        }
+        if self.mis.is_some() && self.nee == OnOff::Off {
+            notes.push("--mis weighs light sampling against BSDF sampling; ignored with --nee off".into());
+        }
+        if self.gpu.is_some() && self.device == DeviceKind::Cpu {
+            notes.push("--gpu picks a Vulkan device; ignored with --device cpu".into());
+        }
+        notes
+    }
+
+    /// Prints [`Settings::ignored`]'s notes.
+    fn note_ignored(&self) {
+        for n in self.ignored() {
+            eprintln!("note: {n}");
+        }
     }
 }
 
@@ -166,7 +205,7 @@ struct RenderArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Samples per pixel, rounded up to a multiple of 64 (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::prepared::MAX_SPP as i64))]
     spp: Option<u32>,
     #[command(flatten)]
     settings: Settings,
@@ -218,7 +257,7 @@ struct BenchArgs {
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: u32,
     /// Frames rendered first and not measured (warm-up: clocks, caches, and guiding's learning).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=100_000))]
     warmup: u32,
     #[command(flatten)]
     settings: Settings,
@@ -286,13 +325,13 @@ fn parse_fraction(s: &str) -> Result<FractionArg, String> {
         return Ok(FractionArg::Learned);
     }
     let v: f32 = s.parse().map_err(|_| format!("`{s}` is neither a number nor `learned`"))?;
-    rlpt::prepared::check_guided_fraction(v).map_err(|e| format!("{v}: expected {e}"))?;
+    rlpt::prepared::check_guided_fraction(v).map_err(|e| format!("`{s}`: expected {e}"))?;
     Ok(FractionArg::Fixed(v))
 }
 
 fn parse_rate_exponent(s: &str) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-    rlpt::guide::check_rate_exponent(v).map_err(|e| format!("{v}: expected {e}"))?;
+    rlpt::guide::check_rate_exponent(v).map_err(|e| format!("`{s}`: expected {e}"))?;
     Ok(v)
 }
 
@@ -317,36 +356,78 @@ fn main() {
     }
 }
 
-fn check_output(path: &Path) -> Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("png") | Some("exr")) {
-        bail!("output {}: the file name must end in .png or .exr", path.display());
+/// Refuses an output path before any work: the file name must end in one of
+/// `extensions` (where given), its directory must exist, and it must not be a
+/// directory itself; a long render is not lost to a path that cannot be written.
+fn check_output(flag: &str, path: &Path, extensions: Option<&[&str]>) -> Result<()> {
+    if let Some(exts) = extensions {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if !ext.as_deref().is_some_and(|e| exts.contains(&e)) {
+            let list = exts.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" or ");
+            bail!("{flag} {}: the file name must end in {list}", path.display());
+        }
     }
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         if !parent.is_dir() {
-            bail!("output {}: directory {} does not exist", path.display(), parent.display());
+            bail!("{flag} {}: directory {} does not exist", path.display(), parent.display());
+        }
+    }
+    if path.is_dir() {
+        bail!("{flag} {}: is a directory; give a file name", path.display());
+    }
+    Ok(())
+}
+
+/// Refuses two outputs of one command at the same path (one would overwrite
+/// the other): `outputs` are (flag, path) pairs, absent ones left out.
+fn check_distinct(outputs: &[(&str, &Path)]) -> Result<()> {
+    let key = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    for (i, (a, pa)) in outputs.iter().enumerate() {
+        for (b, pb) in &outputs[i + 1..] {
+            if key(pa) == key(pb) {
+                bail!("{a} and {b} both name {}: one would overwrite the other", pa.display());
+            }
         }
     }
     Ok(())
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    check_output(&args.output)?;
+    check_output("output", &args.output, Some(&["png", "exr"]))?;
     if let Some(stats) = &args.stats {
-        if let Some(parent) = stats.parent().filter(|p| !p.as_os_str().is_empty()) {
-            if !parent.is_dir() {
-                bail!("--stats {}: directory {} does not exist", stats.display(), parent.display());
-            }
-        }
+        check_output("--stats", stats, None)?;
     }
+    let mut outputs = vec![("--output", args.output.as_path())];
+    outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
+    outputs.extend(args.reference.as_deref().map(|p| ("--reference", p)));
+    check_distinct(&outputs)?;
     let scene = Scene::load(&args.scene)?;
+    args.settings.note_ignored();
+    if let Some(w) = rlpt::scene::no_light_warning(&scene) {
+        eprintln!("warning: {w}");
+    }
     let mut opts = args.settings.options(&scene);
     if let Some(s) = args.spp {
         opts.spp = s;
     }
     let reference = match &args.reference {
         Some(path) => {
-            let r = Image::load(path).with_context(|| format!("reading the reference {}", path.display()))?;
+            let (r, format) =
+                Image::load_format(path).with_context(|| format!("reading the reference {}", path.display()))?;
+            if format != rlpt::image::Format::Exr {
+                bail!(
+                    "reference {} is {}: relMSE is measured against a linear EXR (render one with -o REF.exr)",
+                    path.display(),
+                    format.describe()
+                );
+            }
+            if let Some((x, y)) = r.first_non_finite() {
+                bail!(
+                    "reference {} has a NaN or infinite value at pixel ({x}, {y}) (column, row from the top left): \
+                     every relMSE against it would be NaN",
+                    path.display()
+                );
+            }
             if (r.width, r.height) != (opts.width, opts.height) {
                 bail!(
                     "reference {} is {}x{} but the render is {}x{}: render the reference at the same size",
@@ -467,7 +548,15 @@ fn render(args: RenderArgs) -> Result<()> {
         None => renderer.film()?,
     };
     let elapsed = start.elapsed().as_secs_f64();
-    film.mean().save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    let image = film.mean();
+    image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    if image.pixels.iter().all(|p| *p == [0.0; 3]) && scene.emits_light() {
+        eprintln!(
+            "warning: every pixel of {} is black: the camera sees no light (is it inside a closed object, \
+             or facing away from every lit surface?)",
+            args.output.display()
+        );
+    }
     if let Some(path) = &args.stats {
         stats.save(path)?;
     }
@@ -518,8 +607,17 @@ fn file_name(p: &Path) -> String {
 }
 
 fn compare(image: &Path, reference: &Path) -> Result<()> {
-    let a = Image::load(image).with_context(|| format!("reading {}", image.display()))?;
-    let b = Image::load(reference).with_context(|| format!("reading {}", reference.display()))?;
+    let (a, fa) = Image::load_format(image).with_context(|| format!("reading {}", image.display()))?;
+    let (b, fb) = Image::load_format(reference).with_context(|| format!("reading {}", reference.display()))?;
+    if fa != fb {
+        bail!(
+            "{} is {} and {} is {}: compare two EXRs (linear; what rendering papers measure) or two PNGs",
+            image.display(),
+            fa.describe(),
+            reference.display(),
+            fb.describe()
+        );
+    }
     let e = metrics::compare(&a, &b)
         .map_err(|m| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display()))?;
     println!("relMSE {:.6e}  RMSE {:.6e}  MAPE {:.6e}", e.rel_mse, e.rmse, e.mape);
@@ -529,28 +627,25 @@ fn compare(image: &Path, reference: &Path) -> Result<()> {
 fn plot(stats: &[PathBuf], output: &Path) -> Result<()> {
     let runs = stats.iter().map(|p| RenderStats::load(p)).collect::<Result<Vec<_>>>()?;
     rlpt::plot::plot_convergence(&runs, output)?;
-    println!("wrote {}", output.display());
-    Ok(())
-}
-
-fn check_parent(flag: &str, path: &Path) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        if !parent.is_dir() {
-            bail!("{flag} {}: directory {} does not exist", path.display(), parent.display());
-        }
+    for n in rlpt::plot::plot_notes(&runs) {
+        eprintln!("note: {n}");
     }
+    println!("wrote {}", output.display());
     Ok(())
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
     if let Some(p) = &args.json {
-        check_parent("--json", p)?;
+        check_output("--json", p, None)?;
     }
     if let Some(p) = &args.trace {
         if args.settings.device == DeviceKind::Cpu {
             bail!("--trace needs GPU timestamps: it is not available with --device cpu");
         }
-        check_parent("--trace", p)?;
+        check_output("--trace", p, None)?;
+    }
+    if let (Some(json), Some(trace)) = (&args.json, &args.trace) {
+        check_distinct(&[("--json", json), ("--trace", trace)])?;
     }
     if !args.ablate.is_empty() && (args.settings.guiding == GuidingArg::Off || args.settings.device == DeviceKind::Cpu)
     {
@@ -560,6 +655,10 @@ fn bench(args: BenchArgs) -> Result<()> {
         bail!("--frames 0: bench needs at least one measured frame");
     }
     let scene = Scene::load(&args.scene)?;
+    args.settings.note_ignored();
+    if let Some(w) = rlpt::scene::no_light_warning(&scene) {
+        eprintln!("warning: {w}");
+    }
     let opts = args.settings.options(&scene);
     let prepared = PreparedScene::new(&scene, &opts)?;
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
@@ -645,6 +744,10 @@ fn view(args: ViewArgs) -> Result<()> {
         bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
     }
     let scene = Scene::load(&args.scene)?;
+    args.settings.note_ignored();
+    if let Some(w) = rlpt::scene::no_light_warning(&scene) {
+        eprintln!("warning: {w}");
+    }
     let render = args.settings.options(&scene);
     rlpt::viewer::run(rlpt::viewer::ViewOptions {
         scene_path: args.scene,

@@ -13,13 +13,22 @@ pub struct Errors {
     pub mape: f64,
 }
 
-/// Compares two images of the same size; `Err` names the sizes when they differ.
+/// Compares two images of the same size. `Err` names the sizes when they
+/// differ, and the first pixel that is NaN or infinite in either image (every
+/// metric would be NaN or infinite, which reads like a measurement).
 pub fn compare(image: &Image, reference: &Image) -> Result<Errors, String> {
     if (image.width, image.height) != (reference.width, reference.height) {
         return Err(format!(
             "image is {}x{} but the reference is {}x{}",
             image.width, image.height, reference.width, reference.height
         ));
+    }
+    for (which, img) in [("image", image), ("reference", reference)] {
+        if let Some((x, y)) = img.first_non_finite() {
+            return Err(format!(
+                "the {which} has a NaN or infinite value at pixel ({x}, {y}) (column, row from the top left)"
+            ));
+        }
     }
     let (mut rel, mut se, mut ape) = (0.0f64, 0.0f64, 0.0f64);
     for (a, b) in image.pixels.iter().zip(&reference.pixels) {

@@ -200,6 +200,36 @@ fn curve_points(run: &RenderStats) -> anyhow::Result<Vec<(f64, f64)>> {
     Ok(points)
 }
 
+/// What a plot of `runs` leaves out or mixes, as notes for stderr: each run's
+/// recorded points that log axes cannot show (a time or relMSE at or below 0,
+/// such as a first frame that matches its own reference exactly), and runs of
+/// different scenes or sizes, whose relMSE do not compare.
+pub fn plot_notes(runs: &[RenderStats]) -> Vec<String> {
+    let mut notes = Vec::new();
+    for run in runs {
+        let recorded = run.frames.iter().filter(|f| f.rel_mse.is_some()).count();
+        let shown = curve_points(run).map_or(0, |p| p.len());
+        if shown > 0 && shown < recorded {
+            notes.push(format!(
+                "run '{}': {} of its {recorded} relMSE points have a time or relMSE at or below 0 and are not \
+                 on the log axes",
+                run.label,
+                recorded - shown
+            ));
+        }
+    }
+    if let Some(first) = runs.first() {
+        if runs.iter().any(|r| r.scene != first.scene || (r.width, r.height) != (first.width, first.height)) {
+            let list: Vec<String> = runs.iter().map(|r| format!("{} {}x{}", r.scene, r.width, r.height)).collect();
+            notes.push(format!(
+                "the runs are of different scenes or sizes ({}): their relMSE do not compare",
+                list.join(", ")
+            ));
+        }
+    }
+    notes
+}
+
 /// "relMSE against time", with the scene and resolution when all runs share them.
 fn title_text(runs: &[RenderStats]) -> String {
     let first = &runs[0];

@@ -214,6 +214,10 @@ pub const DEFAULT_GUIDED_VERTICES_NEE: u32 = 2;
 
 /// Largest image width or height, in pixels, a scene or an option may ask for.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest samples per pixel a render may ask for: the most whole frames of
+/// `SAMPLES_PER_FRAME` whose samples a u32 counts (renders round `spp` up to whole
+/// frames; u32::MAX itself would round past it).
+pub const MAX_SPP: u32 = u32::MAX / shared::SAMPLES_PER_FRAME * shared::SAMPLES_PER_FRAME;
 /// Largest `max_bounces`: a path's ray count shares a 32-bit register with its
 /// depth in kernels with roulette (`glsl/pathtrace.comp` `depth_rays`), 16 bits
 /// each, and a path of 1024 bounces traces at most 2050 rays.
@@ -316,7 +320,7 @@ impl RenderOptions {
     }
 
     /// The first option whose value the renderers cannot honour, if any: an
-    /// image side outside 1..=[`MAX_IMAGE_SIDE`], no samples, more than
+    /// image side outside 1..=[`MAX_IMAGE_SIDE`], samples outside 1..=[`MAX_SPP`], more than
     /// [`MAX_BOUNCES`] bounces, bins outside [`Bins::check`]'s limits, a guided
     /// fraction outside [0, 1), an exploration floor that is negative or not
     /// finite, a learning-rate exponent outside (1/2, 1], or guided sampling at
@@ -329,8 +333,8 @@ impl RenderOptions {
                 return err(option, v.to_string(), format!("image sides are 1 to {MAX_IMAGE_SIDE} pixels"));
             }
         }
-        if self.spp == 0 {
-            return err("spp", "0".into(), "at least 1 sample per pixel".into());
+        if !(1..=MAX_SPP).contains(&self.spp) {
+            return err("spp", self.spp.to_string(), format!("1 to {MAX_SPP} samples per pixel"));
         }
         if self.max_bounces > MAX_BOUNCES {
             return err("max_bounces", self.max_bounces.to_string(), format!("at most {MAX_BOUNCES} bounces"));
@@ -444,9 +448,12 @@ impl PreparedScene {
             .collect();
         let emits = |mat: u32| scene.materials[mat as usize].emission.max_element() > 0.0;
         // Lights are chosen in proportion to emitted power: area x mean emission (x2 if two-sided).
-        let power = |mat: u32, area: f32| {
+        // In f64: a large lamp's power overflows f32 (1e12 radiance over 1e24 of
+        // area), and the probabilities are all that leaves here.
+        let power = |mat: u32, area: f64| {
             let m = &scene.materials[mat as usize];
-            area * (m.emission.x + m.emission.y + m.emission.z) / 3.0 * if m.two_sided { 2.0 } else { 1.0 }
+            let mean = (m.emission.x as f64 + m.emission.y as f64 + m.emission.z as f64) / 3.0;
+            area * mean * if m.two_sided { 2.0 } else { 1.0 }
         };
         let mut lights = Vec::new();
         let mut powers = Vec::new();
@@ -459,7 +466,7 @@ impl PreparedScene {
                 if emits(s.material) {
                     light = lights.len() as u32;
                     lights.push(GpuLight { kind: shared::LIGHT_SPHERE, index: i as u32, pmf: 0.0, cdf: 0.0 });
-                    powers.push(power(s.material, 4.0 * std::f32::consts::PI * s.radius * s.radius));
+                    powers.push(power(s.material, 4.0 * std::f64::consts::PI * (s.radius as f64).powi(2)));
                 }
                 GpuSphere::new(s.center, s.radius, s.material, light)
             })
@@ -477,7 +484,7 @@ impl PreparedScene {
                 if emits(q.material) {
                     light = lights.len() as u32;
                     lights.push(GpuLight { kind: shared::LIGHT_QUAD, index: i as u32, pmf: 0.0, cdf: 0.0 });
-                    powers.push(power(q.material, area));
+                    powers.push(power(q.material, q.edge_u.as_dvec3().cross(q.edge_v.as_dvec3()).length()));
                 }
                 GpuQuad {
                     origin: v4(q.origin, area),
@@ -500,10 +507,10 @@ impl PreparedScene {
                 lights[q.light as usize].index = j as u32;
             }
         }
-        let total: f64 = powers.iter().map(|&p| p as f64).sum();
+        let total: f64 = powers.iter().sum();
         let mut cdf = 0.0f64;
         for (l, p) in lights.iter_mut().zip(&powers) {
-            let pmf = *p as f64 / total;
+            let pmf = p / total;
             cdf += pmf;
             l.pmf = pmf as f32;
             l.cdf = cdf as f32;
@@ -676,7 +683,7 @@ mod tests {
         assert!(PreparedScene::new(&s, &good).is_ok());
         // The edges that are allowed.
         for ok in [
-            RenderOptions { width: 1, height: MAX_IMAGE_SIDE, max_bounces: MAX_BOUNCES, ..good.clone() },
+            RenderOptions { width: 1, height: MAX_IMAGE_SIDE, max_bounces: MAX_BOUNCES, spp: MAX_SPP, ..good.clone() },
             RenderOptions { bins: Bins { rows: 32, cols: 32 }, guided_fraction: 0.0, guide_floor: 0.0, ..good.clone() },
             RenderOptions { learning_rate_exponent: 0.500001, guided_vertices: Some(1), ..good.clone() },
         ] {
@@ -686,6 +693,7 @@ mod tests {
             (RenderOptions { width: 0, ..good.clone() }, "width"),
             (RenderOptions { height: MAX_IMAGE_SIDE + 1, ..good.clone() }, "height"),
             (RenderOptions { spp: 0, ..good.clone() }, "spp"),
+            (RenderOptions { spp: MAX_SPP + 1, ..good.clone() }, "spp"),
             (RenderOptions { max_bounces: MAX_BOUNCES + 1, ..good.clone() }, "max_bounces"),
             (RenderOptions { bins: Bins { rows: 0, cols: 16 }, ..good.clone() }, "bins"),
             (RenderOptions { bins: Bins { rows: 65536, cols: 65536 }, ..good.clone() }, "bins"),

@@ -269,3 +269,183 @@ fn bins_are_rows_by_columns_within_the_limit() {
         assert!(stderr.contains("--bins") && stderr.contains(says), "{arg}: {stderr}");
     }
 }
+
+/// Runs `rlpt ARGS` and returns (success, stderr).
+fn run(args: &[&str]) -> (bool, String) {
+    let o = rlpt().args(args).output().unwrap();
+    (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+#[test]
+fn sample_and_frame_counts_beyond_32_bits_are_refused_not_overflowed() {
+    // u32::MAX samples rounded up to whole frames of 64 overflowed: a panic.
+    let (ok, err) = run(&["render", "scenes/smallpt.toml", "-o", "x.png", "--spp", "4294967233"]);
+    assert!(!ok && !err.contains("panicked") && err.contains("--spp") && err.contains("4294967232"), "{err}");
+    // A warm-up of u32::MAX frames plus the measured ones overflowed too (and
+    // without a bound, a large one ran for hours).
+    let (ok, err) = run(&["bench", "scenes/smallpt.toml", "--frames", "1", "--warmup", "4294967295"]);
+    assert!(!ok && !err.contains("panicked") && err.contains("--warmup") && err.contains("100000"), "{err}");
+}
+
+#[test]
+fn outputs_are_checked_before_rendering_and_never_share_a_path() {
+    let out = tmp("same.exr");
+    let same = out.to_str().unwrap();
+    let (ok, err) = run(&["render", "scenes/smallpt.toml", "-o", same, "--stats", same]);
+    assert!(!ok && err.contains("--output and --stats both name"), "{err}");
+    let (ok, err) = run(&["bench", "scenes/smallpt.toml", "--json", same, "--trace", same]);
+    assert!(!ok && err.contains("--json and --trace both name"), "{err}");
+    // A directory where a file is wanted: refused up front, before the render.
+    let dir = tmp("a-directory.png");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (ok, err) = run(&["render", "scenes/smallpt.toml", "--spp", "100000000", "-o", dir.to_str().unwrap()]);
+    assert!(!ok && err.contains("is a directory"), "{err}");
+    let (ok, err) = run(&["bench", "scenes/smallpt.toml", "--json", dir.to_str().unwrap()]);
+    assert!(!ok && err.contains("--json") && err.contains("is a directory"), "{err}");
+}
+
+#[test]
+fn options_that_change_nothing_are_named() {
+    let out = tmp("ignored.exr");
+    let o = out.to_str().unwrap();
+    let base = ["render", "scenes/furnace-open.toml", "--width", "8", "--height", "8", "--spp", "64"];
+    let with = |extra: &[&str]| {
+        let args: Vec<&str> = base.iter().chain(["--device", "cpu", "-o", o].iter()).chain(extra).copied().collect();
+        run(&args)
+    };
+    let (ok, err) = with(&["--bins", "4x4", "--guiding", "octant"]);
+    assert!(
+        ok && err.contains("note: --bins sets the bins of --guiding sphere; ignored with --guiding octant"),
+        "{err}"
+    );
+    let (ok, err) = with(&["--guided-fraction", "0.3", "--learning-rate-exponent", "0.8"]);
+    assert!(ok && err.contains("note: --guided-fraction is a setting of learned guiding"), "{err}");
+    assert!(err.contains("note: --learning-rate-exponent is a setting of learned guiding"), "{err}");
+    let (ok, err) = with(&["--mis", "balance", "--nee", "off", "--gpu", "7"]);
+    assert!(ok && err.contains("note: --mis") && err.contains("note: --gpu"), "{err}");
+    // Given where they apply, or not given: no note.
+    let (ok, err) = with(&["--bins", "4x4", "--guiding", "sphere", "--mis", "balance"]);
+    assert!(ok && !err.contains("note:"), "{err}");
+}
+
+#[test]
+fn scenes_and_cameras_that_cannot_show_light_are_warned_about() {
+    let write = |name: &str, text: &str| {
+        let p = tmp(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let camera = "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nvfov = 45\n";
+    let materials = "[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                     [[material]]\nname = \"lamp\"\ntype = \"emissive\"\nemission = [1, 1, 1]\n";
+    // Nothing emits: the loader cannot call it wrong, but the user hears of it.
+    let dark = write("dark.toml", &format!("{camera}[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\nmaterial = \"white\"\n"));
+    // A lamp outside a closed ball that holds the camera: every pixel black.
+    let inside = write(
+        "inside.toml",
+        &format!("{camera}{materials}[[sphere]]\ncenter = [0, 0, 0]\nradius = 2\nmaterial = \"white\"\n[[sphere]]\ncenter = [0, 10, 0]\nradius = 1\nmaterial = \"lamp\"\n"),
+    );
+    // The same lamp seen: no warning.
+    let lit = write(
+        "lit.toml",
+        &format!("{camera}{materials}[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\nmaterial = \"lamp\"\n"),
+    );
+    let out = tmp("warned.png");
+    let render = |scene: &std::path::Path| {
+        run(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "64",
+            "--device",
+            "cpu",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
+    let (ok, err) = render(&dark);
+    assert!(ok && err.contains("no sphere or quad emits light and the environment is black"), "{err}");
+    let (ok, err) = render(&inside);
+    assert!(ok && err.contains("every pixel of") && err.contains("is black"), "{err}");
+    assert!(!err.contains("no sphere or quad emits"), "{err}");
+    let (ok, err) = render(&lit);
+    assert!(ok && !err.contains("warning"), "{err}");
+}
+
+#[test]
+fn images_are_compared_like_with_like_and_only_when_finite() {
+    use rlpt::image::Image;
+    let mut a = Image::new(4, 3);
+    a.pixels.iter_mut().for_each(|p| *p = [0.5, 0.25, 1.0]);
+    let (exr, png) = (tmp("a.exr"), tmp("a.png"));
+    a.save(&exr).unwrap();
+    a.save(&png).unwrap();
+    let mut nan = a.clone();
+    nan.pixels[2 * 4 + 1] = [0.5, f32::NAN, 1.0];
+    let nan_path = tmp("nan.exr");
+    nan.save(&nan_path).unwrap();
+    let p = |x: &std::path::PathBuf| x.to_str().unwrap().to_owned();
+
+    let (ok, out) = run(&["compare", &p(&exr), &p(&exr)]);
+    assert!(ok, "{out}");
+    // Linear against 8-bit sRGB measured the clamping and the rounding, not the render.
+    let (ok, err) = run(&["compare", &p(&exr), &p(&png)]);
+    assert!(!ok && err.contains("is an EXR (linear float)") && err.contains("is a PNG"), "{err}");
+    // relMSE NaN read like a measurement.
+    let (ok, err) = run(&["compare", &p(&nan_path), &p(&exr)]);
+    assert!(!ok && err.contains("the image has a NaN or infinite value at pixel (1, 2)"), "{err}");
+    let (ok, err) = run(&["compare", &p(&exr), &p(&nan_path)]);
+    assert!(!ok && err.contains("the reference has a NaN or infinite value at pixel (1, 2)"), "{err}");
+
+    let render = |reference: &str| {
+        run(&[
+            "render",
+            "scenes/furnace-open.toml",
+            "--width",
+            "4",
+            "--height",
+            "3",
+            "--spp",
+            "64",
+            "--device",
+            "cpu",
+            "-o",
+            &p(&tmp("r.exr")),
+            "--reference",
+            reference,
+        ])
+    };
+    let (ok, err) = render(&p(&png));
+    assert!(!ok && err.contains("is a PNG") && err.contains("linear EXR"), "{err}");
+    let (ok, err) = render(&p(&nan_path));
+    assert!(!ok && err.contains("NaN or infinite value at pixel (1, 2)"), "{err}");
+}
+
+#[test]
+fn plot_says_what_it_cannot_draw() {
+    // A bench report is not render statistics.
+    let bench_json = tmp("bench.json");
+    let (ok, err) = run(&[
+        "bench",
+        "scenes/furnace-open.toml",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--device",
+        "cpu",
+        "--json",
+        bench_json.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let (ok, err) = run(&["plot", bench_json.to_str().unwrap(), "-o", tmp("p.png").to_str().unwrap()]);
+    assert!(!ok && err.contains("is a `rlpt bench --json` report, not render statistics"), "{err}");
+}

@@ -421,7 +421,20 @@ fn vfov_negative() {
 #[test]
 fn near_negative() {
     let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = 45\nnear = -1.0\n");
-    expect(&text, "5:8", &["key `near` must be a number >= 0", "found -1.0"]);
+    expect(&text, "5:8", &["key `near` must be a number from 0 to 1e12", "found -1.0"]);
+}
+
+#[test]
+fn near_beyond_the_scene_scale() {
+    // It clipped every ray: a black image without a word.
+    let text = with_camera("[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = 45\nnear = 1e30\n");
+    expect(&text, "5:8", &["key `near` must be a number from 0 to 1e12", "found 1e30"]);
+}
+
+#[test]
+fn position_beyond_the_scene_scale() {
+    let text = with_camera("[camera]\nposition = [0, 2e12, 5]\nlook_at = [0, 0, 0]\n");
+    expect(&text, "2:16", &["key `position` must have every component within +-1e12", "found 2e12 (component 2)"]);
 }
 
 fn sphere_with_radius(radius: &str) -> String {
@@ -504,7 +517,14 @@ fn dielectric_albedo_above_one() {
 #[test]
 fn emission_negative() {
     let text = with_material("[[material]]\nname = \"white\"\ntype = \"emissive\"\nemission = [1, -1, 1]\n");
-    expect(&text, "8:16", &["key `emission` must have every component >= 0", "found -1 (component 2)"]);
+    expect(&text, "8:16", &["key `emission` must have every component from 0 to 1e12", "found -1 (component 2)"]);
+}
+
+#[test]
+fn emission_beyond_f32_sums() {
+    // 1e35 fitted an f32, but the lamp's power overflowed and the image came out black.
+    let text = with_material("[[material]]\nname = \"white\"\ntype = \"emissive\"\nemission = [1e35, 1, 1]\n");
+    expect(&text, "8:13", &["key `emission` must have every component from 0 to 1e12", "found 1e35 (component 1)"]);
 }
 
 #[test]
@@ -512,13 +532,20 @@ fn emission_negative_on_diffuse() {
     let text = with_material(
         "[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\nemission = [0, 0, -0.5]\n",
     );
-    expect(&text, "9:19", &["key `emission` must have every component >= 0"]);
+    expect(&text, "9:19", &["key `emission` must have every component from 0 to 1e12"]);
 }
 
 #[test]
 fn environment_radiance_negative() {
     let text = with_render("[environment]\nradiance = [-1, 0, 0]\n");
-    expect(&text, "2:13", &["[environment]: key `radiance` must have every component >= 0"]);
+    expect(&text, "2:13", &["[environment]: key `radiance` must have every component from 0 to 1e12"]);
+}
+
+#[test]
+fn environment_radiance_beyond_f32_sums() {
+    // 3e38 gave an image of infinities.
+    let text = with_render("[environment]\nradiance = [3e38, 3e38, 3e38]\n");
+    expect(&text, "2:13", &["[environment]: key `radiance` must have every component from 0 to 1e12", "found 3e38"]);
 }
 
 #[test]
@@ -541,7 +568,13 @@ fn height_absurd() {
 
 #[test]
 fn spp_zero() {
-    expect(&with_render("[render]\nspp = 0\n"), "2:7", &["key `spp` must be an integer >= 1"]);
+    expect(&with_render("[render]\nspp = 0\n"), "2:7", &["key `spp` must be an integer from 1 to 4294967232"]);
+}
+
+#[test]
+fn spp_beyond_whole_frames() {
+    // Rounded up to whole frames of 64, u32::MAX samples overflowed (a panic).
+    expect(&with_render("[render]\nspp = 4294967295\n"), "2:7", &["from 1 to 4294967232", "found 4294967295"]);
 }
 
 #[test]
@@ -567,7 +600,7 @@ fn integer_too_large_for_i64() {
     expect(
         &with_render("[render]\nspp = 99999999999999999999\n"),
         "2:7",
-        &["key `spp` must be an integer >= 1", "found 99999999999999999999"],
+        &["key `spp` must be an integer from 1 to 4294967232", "found 99999999999999999999"],
     );
 }
 
@@ -608,8 +641,14 @@ fn float_overflowing_f32() {
 }
 
 #[test]
-fn radius_whose_square_overflows_f32() {
-    expect(&sphere_with_radius("1e20"), "11:10", &["key `radius`", "32-bit float", "found 1e20"]);
+fn radius_beyond_the_scene_scale() {
+    // 5e18 fitted, but an emissive sphere that size rendered the closed furnace at 0.5, not 1.
+    expect(&sphere_with_radius("5e18"), "11:10", &["key `radius` must be a number > 0, at most 1e12", "found 5e18"]);
+}
+
+#[test]
+fn radius_whose_square_underflows_f32() {
+    expect(&sphere_with_radius("1e-25"), "11:10", &["key `radius`", "32-bit float", "found 1e-25"]);
 }
 
 // ---------------------------------------------------------------------------
@@ -788,13 +827,9 @@ fn guiding_bounds_equal_in_f32() {
 }
 
 #[test]
-fn guiding_box_extent_overflowing_f32() {
+fn guiding_box_beyond_the_scene_scale() {
     let text = with_render("[guiding]\nbounds_min = [-3e38, 0, 0]\nbounds_max = [3e38, 1, 1]\n");
-    expect(
-        &text,
-        "3:15",
-        &["[guiding]: the guiding box's extent on the x axis", "3e38 - (-3e38)", "does not fit a 32-bit float"],
-    );
+    expect(&text, "2:15", &["[guiding]: key `bounds_min` must have every component within +-1e12", "found -3e38"]);
 }
 
 #[test]
@@ -941,6 +976,19 @@ fn missing_file_names_the_path() {
     assert!(matches!(error, SceneError::Io { .. }));
     let message = error.to_string();
     assert!(message.starts_with("scenes/does-not-exist.toml: cannot read the scene file"), "{message}");
+}
+
+#[test]
+fn binary_file_says_what_a_scene_is() {
+    // An EXR given where the scene goes: the reader's "not valid UTF-8" alone
+    // does not tell the user what was expected.
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("scene_errors");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("image.exr");
+    std::fs::write(&path, [0x76, 0x2f, 0x31, 0x01, 0xff, 0xfe, 0x00, 0x80]).unwrap();
+    let message = Scene::load(&path).unwrap_err().to_string();
+    assert!(message.starts_with(&format!("{}: cannot read the scene file", path.display())), "{message}");
+    assert!(message.contains("a scene is a TOML text file"), "{message}");
 }
 
 #[test]

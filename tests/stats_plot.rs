@@ -150,3 +150,25 @@ fn non_png_output_is_refused() {
     // The extension is not case-sensitive.
     plot_convergence(&runs, &dir.join("convergence.PNG")).unwrap();
 }
+
+#[test]
+fn plot_notes_name_dropped_points_and_mixed_runs() {
+    let a = synthetic_run("a", 0.02, 10.0, 6);
+    assert!(rlpt::plot::plot_notes(std::slice::from_ref(&a)).is_empty());
+    // A first frame that matches its own reference exactly: relMSE 0, off the log axis.
+    let mut exact = a.clone();
+    exact.frames[0].rel_mse = Some(0.0);
+    exact.frames[1].elapsed_ms = 0.0;
+    let notes = rlpt::plot::plot_notes(&[exact]);
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].contains("run 'a': 2 of its 6 relMSE points"), "{notes:?}");
+    // Two scenes, or two sizes, on one plot.
+    let mut other = synthetic_run("b", 0.02, 10.0, 6);
+    other.scene = "scenes/seed-exp1.toml".into();
+    let notes = rlpt::plot::plot_notes(&[a.clone(), other]);
+    assert!(notes.len() == 1 && notes[0].contains("different scenes or sizes"), "{notes:?}");
+    let mut smaller = synthetic_run("c", 0.02, 10.0, 6);
+    smaller.width = 320;
+    let notes = rlpt::plot::plot_notes(&[a, smaller]);
+    assert!(notes.len() == 1 && notes[0].contains("scenes/door.toml 320x480"), "{notes:?}");
+}

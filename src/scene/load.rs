@@ -57,7 +57,15 @@ fn location(file: &str, position: Option<(usize, usize)>) -> String {
 
 /// Reads and validates the scene file at `path`.
 pub(super) fn load_file(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|error| SceneError::Io { path: path.to_path_buf(), error })?;
+    let text = std::fs::read_to_string(path).map_err(|error| {
+        // An image or other binary file given as the scene: say what a scene is.
+        let error = if error.kind() == std::io::ErrorKind::InvalidData {
+            std::io::Error::new(error.kind(), format!("{error}: a scene is a TOML text file (SCENE_FORMAT.md)"))
+        } else {
+            error
+        };
+        SceneError::Io { path: path.to_path_buf(), error }
+    })?;
     let mut scene = parse_named(&text, &path.display().to_string())?;
     scene.source = path.to_path_buf();
     Ok(scene)
@@ -75,6 +83,14 @@ pub(super) fn parse_str(text: &str, name: &str) -> Result<Scene, SceneError> {
 const MAX_IMAGE_SIDE: i64 = crate::prepared::MAX_IMAGE_SIDE as i64;
 /// Largest accepted `max_bounces`.
 const MAX_BOUNCES: i64 = crate::prepared::MAX_BOUNCES as i64;
+/// Largest magnitude of a coordinate, an edge component or a radius. The
+/// renderers work in f32: squared distances, areas and light densities of a
+/// scene this size stay far inside its range (about 3.4e38), where at 1e19 they
+/// overflow and light sampling fails without a word.
+const MAX_MAGNITUDE: f64 = 1e12;
+/// Largest component of an emission or of the environment's radiance: with the
+/// sums of many frames of samples, larger values overflow f32 to infinity.
+const MAX_RADIANCE: f64 = 1e12;
 /// Two directions whose angle has a sine below this count as parallel
 /// (camera `up` against the view direction, quad edges against each other).
 const PARALLEL_SINE: f64 = 1e-6;
@@ -326,9 +342,9 @@ impl<'s, 'i> Table<'s, '_, 'i> {
         Ok(out)
     }
 
-    /// Any finite vector.
+    /// A vector of components within +-[`MAX_MAGNITUDE`].
     fn point(&self, key: &str, value: &Value<'_>) -> Result<[f64; 3], SceneError> {
-        self.vec3(key, value, |_| true, "")
+        self.vec3(key, value, |x| x.abs() <= MAX_MAGNITUDE, "within +-1e12")
     }
 
     /// An integer in `min..=max`; floats are refused.
@@ -628,7 +644,7 @@ fn parse_camera(t: &Table<'_, '_, '_>) -> Result<Camera, SceneError> {
     )?;
     let near = match t.get("near") {
         None => 0.0,
-        Some(v) => t.ranged("near", v, |x| x >= 0.0, "a number >= 0")?,
+        Some(v) => t.ranged("near", v, |x| (0.0..=MAX_MAGNITUDE).contains(&x), "a number from 0 to 1e12")?,
     };
 
     Ok(Camera {
@@ -651,7 +667,7 @@ fn parse_render(t: &Table<'_, '_, '_>) -> Result<RenderSettings, SceneError> {
         r.height = t.integer("height", v, 1, MAX_IMAGE_SIDE, "image height in pixels")?;
     }
     if let Some(v) = t.get("spp") {
-        r.spp = t.integer("spp", v, 1, max_u32, "samples per pixel")?;
+        r.spp = t.integer("spp", v, 1, crate::prepared::MAX_SPP as i64, "samples per pixel")?;
     }
     if let Some(v) = t.get("max_bounces") {
         r.max_bounces = t.integer("max_bounces", v, 0, MAX_BOUNCES, "scattering events per path")?;
@@ -672,7 +688,7 @@ fn parse_environment(t: &Table<'_, '_, '_>) -> Result<Vec3, SceneError> {
     t.check_keys(ENVIRONMENT_KEYS, "")?;
     match t.get("radiance") {
         None => Ok(Vec3::ZERO),
-        Some(v) => Ok(to_vec3(t.vec3("radiance", v, |x| x >= 0.0, ">= 0")?)),
+        Some(v) => Ok(to_vec3(t.vec3("radiance", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?)),
     }
 }
 
@@ -718,15 +734,6 @@ fn parse_guiding(t: &Table<'_, '_, '_>) -> Result<GuidingSettings, SceneError> {
                         format!(
                             "key `bounds_max` must be greater than `bounds_min` on every axis, \
                              found {max_text} <= {min_text}{note} on the {name} axis"
-                        ),
-                    ));
-                }
-                if !(max[axis] - min[axis]).is_finite() {
-                    return Err(t.error_at(
-                        span,
-                        format!(
-                            "the guiding box's extent on the {name} axis, {max_text} - ({min_text}), \
-                             does not fit a 32-bit float; give a smaller box"
                         ),
                     ));
                 }
@@ -816,7 +823,7 @@ fn parse_material(
     };
     let emission = match t.get("emission") {
         None => None,
-        Some(v) => Some(to_vec3(t.vec3("emission", v, |x| x >= 0.0, ">= 0")?)),
+        Some(v) => Some(to_vec3(t.vec3("emission", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?)),
     };
     let mut material = Material {
         name: name.to_string(),
@@ -883,13 +890,13 @@ fn parse_sphere(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<Sphere,
     t.check_keys(SPHERE_KEYS, "")?;
     let center = t.point("center", t.required("center", "an array [x, y, z]")?)?;
     let radius_value = t.required("radius", "a number > 0")?;
-    let radius = t.ranged("radius", radius_value, |x| x > 0.0, "a number > 0")?;
-    if !(radius * radius).is_finite() || radius * radius == 0.0 {
+    let radius = t.ranged("radius", radius_value, |x| x > 0.0 && x <= MAX_MAGNITUDE, "a number > 0, at most 1e12")?;
+    if radius * radius == 0.0 {
         return Err(t.error_at(
             radius_value.span(),
             format!(
-                "key `radius` must be a number > 0 whose square fits a 32-bit float \
-                 (about 1e-19 to 1e19), found {}",
+                "key `radius` must be a number > 0 whose square is not 0 in a 32-bit float \
+                 (at least about 1e-22), found {}",
                 t.src.snippet(radius_value.span())
             ),
         ));

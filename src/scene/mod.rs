@@ -128,4 +128,24 @@ impl Scene {
     pub fn parse(text: &str, name: &str) -> Result<Scene, SceneError> {
         load::parse_str(text, name)
     }
+
+    /// Whether anything gives light: a sphere or quad whose material emits, or
+    /// the environment. A scene without renders black, which a loader cannot
+    /// call wrong (a test may want it) but a user should hear about.
+    pub fn emits_light(&self) -> bool {
+        let emits = |m: u32| self.materials[m as usize].emission.max_element() > 0.0;
+        self.environment.max_element() > 0.0
+            || self.spheres.iter().any(|s| emits(s.material))
+            || self.quads.iter().any(|q| emits(q.material))
+    }
+}
+
+/// A warning for stderr where nothing in `scene` gives light, else None.
+pub fn no_light_warning(scene: &Scene) -> Option<String> {
+    (!scene.emits_light()).then(|| {
+        format!(
+            "{}: no sphere or quad emits light and the environment is black: the image will be black",
+            scene.source.display()
+        )
+    })
 }
