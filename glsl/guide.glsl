@@ -42,14 +42,41 @@ const uint GUIDE_ENTRIES = GUIDE_RES_X * GUIDE_RES_Y * GUIDE_RES_Z * GUIDE_BINS;
 
 float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
 
+// src/guide/mod.rs `Bins::column`: the sector of atan2(y, x) in [0, 2 pi), found
+// without the arctangent where the columns are a multiple of 4: (x, y) turned
+// back by whole quarter turns into the first quadrant, the sector within it
+// counted by the sides of its inner edges. With the table's shape specialized
+// the edges' sines and cosines are constants.
+uint bin_column(float x, float y) {
+    uint cols = GUIDE_COLS;
+    if (cols % 4u != 0u) {
+        float phi = atan(y, x);
+        if (phi < 0.0) phi += 2.0 * PI;
+        return min(uint(phi * (0.5 / PI) * float(cols)), cols - 1u);
+    }
+    uint per_quadrant = cols / 4u;
+    uint q;
+    float u, v;
+    if (y >= 0.0) {
+        if (x > 0.0) { q = 0u; u = x; v = y; } else { q = 1u; u = y; v = -x; }
+    } else {
+        if (x <= 0.0) { q = 2u; u = -x; v = -y; } else { q = 3u; u = -y; v = x; }
+    }
+    if (u <= 0.0) return v > 0.0 ? (q + 1u) * per_quadrant : 0u;
+    float step = 0.5 * PI / float(per_quadrant);
+    uint inside = 0u;
+    for (uint j = 1u; j < per_quadrant; ++j) {
+        float t = float(j) * step;
+        if (v * cos(t) - u * sin(t) >= 0.0) inside += 1u;
+    }
+    return q * per_quadrant + inside;
+}
+
 uint bin_index(vec3 d) {
     uint rows = GUIDE_ROWS;
     uint cols = GUIDE_COLS;
     uint row = min(uint((1.0 - d.z) * 0.5 * float(rows)), rows - 1u);
-    float phi = atan(d.y, d.x);
-    if (phi < 0.0) phi += 2.0 * PI;
-    uint col = min(uint(phi * (0.5 / PI) * float(cols)), cols - 1u);
-    return row * cols + col;
+    return row * cols + bin_column(d.x, d.y);
 }
 
 vec3 bin_sample(uint b, vec2 u) {

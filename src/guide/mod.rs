@@ -99,12 +99,48 @@ impl Bins {
     /// The bin of a unit direction; `glsl/guide.glsl` `bin_index`.
     pub fn index(&self, d: Vec3) -> u32 {
         let row = (((1.0 - d.z) * 0.5 * self.rows as f32) as u32).min(self.rows - 1);
-        let mut phi = d.y.atan2(d.x);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
+        row * self.cols + self.column(d.x, d.y)
+    }
+
+    /// The column of the azimuth phi = atan2(y, x) in [0, 2 pi): the sector
+    /// `floor(phi cols / 2 pi)`. Where `cols` is a multiple of 4 (the octant's 4,
+    /// the default 16), without the arctangent: (x, y) is turned back by whole
+    /// quarter turns into the first quadrant, (u, v) with u, v >= 0, and the
+    /// sector within it counted by the sides of its `cols / 4 - 1` inner edges
+    /// (v cos t - u sin t >= 0 from edge angle t on). The same function up to
+    /// rounding at the edges (where either bin's density will do); on the GPU
+    /// the arctangent was most of the bin lookup that a guided vertex, and with
+    /// learned roulette every vertex, pays. `glsl/guide.glsl` `bin_column`.
+    pub fn column(&self, x: f32, y: f32) -> u32 {
+        if !self.cols.is_multiple_of(4) {
+            let mut phi = y.atan2(x);
+            if phi < 0.0 {
+                phi += 2.0 * PI;
+            }
+            return ((phi * (0.5 / PI) * self.cols as f32) as u32).min(self.cols - 1);
         }
-        let col = ((phi * (0.5 / PI) * self.cols as f32) as u32).min(self.cols - 1);
-        row * self.cols + col
+        let per_quadrant = self.cols / 4;
+        // The quadrant q and (x, y) turned back by q quarter turns; the boundary
+        // rays go with the quadrant they start (phi = 0, pi / 2, pi, 3 pi / 2).
+        let (q, u, v) = match (y >= 0.0, x > 0.0, x <= 0.0) {
+            (true, true, _) => (0, x, y),
+            (true, false, _) => (1, y, -x),
+            (false, _, true) => (2, -x, -y),
+            (false, _, false) => (3, -y, x),
+        };
+        // u = 0 (v > 0): phi is the next quadrant's first edge. Only q = 1 and
+        // 2 reach it (phi = pi and 3 pi / 2); the poles (0, 0) take column 0.
+        if u <= 0.0 {
+            return if v > 0.0 { (q + 1) * per_quadrant } else { 0 };
+        }
+        let step = 0.5 * PI / per_quadrant as f32;
+        let inside = (1..per_quadrant)
+            .filter(|&j| {
+                let (s, c) = (j as f32 * step).sin_cos();
+                v * c - u * s >= 0.0
+            })
+            .count() as u32;
+        q * per_quadrant + inside
     }
 
     /// A direction uniformly distributed in bin `b`; `glsl/guide.glsl` `bin_sample`.
@@ -912,6 +948,45 @@ impl QTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `Bins::column` without the arctangent is `floor(phi cols / 2 pi)`: for
+    /// every direction away from a column's edge (by more than rounding), for
+    /// column counts that take the quadrant form and for ones that do not; on the
+    /// axes, phi = 0, pi / 2, pi and 3 pi / 2 start their columns, -0 as +0; the
+    /// poles take a column in range (0 in the quadrant form).
+    #[test]
+    fn column_is_the_sector_of_the_azimuth() {
+        for cols in [4u32, 8, 12, 16, 24, 32, 64, 5, 7] {
+            let bins = Bins { rows: 1, cols };
+            let mut rng = Rng::new(7, cols, 0, 0);
+            let mut checked = 0;
+            for _ in 0..100_000 {
+                let phi = 2.0 * std::f64::consts::PI * rng.next_f32() as f64;
+                let r = 0.05 + rng.next_f32() as f64;
+                let (x, y) = ((r * phi.cos()) as f32, (r * phi.sin()) as f32);
+                let exact = (y as f64).atan2(x as f64).rem_euclid(2.0 * std::f64::consts::PI);
+                let sector = exact * cols as f64 / (2.0 * std::f64::consts::PI);
+                if (sector - sector.round()).abs() < 1e-5 {
+                    continue;
+                }
+                assert_eq!(bins.column(x, y), sector.floor() as u32, "cols {cols}, ({x}, {y}), sector {sector}");
+                checked += 1;
+            }
+            assert!(checked > 99_000, "cols {cols}: {checked}");
+            let axes = [((1.0, 0.0), 0), ((0.0, 1.0), cols / 4), ((-1.0, 0.0), cols / 2), ((0.0, -1.0), 3 * cols / 4)];
+            if cols % 4 == 0 {
+                for ((x, y), col) in axes {
+                    assert_eq!(bins.column(x, y), col, "cols {cols}, ({x}, {y})");
+                }
+                assert_eq!(bins.column(1.0, -0.0), 0);
+                assert_eq!(bins.column(-1.0, -0.0), cols / 2);
+            }
+            for (x, y) in [(0.0, 0.0), (-0.0, -0.0), (0.0, -0.0), (-0.0, 0.0)] {
+                let col = bins.column(x, y);
+                assert!(col < cols && (cols % 4 != 0 || col == 0), "cols {cols}, pole ({x}, {y}): {col}");
+            }
+        }
+    }
 
     /// At omega = 1 a batch's weight is the running mean's, k / (n + k); an
     /// entry's first batch sets it; a single target's weight lies between the
