@@ -85,7 +85,7 @@ struct Settings {
     max_bounces: Option<u32>,
     /// Random seed; the same seed gives the same image on the same device (with
     /// guiding, to rounding only: learning adds its targets in the order threads finish).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = parse_seed)]
     seed: u32,
     /// Render on the GPU (Vulkan) or on the CPU (all cores).
     #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
@@ -281,6 +281,10 @@ enum AblateArg {
     GuidedSampling,
 }
 
+fn parse_seed(s: &str) -> Result<u32, String> {
+    s.trim().parse().map_err(|_| format!("`{s}` is not a seed: an integer from 0 to {}", u32::MAX))
+}
+
 fn parse_seconds(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
@@ -452,6 +456,9 @@ fn render(args: RenderArgs) -> Result<()> {
         );
     }
     let prepared = PreparedScene::new(&scene, &opts)?;
+    if let Some(w) = rlpt::guide::grid_warning(&prepared, &scene.guiding) {
+        eprintln!("warning: {}: {w}", scene.source.display());
+    }
 
     let bar = ProgressBar::with_draw_target(Some(frames as u64), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -625,6 +632,11 @@ fn compare(image: &Path, reference: &Path) -> Result<()> {
 }
 
 fn plot(stats: &[PathBuf], output: &Path) -> Result<()> {
+    for (i, p) in stats.iter().enumerate() {
+        if stats[..i].contains(p) {
+            bail!("{} is given twice: each statistics file is one curve", p.display());
+        }
+    }
     let runs = stats.iter().map(|p| RenderStats::load(p)).collect::<Result<Vec<_>>>()?;
     rlpt::plot::plot_convergence(&runs, output)?;
     for n in rlpt::plot::plot_notes(&runs) {
@@ -661,6 +673,9 @@ fn bench(args: BenchArgs) -> Result<()> {
     }
     let opts = args.settings.options(&scene);
     let prepared = PreparedScene::new(&scene, &opts)?;
+    if let Some(w) = rlpt::guide::grid_warning(&prepared, &scene.guiding) {
+        eprintln!("warning: {}: {w}", scene.source.display());
+    }
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
     let mut times = Vec::with_capacity(args.frames as usize);
     let (device, driver, clock, pipelines) = match args.settings.device {

@@ -449,3 +449,60 @@ fn plot_says_what_it_cannot_draw() {
     let (ok, err) = run(&["plot", bench_json.to_str().unwrap(), "-o", tmp("p.png").to_str().unwrap()]);
     assert!(!ok && err.contains("is a `rlpt bench --json` report, not render statistics"), "{err}");
 }
+
+#[test]
+fn a_guiding_box_away_from_the_scene_and_other_slips_are_named() {
+    let scene = tmp("door-box-away.toml");
+    let door = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/door.toml")).unwrap();
+    std::fs::write(&scene, format!("{door}\n[guiding]\nbounds_min = [100, 100, 100]\nbounds_max = [101, 101, 101]\n"))
+        .unwrap();
+    let out = tmp("box.png");
+    let render = |guiding: &str| {
+        run(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--guiding",
+            guiding,
+            "--device",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "64",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
+    let (ok, err) = render("sphere");
+    assert!(ok && err.contains("the [guiding] box from [100, 100, 100] to [101, 101, 101] does not overlap"), "{err}");
+    // Without guiding the box means nothing, and nothing is said.
+    let (ok, err) = render("off");
+    assert!(ok && !err.contains("warning"), "{err}");
+    // The door's own automatic box: no warning.
+    let (ok, err) = run(&[
+        "render",
+        "scenes/door.toml",
+        "--guiding",
+        "sphere",
+        "--device",
+        "cpu",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "64",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok && !err.contains("warning"), "{err}");
+
+    let (ok, err) = run(&["render", "scenes/door.toml", "-o", "x.png", "--seed", "18446744073709551615"]);
+    assert!(!ok && err.contains("is not a seed: an integer from 0 to 4294967295"), "{err}");
+    let stats = tmp("stats-twice.json");
+    let (ok, err) =
+        run(&["plot", stats.to_str().unwrap(), stats.to_str().unwrap(), "-o", tmp("twice.png").to_str().unwrap()]);
+    assert!(!ok && err.contains("is given twice"), "{err}");
+}

@@ -228,6 +228,30 @@ impl Grid {
     }
 }
 
+/// A warning for stderr where the scene's own `[guiding]` box does not overlap
+/// [`probe_bounds`], the box of what the camera sees: every point of the scene
+/// then falls in the grid's edge cells (points outside the box use the nearest
+/// cell), and the table learns one blur of the whole scene. None where the box
+/// is chosen automatically, or guiding is off.
+pub fn grid_warning(prepared: &PreparedScene, settings: &GuidingSettings) -> Option<String> {
+    let cfg = prepared.guide.as_ref()?;
+    settings.bounds_min?;
+    let (lo, hi) = probe_bounds(prepared);
+    let (min, max) = (cfg.grid.min, cfg.grid.max);
+    let overlaps = (0..3).all(|a| min[a] < hi[a] && max[a] > lo[a]);
+    (!overlaps).then(|| {
+        let v = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
+        format!(
+            "the [guiding] box from {} to {} does not overlap what the camera sees (about {} to {}): every \
+             point falls in one of its edge cells, and guiding learns little",
+            v(min),
+            v(max),
+            v(lo),
+            v(hi)
+        )
+    })
+}
+
 /// The bounding box of the camera and of the surface points seen from it
 /// directly and after one bounce, enlarged by 1% of its diagonal.
 pub fn probe_bounds(scene: &PreparedScene) -> (Vec3, Vec3) {
