@@ -9,7 +9,13 @@
 #define SAMPLES_X 8
 #define SAMPLES_Y 8
 #define SAMPLES_PER_FRAME 64
+// Pixels per workgroup of the guided kernels, and of the unguided one: its
+// local_size_z, the specialization constant SPEC_PIXELS_PER_GROUP (src/render
+// `pixels_per_group`). Smaller groups free an SM's slots sooner after their
+// longest path, and the unguided kernels were up to 3 % faster with 2 on the
+// H200, the guided ones not (BENCHMARKS.md).
 #define PIXELS_PER_GROUP 4
+#define PIXELS_PER_GROUP_UNGUIDED 2
 // Largest subgroup size the reduction handles with shuffles alone; smaller
 // subgroups combine their partial sums through shared memory.
 #define MAX_REDUCE_LANES 64
@@ -91,24 +97,26 @@
 #define SPEC_SCENE_KINDS 13
 // params.num_lights: a scene with one light skips choosing one (geometry.glsl).
 #define SPEC_NUM_LIGHTS 14
+// The workgroup's pixels (local_size_z): PIXELS_PER_GROUP or PIXELS_PER_GROUP_UNGUIDED.
+#define SPEC_PIXELS_PER_GROUP 15
 // The hit-test data of the first SPEC_QUADS quads and SPEC_SPHERES spheres, one
 // float per constant (geometry.glsl; src/prepared.rs `geometry_specialization`):
 // quad i from SPEC_QUAD_BASE + SPEC_QUAD_FLOATS * i (normal and plane offset,
 // origin, dual_u, dual_v), sphere i from SPEC_SPHERE_BASE + SPEC_SPHERE_FLOATS * i
 // (centre, anchor and radius, axis). The driver sees the numbers: the zeros of an
 // axis-aligned quad's normal and edges take their arithmetic with them.
-#define SPEC_QUAD_BASE 15
+#define SPEC_QUAD_BASE 16
 #define SPEC_QUAD_FLOATS 13
 #define SPEC_QUADS 16
-#define SPEC_SPHERE_BASE 223
+#define SPEC_SPHERE_BASE 224
 #define SPEC_SPHERE_FLOATS 10
 #define SPEC_SPHERES 16
 // Bit i: the sphere in slot i is compact (src/prepared.rs `GpuSphere::compact`).
 // The host works it out, as the driver did not fold the same comparison of the
 // slot's float constants: the branch on it stayed, with both sides' code
 // (seed-exp3 3 % slower; BENCHMARKS.md).
-#define SPEC_COMPACT_SPHERES 383
-#define NUM_SPEC_CONSTANTS 384
+#define SPEC_COMPACT_SPHERES 384
+#define NUM_SPEC_CONSTANTS 385
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

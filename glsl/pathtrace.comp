@@ -1,7 +1,7 @@
 #version 460
 // One frame of progressive path tracing: 64 samples of each pixel, one path
-// per invocation. Workgroup (8, 8, PIXELS_PER_GROUP): x,y are the samples of
-// one pixel, z the pixels; the group covers PIXELS_PER_GROUP pixels of a row.
+// per invocation. Workgroup (8, 8, Z): x,y are the samples of one pixel, z the
+// pixels; the group covers Z pixels of a row (SPEC_PIXELS_PER_GROUP).
 // src/cpu/mod.rs (`trace_path`, `render`) is the same algorithm on the CPU.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 // Compiled for the render at hand: the specialization constants of common.glsl
@@ -27,7 +27,9 @@ layout(constant_id = SPEC_GUIDE_VERTICES) const uint GUIDE_VERTICES = 0u;
 // it record their targets.
 layout(constant_id = SPEC_RECORD_VERTICES) const uint RECORD_VERTICES = 0u;
 
-layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z = PIXELS_PER_GROUP) in;
+// The group's pixels, gl_WorkGroupSize.z, are a specialization constant: 4 for
+// the guided kernels, 2 for the unguided one (common.glsl).
+layout(local_size_x = SAMPLES_X, local_size_y = SAMPLES_Y, local_size_z_id = SPEC_PIXELS_PER_GROUP) in;
 
 struct AccumPixel {
     vec4 sum;
@@ -353,7 +355,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 }
 
 void main() {
-    uint px = gl_WorkGroupID.x * uint(PIXELS_PER_GROUP) + gl_LocalInvocationID.z;
+    uint px = gl_WorkGroupID.x * gl_WorkGroupSize.z + gl_LocalInvocationID.z;
     uint py = pixel_row(gl_WorkGroupID.y);
     uint sample_index = gl_LocalInvocationID.x + uint(SAMPLES_X) * gl_LocalInvocationID.y;
     bool inside = px < params.width && py < params.height;

@@ -11,6 +11,8 @@
 #extension GL_KHR_shader_subgroup_shuffle : require
 #include "common.glsl"
 
+// Sized for the largest group (PIXELS_PER_GROUP pixels; the unguided kernel's
+// groups are smaller and use the front of it).
 shared vec3 reduce_partial[PIXELS_PER_GROUP * SAMPLES_PER_FRAME];
 
 // Returns the pixel's sum in the invocation whose sample index is 0; other

@@ -343,7 +343,7 @@ impl GpuRenderer {
     /// Records the dispatches of one frame (`frame_dispatches`); `push` is the
     /// kernel's frame, accumulated frames and ablation bits.
     fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: [u32; 3]) {
-        let wide = self.width.div_ceil(shared::PIXELS_PER_GROUP);
+        let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some()));
         for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push[0], self.height) {
             let pipeline = match (&self.recording, d.recording) {
                 (Some(r), true) => r,
@@ -588,6 +588,21 @@ impl GpuRenderer {
     }
 }
 
+/// Pixels per workgroup of the path-tracing kernel, its `local_size_z`
+/// (`SPEC_PIXELS_PER_GROUP`): 4 for the guided kernels, 2 for the unguided one.
+/// Smaller groups free an SM's slots sooner after their longest path; on the
+/// H200 the unguided kernel ran seed-exp2, exp3 and door 2.3, 3.1 and 1.7 %
+/// faster with 2 than with 4 (seed-exp2's and exp3's at 72 registers instead of
+/// 80 and 77), while the guided kernels of seed-exp2 and exp3 were as fast or 4 %
+/// slower (BENCHMARKS.md).
+pub fn pixels_per_group(guided: bool) -> u32 {
+    if guided {
+        shared::PIXELS_PER_GROUP
+    } else {
+        shared::PIXELS_PER_GROUP_UNGUIDED
+    }
+}
+
 /// The path-tracing pipelines for the render `p` describes: the one without
 /// recording code and, with guiding, the one that records targets.
 fn path_pipelines(
@@ -631,6 +646,7 @@ fn path_pipeline(
     }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
+    constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(guided);
     constants.extend_from_slice(geometry);
     debug_assert_eq!(constants.len(), shared::NUM_SPEC_CONSTANTS as usize);
     let name = if recording { format!("{kernel} (recording)") } else { kernel.to_string() };
@@ -703,6 +719,7 @@ mod tests {
             (shared::SPEC_NUM_LIGHTS, 23),
             // Set per pipeline by `path_pipeline`, not from the parameters.
             (shared::SPEC_RECORDING, 0),
+            (shared::SPEC_PIXELS_PER_GROUP, 0),
         ];
         assert_eq!(want.len(), shared::SPEC_QUAD_BASE as usize);
         for (id, v) in want {
