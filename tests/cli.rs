@@ -203,71 +203,59 @@ fn guided_vertices_must_be_at_least_one() {
     assert!(stderr.contains("--guided-vertices") && stderr.contains("0"), "{stderr}");
 }
 
-#[test]
-fn guided_fraction_is_learned_or_a_probability_below_one() {
-    for (arg, says) in [
-        ("1", "[0, 1)"),
-        ("1.5", "[0, 1)"),
-        ("-0.1", "[0, 1)"),
-        ("nan", "[0, 1)"),
-        ("half", "neither a number nor `learned`"),
-    ] {
+/// `rlpt render` with guiding on refuses each value of `flag` in `cases`, without
+/// a panic, naming the flag and saying what the case expects.
+fn refuses(flag: &str, cases: &[(&str, &str)]) {
+    for (arg, says) in cases {
         let o = rlpt()
-            .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--guided-fraction", arg])
+            .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", flag, arg])
             .output()
             .unwrap();
-        assert!(!o.status.success(), "--guided-fraction {arg} was accepted");
+        assert!(!o.status.success(), "{flag} {arg} was accepted");
         let stderr = String::from_utf8_lossy(&o.stderr);
-        assert!(stderr.contains("--guided-fraction") && stderr.contains(says), "{arg}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{flag} {arg}: {stderr}");
+        assert!(stderr.contains(flag) && stderr.contains(says), "{flag} {arg}: {stderr}");
     }
 }
 
 #[test]
+fn guided_fraction_is_learned_or_a_probability_below_one() {
+    refuses(
+        "--guided-fraction",
+        &[
+            ("1", "[0, 1)"),
+            ("1.5", "[0, 1)"),
+            ("-0.1", "[0, 1)"),
+            ("nan", "[0, 1)"),
+            ("half", "neither a number nor `learned`"),
+        ],
+    );
+}
+
+#[test]
 fn learning_rate_exponent_is_above_one_half_and_at_most_one() {
-    for (arg, says) in
-        [("0.5", "(0.5, 1]"), ("-1", "(0.5, 1]"), ("1.25", "(0.5, 1]"), ("nan", "(0.5, 1]"), ("fast", "not a number")]
-    {
-        let o = rlpt()
-            .args([
-                "render",
-                "scenes/smallpt.toml",
-                "-o",
-                "x.png",
-                "--guiding",
-                "sphere",
-                "--learning-rate-exponent",
-                arg,
-            ])
-            .output()
-            .unwrap();
-        assert!(!o.status.success(), "--learning-rate-exponent {arg} was accepted");
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert!(stderr.contains("--learning-rate-exponent") && stderr.contains(says), "{arg}: {stderr}");
-    }
+    refuses(
+        "--learning-rate-exponent",
+        &[("0.5", "(0.5, 1]"), ("-1", "(0.5, 1]"), ("1.25", "(0.5, 1]"), ("nan", "(0.5, 1]"), ("fast", "not a number")],
+    );
 }
 
 #[test]
 fn bins_are_rows_by_columns_within_the_limit() {
     // 65536 x 65536 overflows 32 bits to 0: it once passed the check that way, and
     // panicked in debug builds.
-    for (arg, says) in [
-        ("0x16", "at least 1"),
-        ("8x0", "at least 1"),
-        ("33x32", "at most 1024 bins"),
-        ("65536x65536", "at most 1024 bins"),
-        ("4294967295x2", "at most 1024 bins"),
-        ("8by16", "expected ROWSxCOLS"),
-        ("ax16", "not a positive integer"),
-    ] {
-        let o = rlpt()
-            .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--bins", arg])
-            .output()
-            .unwrap();
-        assert!(!o.status.success(), "--bins {arg} was accepted");
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert!(!stderr.contains("panicked"), "--bins {arg}: {stderr}");
-        assert!(stderr.contains("--bins") && stderr.contains(says), "{arg}: {stderr}");
-    }
+    refuses(
+        "--bins",
+        &[
+            ("0x16", "at least 1"),
+            ("8x0", "at least 1"),
+            ("33x32", "at most 1024 bins"),
+            ("65536x65536", "at most 1024 bins"),
+            ("4294967295x2", "at most 1024 bins"),
+            ("8by16", "expected ROWSxCOLS"),
+            ("ax16", "not a positive integer"),
+        ],
+    );
 }
 
 /// Runs `rlpt ARGS` and returns (success, stderr).
@@ -429,22 +417,11 @@ fn images_are_compared_like_with_like_and_only_when_finite() {
 fn plot_says_what_it_cannot_draw() {
     // A bench report is not render statistics.
     let bench_json = tmp("bench.json");
-    let (ok, err) = run(&[
-        "bench",
-        "scenes/furnace-open.toml",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--frames",
-        "1",
-        "--warmup",
-        "0",
-        "--device",
-        "cpu",
-        "--json",
-        bench_json.to_str().unwrap(),
-    ]);
+    let line = format!(
+        "bench scenes/furnace-open.toml --width 8 --height 8 --frames 1 --warmup 0 --device cpu --json {}",
+        bench_json.display()
+    );
+    let (ok, err) = run(&line.split(' ').collect::<Vec<_>>());
     assert!(ok, "{err}");
     let (ok, err) = run(&["plot", bench_json.to_str().unwrap(), "-o", tmp("p.png").to_str().unwrap()]);
     assert!(!ok && err.contains("is a `rlpt bench --json` report, not render statistics"), "{err}");
@@ -457,46 +434,19 @@ fn a_guiding_box_away_from_the_scene_and_other_slips_are_named() {
     std::fs::write(&scene, format!("{door}\n[guiding]\nbounds_min = [100, 100, 100]\nbounds_max = [101, 101, 101]\n"))
         .unwrap();
     let out = tmp("box.png");
-    let render = |guiding: &str| {
-        run(&[
-            "render",
-            scene.to_str().unwrap(),
-            "--guiding",
-            guiding,
-            "--device",
-            "cpu",
-            "--width",
-            "8",
-            "--height",
-            "8",
-            "--spp",
-            "64",
-            "-o",
-            out.to_str().unwrap(),
-        ])
+    let render = |scene: &str, guiding: &str| {
+        let small = ["--device", "cpu", "--width", "8", "--height", "8", "--spp", "64"];
+        let args: Vec<&str> =
+            ["render", scene, "--guiding", guiding, "-o", out.to_str().unwrap()].into_iter().chain(small).collect();
+        run(&args)
     };
-    let (ok, err) = render("sphere");
+    let (ok, err) = render(scene.to_str().unwrap(), "sphere");
     assert!(ok && err.contains("the [guiding] box from [100, 100, 100] to [101, 101, 101] does not overlap"), "{err}");
     // Without guiding the box means nothing, and nothing is said.
-    let (ok, err) = render("off");
+    let (ok, err) = render(scene.to_str().unwrap(), "off");
     assert!(ok && !err.contains("warning"), "{err}");
     // The door's own automatic box: no warning.
-    let (ok, err) = run(&[
-        "render",
-        "scenes/door.toml",
-        "--guiding",
-        "sphere",
-        "--device",
-        "cpu",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--spp",
-        "64",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, err) = render("scenes/door.toml", "sphere");
     assert!(ok && !err.contains("warning"), "{err}");
 
     let (ok, err) = run(&["render", "scenes/door.toml", "-o", "x.png", "--seed", "18446744073709551615"]);
