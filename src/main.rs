@@ -140,11 +140,7 @@ impl Settings {
         opts.seed = self.seed;
         opts.nee = self.nee == OnOff::On;
         opts.power_heuristic = self.mis.unwrap_or(Heuristic::Power) == Heuristic::Power;
-        opts.guiding = match self.guiding {
-            GuidingArg::Off => GuidingMode::Off,
-            GuidingArg::Octant => GuidingMode::Octant,
-            GuidingArg::Sphere => GuidingMode::Sphere,
-        };
+        opts.guiding = self.guiding_mode();
         opts.bins = self.bins.unwrap_or(Bins::SPHERE_DEFAULT);
         match self.guided_fraction.unwrap_or(FractionArg::Learned) {
             FractionArg::Fixed(f) => {
@@ -158,15 +154,19 @@ impl Settings {
         opts
     }
 
+    fn guiding_mode(&self) -> GuidingMode {
+        match self.guiding {
+            GuidingArg::Off => GuidingMode::Off,
+            GuidingArg::Octant => GuidingMode::Octant,
+            GuidingArg::Sphere => GuidingMode::Sphere,
+        }
+    }
+
     /// The options given that the other settings leave without effect, as notes
     /// for stderr: a flag that changes nothing should not pass without a word.
     fn ignored(&self) -> Vec<String> {
         let mut notes = Vec::new();
-        let guiding = match self.guiding {
-            GuidingArg::Off => "off",
-            GuidingArg::Octant => "octant",
-            GuidingArg::Sphere => "sphere",
-        };
+        let guiding = self.guiding_mode().name();
         if self.bins.is_some() && self.guiding != GuidingArg::Sphere {
             notes.push(format!("--bins sets the bins of --guiding sphere; ignored with --guiding {guiding}"));
         }
