@@ -764,6 +764,12 @@ fn view(args: ViewArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let render = args.settings.options(&scene);
+    // The viewer switches guiding on and off as it runs: the box is checked as
+    // for a guided render, whatever mode it starts in.
+    let guided = RenderOptions { guiding: GuidingMode::Sphere, ..render.clone() };
+    if let Some(w) = rlpt::guide::grid_warning(&PreparedScene::new(&scene, &guided)?, &scene.guiding) {
+        eprintln!("warning: {}: {w}", scene.source.display());
+    }
     rlpt::viewer::run(rlpt::viewer::ViewOptions {
         scene_path: args.scene,
         scene,

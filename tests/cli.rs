@@ -448,6 +448,12 @@ fn a_guiding_box_away_from_the_scene_and_other_slips_are_named() {
     // The door's own automatic box: no warning.
     let (ok, err) = render("scenes/door.toml", "sphere");
     assert!(ok && !err.contains("warning"), "{err}");
+    // The viewer warns too, whichever guiding it starts with (it switches as it
+    // runs), before it opens a window: with or without a display here.
+    let shot = tmp("box-view.png");
+    let view = ["view", scene.to_str().unwrap(), "--width", "8", "--height", "8", "--frames", "1", "--screenshot"];
+    let (_, err) = run(&view.iter().copied().chain([shot.to_str().unwrap()]).collect::<Vec<_>>());
+    assert!(err.contains("the [guiding] box from [100, 100, 100] to [101, 101, 101] does not overlap"), "{err}");
 
     let (ok, err) = run(&["render", "scenes/door.toml", "-o", "x.png", "--seed", "18446744073709551615"]);
     assert!(!ok && err.contains("is not a seed: an integer from 0 to 4294967295"), "{err}");
