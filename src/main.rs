@@ -559,8 +559,8 @@ fn render(args: RenderArgs) -> Result<()> {
     image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
     if image.pixels.iter().all(|p| *p == [0.0; 3]) && scene.emits_light() {
         eprintln!(
-            "warning: every pixel of {} is black: the camera sees no light (is it inside a closed object, \
-             or facing away from every lit surface?)",
+            "warning: every pixel of {} is black: no path found light (is the camera inside a closed object, \
+             or facing away from every lit surface? or were there too few samples for a dim scene?)",
             args.output.display()
         );
     }
