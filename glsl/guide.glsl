@@ -60,7 +60,7 @@ uint bin_column(float x, float y) {
     if (y >= 0.0) {
         if (x > 0.0) { q = 0u; u = x; v = y; } else { q = 1u; u = y; v = -x; }
     } else {
-        if (x <= 0.0) { q = 2u; u = -x; v = -y; } else { q = 3u; u = -y; v = x; }
+        if (x > 0.0) { q = 3u; u = -y; v = x; } else { q = 2u; u = -x; v = -y; }
     }
     if (u <= 0.0) return v > 0.0 ? (q + 1u) * per_quadrant : 0u;
     float step = 0.5 * PI / float(per_quadrant);

@@ -103,7 +103,6 @@ pub struct PipelineReport {
 
 impl BenchReport {
     /// Builds the report from the measured frames (warm-up frames already left out).
-    #[allow(clippy::too_many_arguments)]
     pub fn new(setup: BenchSetup, times: &[PassTimes], pipelines: Vec<PipelineReport>) -> BenchReport {
         let frames: Vec<FrameRecord> = times
             .iter()

@@ -360,6 +360,23 @@ fn main() {
     }
 }
 
+/// What render, bench and view say on stderr before they start: the options the
+/// other settings leave without effect, and a scene where nothing gives light.
+fn warn_before_render(settings: &Settings, scene: &Scene) {
+    settings.note_ignored();
+    if let Some(w) = rlpt::scene::no_light_warning(scene) {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// The warning of a `[guiding]` box that misses what the camera sees
+/// (`guide::grid_warning`), where `prepared` is guided.
+fn warn_grid(scene: &Scene, prepared: &PreparedScene) {
+    if let Some(w) = rlpt::guide::grid_warning(prepared, &scene.guiding) {
+        eprintln!("warning: {}: {w}", scene.source.display());
+    }
+}
+
 /// Refuses an output path before any work: the file name must end in one of
 /// `extensions` (where given), its directory must exist, and it must not be a
 /// directory itself; a long render is not lost to a path that cannot be written.
@@ -406,10 +423,7 @@ fn render(args: RenderArgs) -> Result<()> {
     outputs.extend(args.reference.as_deref().map(|p| ("--reference", p)));
     check_distinct(&outputs)?;
     let scene = Scene::load(&args.scene)?;
-    args.settings.note_ignored();
-    if let Some(w) = rlpt::scene::no_light_warning(&scene) {
-        eprintln!("warning: {w}");
-    }
+    warn_before_render(&args.settings, &scene);
     let mut opts = args.settings.options(&scene);
     if let Some(s) = args.spp {
         opts.spp = s;
@@ -456,9 +470,7 @@ fn render(args: RenderArgs) -> Result<()> {
         );
     }
     let prepared = PreparedScene::new(&scene, &opts)?;
-    if let Some(w) = rlpt::guide::grid_warning(&prepared, &scene.guiding) {
-        eprintln!("warning: {}: {w}", scene.source.display());
-    }
+    warn_grid(&scene, &prepared);
 
     let bar = ProgressBar::with_draw_target(Some(frames as u64), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -667,15 +679,10 @@ fn bench(args: BenchArgs) -> Result<()> {
         bail!("--frames 0: bench needs at least one measured frame");
     }
     let scene = Scene::load(&args.scene)?;
-    args.settings.note_ignored();
-    if let Some(w) = rlpt::scene::no_light_warning(&scene) {
-        eprintln!("warning: {w}");
-    }
+    warn_before_render(&args.settings, &scene);
     let opts = args.settings.options(&scene);
     let prepared = PreparedScene::new(&scene, &opts)?;
-    if let Some(w) = rlpt::guide::grid_warning(&prepared, &scene.guiding) {
-        eprintln!("warning: {}: {w}", scene.source.display());
-    }
+    warn_grid(&scene, &prepared);
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
     let mut times = Vec::with_capacity(args.frames as usize);
     let (device, driver, clock, pipelines) = match args.settings.device {
@@ -759,17 +766,12 @@ fn view(args: ViewArgs) -> Result<()> {
         bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
     }
     let scene = Scene::load(&args.scene)?;
-    args.settings.note_ignored();
-    if let Some(w) = rlpt::scene::no_light_warning(&scene) {
-        eprintln!("warning: {w}");
-    }
+    warn_before_render(&args.settings, &scene);
     let render = args.settings.options(&scene);
     // The viewer switches guiding on and off as it runs: the box is checked as
     // for a guided render, whatever mode it starts in.
     let guided = RenderOptions { guiding: GuidingMode::Sphere, ..render.clone() };
-    if let Some(w) = rlpt::guide::grid_warning(&PreparedScene::new(&scene, &guided)?, &scene.guiding) {
-        eprintln!("warning: {}: {w}", scene.source.display());
-    }
+    warn_grid(&scene, &PreparedScene::new(&scene, &guided)?);
     rlpt::viewer::run(rlpt::viewer::ViewOptions {
         scene_path: args.scene,
         scene,

@@ -446,7 +446,7 @@ impl PreparedScene {
                 pad: [0; 2],
             })
             .collect();
-        let emits = |mat: u32| scene.materials[mat as usize].emission.max_element() > 0.0;
+        let emits = |mat: u32| scene.materials[mat as usize].emits();
         // Lights are chosen in proportion to emitted power: area x mean emission (x2 if two-sided).
         // In f64: a large lamp's power overflows f32 (1e12 radiance over 1e24 of
         // area), and the probabilities are all that leaves here.

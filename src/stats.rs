@@ -82,18 +82,18 @@ impl RenderStats {
     pub fn load(path: &Path) -> anyhow::Result<RenderStats> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read render statistics {}", path.display()))?;
-        // A `rlpt bench --json` report has passes; say what it is rather than
-        // which of the statistics' fields it lacks.
-        if let Ok(serde_json::Value::Object(o)) = serde_json::from_str::<serde_json::Value>(&text) {
-            if o.contains_key("passes") && !o.contains_key("label") {
-                anyhow::bail!(
-                    "{} is a `rlpt bench --json` report, not render statistics: those come from \
-                     `rlpt render ... --reference REF.exr --stats STATS.json`",
-                    path.display()
-                );
-            }
-        }
         serde_json::from_str(&text).map_err(|e| {
+            // A `rlpt bench --json` report has passes: say what it is rather than
+            // which of the statistics' fields it lacks (parsed again only then).
+            if let Ok(serde_json::Value::Object(o)) = serde_json::from_str::<serde_json::Value>(&text) {
+                if o.contains_key("passes") && !o.contains_key("label") {
+                    return anyhow::anyhow!(
+                        "{} is a `rlpt bench --json` report, not render statistics: those come from \
+                         `rlpt render ... --reference REF.exr --stats STATS.json`",
+                        path.display()
+                    );
+                }
+            }
             let (line, column) = (e.line(), e.column());
             // serde_json's message ends in " at line L column C"; say it once, up front.
             let message = e.to_string();

@@ -122,11 +122,11 @@ impl Bins {
         let per_quadrant = self.cols / 4;
         // The quadrant q and (x, y) turned back by q quarter turns; the boundary
         // rays go with the quadrant they start (phi = 0, pi / 2, pi, 3 pi / 2).
-        let (q, u, v) = match (y >= 0.0, x > 0.0, x <= 0.0) {
-            (true, true, _) => (0, x, y),
-            (true, false, _) => (1, y, -x),
-            (false, _, true) => (2, -x, -y),
-            (false, _, false) => (3, -y, x),
+        let (q, u, v) = match (y >= 0.0, x > 0.0) {
+            (true, true) => (0, x, y),
+            (true, false) => (1, y, -x),
+            (false, false) => (2, -x, -y),
+            (false, true) => (3, -y, x),
         };
         // u = 0 (v > 0): phi is the next quadrant's first edge. Only q = 1 and
         // 2 reach it (phi = pi and 3 pi / 2); the poles (0, 0) take column 0.

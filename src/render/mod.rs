@@ -64,8 +64,6 @@ struct Learning {
     fraction_states: Buffer,
     /// The table's shape and learning settings.
     cfg: GuideConfig,
-    /// Entries of the table (`GuideConfig::entries`).
-    entries: u32,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
     schedule: RecordSchedule,
 }
@@ -74,10 +72,19 @@ struct Learning {
 const LEARN_PUSH_WORDS: usize = 10;
 
 impl Learning {
+    /// Entries of the table (`GuideConfig::entries`).
+    fn entries(&self) -> u32 {
+        self.cfg.entries() as u32
+    }
+
     /// Phase 0 of learn.comp: fold the targets recorded since the last fold into the table.
     fn cmd_fold(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(0);
-        self.pipeline.cmd_dispatch(cmd, [self.entries.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
+        self.pipeline.cmd_dispatch(
+            cmd,
+            [self.entries().div_ceil(shared::LEARN_GROUP), 1, 1],
+            bytemuck::bytes_of(&push),
+        );
     }
 
     /// Phase 1 of learn.comp: rebuild the sampling row of each cell and normal class.
@@ -103,7 +110,7 @@ impl Learning {
     fn push(&self, phase: u32) -> [u32; LEARN_PUSH_WORDS] {
         [
             phase,
-            self.entries,
+            self.entries(),
             self.cfg.bins.count(),
             self.cfg.floor.to_bits(),
             self.cfg.bins.rows,
@@ -276,7 +283,6 @@ impl GpuRenderer {
                         BufferUsage::Storage,
                     )?,
                     cfg: *cfg,
-                    entries,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
                 l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states]);
@@ -577,7 +583,7 @@ impl GpuRenderer {
             l.fractions.cmd_copy_to(cmd, &rf);
             l.fraction_states.cmd_copy_to(cmd, &rs);
         })?;
-        let n = l.entries as usize * 4;
+        let n = l.entries() as usize * 4;
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
             visits: bytemuck::pod_collect_to_vec(&rv.read()[..n]),

@@ -70,6 +70,14 @@ pub struct Material {
     pub two_sided: bool,
 }
 
+impl Material {
+    /// Whether it emits light: the primitives of such materials are the scene's
+    /// lights (`PreparedScene::new`).
+    pub fn emits(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sphere {
     pub center: Vec3,
@@ -133,7 +141,7 @@ impl Scene {
     /// the environment. A scene without renders black, which a loader cannot
     /// call wrong (a test may want it) but a user should hear about.
     pub fn emits_light(&self) -> bool {
-        let emits = |m: u32| self.materials[m as usize].emission.max_element() > 0.0;
+        let emits = |m: u32| self.materials[m as usize].emits();
         self.environment.max_element() > 0.0
             || self.spheres.iter().any(|s| emits(s.material))
             || self.quads.iter().any(|q| emits(q.material))
