@@ -45,6 +45,10 @@
 #define FLAG_POWER_HEURISTIC 4
 // Each cell learns its guided fraction (src/guide/mod.rs `FractionState`).
 #define FLAG_LEARN_FRACTION 8
+// The ray into a path's last vertex is traced in full only where its line meets
+// a light: the environment is black, so nothing else could add to the image
+// (src/prepared.rs `last_ray_to_lights`; every light in a specialized slot).
+#define FLAG_LAST_RAY_TO_LIGHTS 16
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
 #define ABLATE_RECORD 1
@@ -116,7 +120,11 @@
 // slot's float constants: the branch on it stayed, with both sides' code
 // (seed-exp3 3 % slower; BENCHMARKS.md).
 #define SPEC_COMPACT_SPHERES 384
-#define NUM_SPEC_CONSTANTS 385
+// Bit i: the quad (sphere) in slot i is a light, whose test `meets_light` runs
+// (geometry.glsl; src/prepared.rs `geometry_specialization`).
+#define SPEC_LIGHT_QUADS 385
+#define SPEC_LIGHT_SPHERES 386
+#define NUM_SPEC_CONSTANTS 387
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

@@ -303,6 +303,27 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     return true;
 }
 
+// Bit i: the quad (sphere) in slot i is a light (src/prepared.rs
+// `geometry_specialization`).
+layout(constant_id = SPEC_LIGHT_QUADS) const uint LIGHT_QUAD_SLOTS = 0u;
+layout(constant_id = SPEC_LIGHT_SPHERES) const uint LIGHT_SPHERE_SLOTS = 0u;
+
+// src/math/geometry.rs `meets_light`: whether the line of the ray from o along d
+// meets a light at t > 0, whatever lies in front of it. For scenes whose every
+// light is in a specialized slot (FLAG_LAST_RAY_TO_LIGHTS): the tests of those
+// slots alone, written out with their numbers, a few instructions per light.
+bool meets_light(vec3 o, vec3 d) {
+    vec3 inv_d = 1.0 / d;
+    float far = 1.0 / 0.0;
+#define MEETS_SPEC_QUAD(i) \
+    if (((LIGHT_QUAD_SLOTS >> i) & 1u) != 0u && SPEC_QUAD_HIT(i, o, d, far) > 0.0) return true;
+    FOR_SPEC_SLOTS(MEETS_SPEC_QUAD)
+#define MEETS_SPEC_SPHERE(i) \
+    if (((LIGHT_SPHERE_SLOTS >> i) & 1u) != 0u && SPEC_SPHERE_HIT(i, o, d, far) > 0.0) return true;
+    FOR_SPEC_SLOTS(MEETS_SPEC_SPHERE)
+    return false;
+}
+
 bool occluded(vec3 o, vec3 d, float t_max) {
     vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \

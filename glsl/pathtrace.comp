@@ -132,6 +132,11 @@ const bool PACK_RAYS = (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
 #define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else segments += 1u
 
+// The ray into the last vertex is traced in full only where its line meets a
+// light (FLAG_LAST_RAY_TO_LIGHTS), unless the kernel records that vertex's target.
+const bool LAST_RAY_TO_LIGHTS =
+    (FLAGS & FLAG_LAST_RAY_TO_LIGHTS) != 0u && !(RECORDING && RECORD_VERTICES >= MAX_BOUNCES);
+
 // src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
 // `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
 vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint segments) {
@@ -173,6 +178,10 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
     for (;;) {
         COUNT_RAY();
         Hit hit;
+        // The ray into the last vertex adds only the emission it meets, and in
+        // a scene whose environment is black only the lights emit: where its
+        // line meets none, the closest-hit walk would find nothing to add.
+        if (LAST_RAY_TO_LIGHTS && DEPTH >= MAX_BOUNCES && !meets_light(o, d)) break;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
 #if GUIDED
             if (learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY) {

@@ -199,7 +199,9 @@ const _: () =
 const _: () = assert!(
     shared::SPEC_COMPACT_SPHERES == shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERES * shared::SPEC_SPHERE_FLOATS
 );
-const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_COMPACT_SPHERES + 1);
+const _: () = assert!(shared::SPEC_LIGHT_QUADS == shared::SPEC_COMPACT_SPHERES + 1);
+const _: () = assert!(shared::SPEC_LIGHT_SPHERES == shared::SPEC_LIGHT_QUADS + 1);
+const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_LIGHT_SPHERES + 1);
 // geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
@@ -408,7 +410,8 @@ impl PreparedScene {
     /// normal, origin, dual_u and dual_v (13 floats), per sphere its centre, its
     /// anchor and radius and its axis (10); zeros past the scene's own. Last,
     /// `SPEC_COMPACT_SPHERES`, an integer: bit i for a compact sphere i
-    /// ([`GpuSphere::compact`]).
+    /// ([`GpuSphere::compact`]); then `SPEC_LIGHT_QUADS` and `SPEC_LIGHT_SPHERES`,
+    /// bit i for a light in slot i.
     pub fn geometry_specialization(&self) -> Vec<u32> {
         let quad_floats = shared::SPEC_QUAD_FLOATS as usize;
         let sphere_floats = shared::SPEC_SPHERE_FLOATS as usize;
@@ -427,6 +430,10 @@ impl PreparedScene {
         let at = |id: u32| (id - shared::SPEC_QUAD_BASE) as usize;
         for (i, s) in self.spheres.iter().take(shared::SPEC_SPHERES as usize).enumerate() {
             out[at(shared::SPEC_COMPACT_SPHERES)] |= (s.compact() as u32) << i;
+            out[at(shared::SPEC_LIGHT_SPHERES)] |= ((s.light != shared::NO_LIGHT) as u32) << i;
+        }
+        for (i, q) in self.quads.iter().take(shared::SPEC_QUADS as usize).enumerate() {
+            out[at(shared::SPEC_LIGHT_QUADS)] |= ((q.light != shared::NO_LIGHT) as u32) << i;
         }
         out
     }
@@ -532,6 +539,9 @@ impl PreparedScene {
         if opts.learn_fraction && opts.guiding != GuidingMode::Off {
             flags |= shared::FLAG_LEARN_FRACTION;
         }
+        if opts.russian_roulette_depth.is_none() && last_ray_to_lights(scene.environment, &lights) {
+            flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;
+        }
         let mut params = RenderParams {
             cam_position_near: [0.0; 4],
             cam_forward_tan: [0.0; 4],
@@ -616,6 +626,26 @@ pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
         k | 1 << m.kind | guided_glossy
     });
     lights.iter().fold(m, |k, l| k | 1 << (shared::SCENE_KIND_LIGHT_SHIFT + l.kind))
+}
+
+/// Whether the ray into a path's last vertex needs tracing only where its line
+/// meets a light (`shared::FLAG_LAST_RAY_TO_LIGHTS`): at the last vertex a path
+/// adds the emission it finds there and nothing more, and where the environment is
+/// black only the lights emit, so a ray whose line meets none of them adds nothing
+/// and the closest-hit walk over every primitive can be skipped
+/// (`math::geometry::meets_light`; the image is the same). On the GPU the lights'
+/// tests are written out per specialized slot, so every light must lie in one
+/// (the first `SPEC_SPHERES` spheres and `SPEC_QUADS` quads, in the order of
+/// [`PreparedScene::quads`]). A scene with no light has nothing to find.
+/// `PreparedScene::new` sets the flag only without Russian roulette: with it few
+/// paths reach the last vertex, and the test is code the kernel carries for
+/// little (door's unguided H200 frame 1.2 % longer with it; `BENCHMARKS.md`).
+pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight]) -> bool {
+    let in_slot = |l: &GpuLight| match l.kind {
+        shared::LIGHT_SPHERE => l.index < shared::SPEC_SPHERES,
+        _ => l.index < shared::SPEC_QUADS,
+    };
+    environment == Vec3::ZERO && lights.iter().all(in_slot)
 }
 
 /// The order of the scene's quads in [`PreparedScene::quads`], and how many of
@@ -784,6 +814,64 @@ mod tests {
         let want = sp.spheres.iter().enumerate().fold(0, |m, (i, s)| m | ((s.center_radius[3] < 100.0) as u32) << i);
         assert_eq!(mask(&sp), want);
         assert!(want != 0 && want != (1u32 << sp.spheres.len()) - 1, "smallpt has both kinds: {want:b}");
+        // The lights' slots: seed-exp3's lamp quad (moved to the front as the one
+        // quad that can block a shadow ray) and its warm globe, its last sphere.
+        let slots = |p: &PreparedScene, id: u32| p.geometry_specialization()[(id - shared::SPEC_QUAD_BASE) as usize];
+        assert_eq!(slots(&p, shared::SPEC_LIGHT_QUADS), 1);
+        assert_eq!(slots(&p, shared::SPEC_LIGHT_SPHERES), 1 << (p.spheres.len() - 1));
+        for (i, q) in p.quads.iter().enumerate() {
+            assert_eq!(slots(&p, shared::SPEC_LIGHT_QUADS) >> i & 1 == 1, q.light != shared::NO_LIGHT, "quad {i}");
+        }
+        assert_eq!(slots(&sp, shared::SPEC_LIGHT_QUADS), 0);
+        let lamps = sp.spheres.iter().enumerate().fold(0, |m, (i, s)| m | ((s.light != shared::NO_LIGHT) as u32) << i);
+        assert_eq!(slots(&sp, shared::SPEC_LIGHT_SPHERES), lamps);
+        assert_eq!(lamps.count_ones(), 1, "smallpt has one lamp");
+    }
+
+    /// The ray into the last vertex is traced in full only where it meets a light
+    /// in scenes with a black environment, every light in a specialized slot and
+    /// no roulette: the seed's three and the closed furnace; not door (roulette),
+    /// smallpt (roulette) nor the open furnace (its environment glows); nor a
+    /// scene whose lamp is the 17th quad.
+    #[test]
+    fn the_last_ray_looks_for_lights_where_nothing_else_could_add() {
+        let flag = |s: &Scene| {
+            let p = PreparedScene::new(s, &RenderOptions::from_scene(s)).expect("valid options");
+            p.params.flags & shared::FLAG_LAST_RAY_TO_LIGHTS != 0
+        };
+        for name in ["seed-exp1", "seed-exp2", "seed-exp3", "furnace-closed"] {
+            assert!(flag(&scene(name)), "{name}");
+        }
+        for name in ["door", "smallpt", "furnace-open"] {
+            assert!(!flag(&scene(name)), "{name}");
+        }
+        // Without roulette door would take it.
+        let door = scene("door");
+        let mut opts = RenderOptions::from_scene(&door);
+        opts.russian_roulette_depth = None;
+        let p = PreparedScene::new(&door, &opts).expect("valid options");
+        assert!(p.params.flags & shared::FLAG_LAST_RAY_TO_LIGHTS != 0);
+        // 16 panels that can block shadow rays, then the lamp: slot 16 is past the
+        // specialized ones. With one panel fewer the lamp is in slot 15.
+        let text = |panels: u32| {
+            let mut t = String::from(
+                "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 1, 0]\nvfov = 40\n\
+                 [[material]]\nname = \"m\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [[material]]\nname = \"lamp\"\ntype = \"emissive\"\nemission = [1, 1, 1]\n",
+            );
+            for i in 0..panels {
+                t += &format!(
+                    "[[quad]]\norigin = [{x}, 0, 0]\nedge_u = [0.1, 0, 0]\nedge_v = [0, 1, 0]\nmaterial = \"m\"\n",
+                    x = i as f32 * 0.2 - 1.6
+                );
+            }
+            t + "[[quad]]\norigin = [-1, 2, -1]\nedge_u = [2, 0, 0]\nedge_v = [0, 0, 2]\nmaterial = \"lamp\"\n"
+        };
+        let many = Scene::parse(&text(16), "t.toml").unwrap();
+        let p = PreparedScene::new(&many, &RenderOptions::from_scene(&many)).expect("valid options");
+        assert_eq!(p.lights[0].index, 16);
+        assert!(!flag(&many));
+        assert!(flag(&Scene::parse(&text(15), "t.toml").unwrap()));
     }
 
     /// Each quad carries the scale of its points (for hit offsets) in edge_u.w,

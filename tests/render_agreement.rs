@@ -340,3 +340,48 @@ fn gpu_and_cpu_count_the_same_rays() {
         }
     }
 }
+
+/// The ray into a path's last vertex traced in full only where its line meets a
+/// light (`FLAG_LAST_RAY_TO_LIGHTS`) changes nothing: the same image, bit for bit,
+/// and the same rays counted, on the GPU (unguided and guided) and on the CPU.
+/// seed-exp3 (mirror, glass, glossy and diffuse; a quad lamp and a spherical
+/// one) with 2 bounces, so that many paths reach the last vertex and many of
+/// those rays meet a lamp: a `meets_light` that missed a light of either kind
+/// would lose their emission.
+#[test]
+fn the_last_ray_to_lights_changes_no_pixel() {
+    let ctx = gpu();
+    let scene = scene("seed-exp3.toml");
+    let mut opts = options(&scene, 24, 16, 128);
+    opts.max_bounces = 2;
+    for guiding in [rlpt::guide::GuidingMode::Off, rlpt::guide::GuidingMode::Sphere] {
+        opts.guiding = guiding;
+        let with = PreparedScene::new(&scene, &opts).expect("valid options");
+        assert!(with.params.flags & rlpt::shared::FLAG_LAST_RAY_TO_LIGHTS != 0, "seed-exp3 takes the flag");
+        let mut without = with.clone();
+        without.params.flags &= !rlpt::shared::FLAG_LAST_RAY_TO_LIGHTS;
+        let gpu_render = |p: &PreparedScene| {
+            let mut r = GpuRenderer::new(&ctx, p).expect("renderer");
+            let segments: u64 = (0..opts.frames()).map(|_| r.render_frames(1).expect("render").segments).sum();
+            (r.film().expect("readback"), segments)
+        };
+        let cpu_render = |p: &PreparedScene| {
+            let mut r = rlpt::cpu::CpuRenderer::new(p);
+            let segments: u64 = (0..opts.frames())
+                .map(|_| {
+                    r.render_frame();
+                    r.last_counters.segments
+                })
+                .sum();
+            (r.film().clone(), segments)
+        };
+        let (a, b) = (gpu_render(&with), gpu_render(&without));
+        assert_no_validation_messages(&ctx);
+        assert!(a.0.pixels.iter().any(|p| p.sum[0] > 0.0), "{guiding:?}: the image has light");
+        assert_eq!(a.1, b.1, "{guiding:?}: GPU rays counted");
+        assert!(a.0.pixels == b.0.pixels, "{guiding:?}: GPU image");
+        let (c, d) = (cpu_render(&with), cpu_render(&without));
+        assert_eq!(c.1, d.1, "{guiding:?}: CPU rays counted");
+        assert!(c.0.pixels == d.0.pixels, "{guiding:?}: CPU image");
+    }
+}

@@ -5,7 +5,7 @@
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
-use crate::math::geometry::{emitted, intersect, light_pdf, occluded, offset_origin, sample_light};
+use crate::math::geometry::{emitted, intersect, light_pdf, meets_light, occluded, offset_origin, sample_light};
 use crate::math::rng::Rng;
 use crate::math::sampling::mis_weight;
 use crate::math::{max_component, Frame, Vec3};
@@ -123,8 +123,16 @@ pub fn trace_path(
     let bins_per_cell = guide.map_or(1, |g| g.cfg.bins.count());
     let mut depth = 0u32;
     let mut segments = 0u32;
+    // The ray into the last vertex adds only the emission it meets; where the
+    // environment is black and its line meets no light, it adds nothing, and the
+    // closest-hit walk is skipped (unless the path records that vertex's target).
+    let last_ray_to_lights =
+        p.flags & shared::FLAG_LAST_RAY_TO_LIGHTS != 0 && !(record && record_vertices >= p.max_bounces);
     loop {
         segments += 1;
+        if last_ray_to_lights && depth >= p.max_bounces && !meets_light(scene, o, d) {
+            break;
+        }
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {

@@ -261,6 +261,18 @@ pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> bool {
         || quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
 }
 
+/// Whether the line of the ray from `o` along `d` meets a light at t > 0, by the
+/// lights' own hit tests and whatever lies in front of them: where it meets none,
+/// in a scene whose environment is black, the ray can add nothing to a path that
+/// ends where it lands (`crate::prepared::last_ray_to_lights`).
+/// `glsl/geometry.glsl` `meets_light`.
+pub fn meets_light(scene: &PreparedScene, o: Vec3, d: Vec3) -> bool {
+    scene.lights.iter().any(|l| match l.kind {
+        shared::LIGHT_SPHERE => intersect_sphere(&scene.spheres[l.index as usize], o, d, f32::INFINITY).is_some(),
+        _ => intersect_quad(&scene.quads[l.index as usize], o, d, f32::INFINITY).is_some(),
+    })
+}
+
 /// Moves `p` off its surface (normal `n`, error bound `eps`) to the side `w` points to.
 pub fn offset_origin(p: Vec3, n: Vec3, eps: f32, w: Vec3) -> Vec3 {
     if n.dot(w) >= 0.0 {
