@@ -7,7 +7,8 @@
 //! - [`cpu`]: the CPU renderer (all cores);
 //! - [`gpu`]: the only home of `unsafe` Vulkan: context, buffers, pipelines;
 //! - [`render`]: the GPU renderer built on [`gpu`];
-//! - [`image`], [`metrics`]: image files and error metrics;
+//! - [`image`], [`metrics`]: image files and error metrics; [`output`]: checks on
+//!   the files a command will write;
 //! - [`bench`](mod@bench): per-pass GPU timings (`rlpt bench`);
 //! - [`chi2`]: the goodness-of-fit test used by the sampling tests.
 
@@ -25,6 +26,7 @@ pub mod guide;
 pub mod image;
 pub mod math;
 pub mod metrics;
+pub mod output;
 pub mod plot;
 pub mod prepared;
 pub mod render;

@@ -377,26 +377,9 @@ fn warn_grid(scene: &Scene, prepared: &PreparedScene) {
     }
 }
 
-/// Refuses an output path before any work: the file name must end in one of
-/// `extensions` (where given), its directory must exist, and it must not be a
-/// directory itself; a long render is not lost to a path that cannot be written.
+/// Refuses an output path before any work ([`rlpt::output::check_output_path`]).
 fn check_output(flag: &str, path: &Path, extensions: Option<&[&str]>) -> Result<()> {
-    if let Some(exts) = extensions {
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        if !ext.as_deref().is_some_and(|e| exts.contains(&e)) {
-            let list = exts.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" or ");
-            bail!("{flag} {}: the file name must end in {list}", path.display());
-        }
-    }
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        if !parent.is_dir() {
-            bail!("{flag} {}: directory {} does not exist", path.display(), parent.display());
-        }
-    }
-    if path.is_dir() {
-        bail!("{flag} {}: is a directory; give a file name", path.display());
-    }
-    Ok(())
+    rlpt::output::check_output_path(flag, path, extensions).map_err(anyhow::Error::msg)
 }
 
 /// Refuses two outputs of one command at the same path (one would overwrite
@@ -439,13 +422,6 @@ fn render(args: RenderArgs) -> Result<()> {
                     format.describe()
                 );
             }
-            if let Some((x, y)) = r.first_non_finite() {
-                bail!(
-                    "reference {} has a NaN or infinite value at pixel ({x}, {y}) (column, row from the top left): \
-                     every relMSE against it would be NaN",
-                    path.display()
-                );
-            }
             if (r.width, r.height) != (opts.width, opts.height) {
                 bail!(
                     "reference {} is {}x{} but the render is {}x{}: render the reference at the same size",
@@ -456,6 +432,9 @@ fn render(args: RenderArgs) -> Result<()> {
                     opts.height
                 );
             }
+            let r = metrics::Reference::new(r).map_err(|m| {
+                anyhow::anyhow!("--reference {}: {m}: every relMSE against it would be NaN", path.display())
+            })?;
             Some(r)
         }
         None => None,
@@ -535,7 +514,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let rel_mse = match &reference {
             Some(r) if last || mark || measure_at(f + 1) => {
                 let current = renderer.film()?;
-                let e = metrics::compare(&current.mean(), r).map_err(anyhow::Error::msg)?;
+                let e = r.compare(&current.mean()).map_err(anyhow::Error::msg)?;
                 if last {
                     film = Some(current);
                 }

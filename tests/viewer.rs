@@ -178,8 +178,12 @@ fn bad_view_arguments_are_sentences() {
         c.current_dir(env!("CARGO_MANIFEST_DIR")).env("XDG_RUNTIME_DIR", std::env::temp_dir());
         c
     };
+    // A directory named like a PNG: refused before the window opens, as the CLI's outputs are.
+    let dir = std::env::temp_dir().join("rlpt-view-shot-dir.png");
+    std::fs::create_dir_all(&dir).unwrap();
     for (args, expect) in [
         (vec!["--frames", "2", "--screenshot", "x.jpg"], "must end in .png"),
+        (vec!["--frames", "1", "--screenshot", dir.to_str().unwrap()], "is a directory; give a file name"),
         (vec!["--frames", "2"], "--frames and --screenshot go together"),
         (vec!["--device", "cpu"], "renders on the GPU"),
         (vec!["--resize", "0x10"], "not a size"),

@@ -69,14 +69,8 @@ controls:
 /// Opens the window and runs until it is closed (or the scripted frames are done).
 pub fn run(options: ViewOptions) -> Result<()> {
     if let Some(s) = &options.screenshot {
-        if s.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() != Some("png") {
-            bail!("--screenshot {}: the file name must end in .png (the EXR is written beside it)", s.display());
-        }
-        if let Some(parent) = s.parent().filter(|p| !p.as_os_str().is_empty()) {
-            if !parent.is_dir() {
-                bail!("--screenshot {}: directory {} does not exist", s.display(), parent.display());
-            }
-        }
+        // The EXR is written beside the PNG, with the same name.
+        crate::output::check_output_path("--screenshot", s, Some(&["png"])).map_err(anyhow::Error::msg)?;
     }
     if options.frames.is_some() != options.screenshot.is_some() {
         bail!("--frames and --screenshot go together: the scripted mode renders N frames and saves what it shows");
