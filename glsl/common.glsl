@@ -47,7 +47,8 @@
 #define FLAG_LEARN_FRACTION 8
 // The ray into a path's last vertex is traced in full only where its line meets
 // a light: the environment is black, so nothing else could add to the image
-// (src/prepared.rs `last_ray_to_lights`; every light in a specialized slot).
+// (src/prepared.rs `last_ray_to_lights`: set where, besides, every light has a
+// specialized slot and the scene has no roulette).
 #define FLAG_LAST_RAY_TO_LIGHTS 16
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.

@@ -369,6 +369,16 @@ fn warn_before_render(settings: &Settings, scene: &Scene) {
     }
 }
 
+/// The warning of a render that would hold more host memory than is available
+/// (`film::memory_warning`).
+fn warn_memory(opts: &RenderOptions, device: DeviceKind) {
+    let pixels = opts.width as u64 * opts.height as u64;
+    let gpu = matches!(device, DeviceKind::Gpu);
+    if let Some(w) = rlpt::film::available_memory().and_then(|a| rlpt::film::memory_warning(pixels, gpu, a)) {
+        eprintln!("warning: {}x{}: {w}", opts.width, opts.height);
+    }
+}
+
 /// The warning of a `[guiding]` box that misses what the camera sees
 /// (`guide::grid_warning`), where `prepared` is guided.
 fn warn_grid(scene: &Scene, prepared: &PreparedScene) {
@@ -450,6 +460,7 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
+    warn_memory(&opts, args.settings.device);
 
     let bar = ProgressBar::with_draw_target(Some(frames as u64), ProgressDrawTarget::hidden());
     bar.set_style(
@@ -662,6 +673,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     let opts = args.settings.options(&scene);
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
+    warn_memory(&opts, args.settings.device);
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
     let mut times = Vec::with_capacity(args.frames as usize);
     let (device, driver, clock, pipelines) = match args.settings.device {
