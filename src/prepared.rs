@@ -664,6 +664,10 @@ pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight]) -> bool {
 /// in decimal, whose f32 values make a wall's edge stick out of the ceiling by
 /// 6e-8 (door.toml), and a segment can then cross the plane only at an end that
 /// lies within that distance of it, inside the band where the answer is rounding.
+///
+/// In a scene whose one light is a quad, every shadow ray ends on that quad,
+/// moved off it to the side the ray comes from: the segment meets the quad's
+/// plane nowhere, so the lamp goes last too.
 pub fn occluding_order(scene: &Scene) -> (Vec<usize>, u32) {
     let d = |v: Vec3| v.as_dvec3();
     let bounds_scene = |q: &crate::scene::Quad| {
@@ -691,7 +695,14 @@ pub fn occluding_order(scene: &Scene) -> (Vec<usize>, u32) {
         }
         !(below && above)
     };
-    let bounding: Vec<bool> = scene.quads.iter().map(bounds_scene).collect();
+    let mut bounding: Vec<bool> = scene.quads.iter().map(bounds_scene).collect();
+    let emits = |m: u32| scene.materials[m as usize].emits();
+    let lamp_quads: Vec<usize> = (0..scene.quads.len()).filter(|&i| emits(scene.quads[i].material)).collect();
+    if let [lamp] = lamp_quads[..] {
+        if !scene.spheres.iter().any(|s| emits(s.material)) {
+            bounding[lamp] = true;
+        }
+    }
     let mut order: Vec<usize> = (0..scene.quads.len()).filter(|&i| !bounding[i]).collect();
     let occluding = order.len() as u32;
     order.extend((0..scene.quads.len()).filter(|&i| bounding[i]));
@@ -935,30 +946,60 @@ mod tests {
     }
 
     /// door.toml: the partition's three pieces (both rooms lie on both sides of
-    /// their plane) and the lamp under the ceiling can block a shadow ray, in
-    /// their scene order; the six walls of the rooms cannot, and come last. The
-    /// lamp's light follows its quad.
+    /// their plane) can block a shadow ray, in their scene order; the six walls of
+    /// the rooms cannot, nor the lamp, the scene's one light, on which every
+    /// shadow ray ends: they come last, in scene order. The lamp's light follows
+    /// its quad.
     #[test]
     fn shadow_rays_test_the_quads_inside_the_scene_first() {
         let s = scene("door");
         let (order, n) = occluding_order(&s);
-        assert_eq!(n, 4);
-        assert_eq!(order, vec![6, 7, 8, 9, 0, 1, 2, 3, 4, 5]);
+        assert_eq!(n, 3);
+        assert_eq!(order, vec![6, 7, 8, 0, 1, 2, 3, 4, 5, 9]);
         let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options");
-        assert_eq!(p.params.occluding_quads, 4);
+        assert_eq!(p.params.occluding_quads, 3);
         for (j, &i) in order.iter().enumerate() {
             assert_eq!(p.quads[j].origin[..3], s.quads[i].origin.to_array());
         }
         assert_eq!(p.lights.len(), 1);
-        assert_eq!(p.lights[0].index, 3);
-        assert_eq!(p.quads[3].light, 0);
-        // The seed's boxes: the lamp alone (the ceiling is above it, the rest below).
-        for name in ["seed-exp1", "seed-exp2", "seed-exp3"] {
-            let (order, n) = occluding_order(&scene(name));
-            assert_eq!((n, order[0]), (1, 5), "{name}");
+        assert_eq!(p.lights[0].index, 9);
+        assert_eq!(p.quads[9].light, 0);
+        // The seed's boxes: the lamp alone could (the ceiling is above it, the
+        // rest below), and it is the one light of seed-exp1 and exp2; seed-exp3
+        // has a second, a sphere, whose shadow rays the lamp can block.
+        for name in ["seed-exp1", "seed-exp2"] {
+            assert_eq!(occluding_order(&scene(name)), ((0..6).collect(), 0), "{name}");
         }
+        let (order, n) = occluding_order(&scene("seed-exp3"));
+        assert_eq!((n, order[0]), (1, 5));
         // smallpt has no quads; the furnaces' spheres bound nothing.
         assert_eq!(occluding_order(&scene("smallpt")), (vec![], 0));
+    }
+
+    /// A lamp panel inside the scene (a floor below it, a blocker crossing its
+    /// plane) goes last where it is the one light, and stays among the occluders
+    /// where a second lamp's shadow rays could meet it.
+    #[test]
+    fn the_one_quad_light_cannot_block_its_own_shadow_rays() {
+        let text = |lamps: u32| {
+            let mut t = String::from(
+                "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 1, 0]\nvfov = 40\n\
+                 [[material]]\nname = \"m\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [[material]]\nname = \"lamp\"\ntype = \"emissive\"\nemission = [1, 1, 1]\n\
+                 [[quad]]\norigin = [-5, 0, -5]\nedge_u = [0, 0, 10]\nedge_v = [10, 0, 0]\nmaterial = \"m\"\n\
+                 [[quad]]\norigin = [-1, 0.5, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]\nmaterial = \"m\"\n",
+            );
+            for i in 0..lamps {
+                t += &format!(
+                    "[[quad]]\norigin = [{x}, 1, -1]\nedge_u = [1, 0, 0]\nedge_v = [0, 0, 2]\nmaterial = \"lamp\"\n",
+                    x = 2.0 * i as f32 - 1.5
+                );
+            }
+            Scene::parse(&t, "t.toml").unwrap()
+        };
+        // The floor bounds the scene; the blocker (z = 0) crosses the lamps' plane (y = 1).
+        assert_eq!(occluding_order(&text(1)), (vec![1, 0, 2], 1));
+        assert_eq!(occluding_order(&text(2)), (vec![1, 2, 3, 0], 3));
     }
 
     /// Touching the plane counts as inside it; crossing it by more than rounding

@@ -184,6 +184,8 @@ emission = [10.0, 10.0, 10.0]
             "\n[[quad]]\norigin = [{x}, {y}, 1.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 5.0, 0.0]\nmaterial = \"green\"\n"
         );
     }
+    // A 65th panel among the balls, so that shadow rays reach the storage buffer's quads.
+    t += "\n[[quad]]\norigin = [40.0, 20.0, 60.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 5.0, 0.0]\nmaterial = \"green\"\n";
     for (name, origin, u, v, material) in [
         ("floor", [0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], "white"),
         ("ceiling", [0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"),
@@ -208,8 +210,9 @@ fn gpu_and_cpu_agree_past_the_uniform_primitives() {
     let scene = crowded_scene();
     assert!(scene.spheres.len() > 64 && scene.quads.len() > 64);
     let mut opts = options(&scene, 32, 24, 512);
-    // Shadow rays walk both loops too: 64 panels and the lamp can block them, the
-    // room's five walls cannot (`prepared::occluding_order`).
+    // Shadow rays walk both loops too: the 65 panels can block them; the room's
+    // five walls cannot, nor the lamp, the one light, on which they end
+    // (`prepared::occluding_order`).
     assert_eq!(PreparedScene::new(&scene, &opts).expect("valid options").params.occluding_quads, 65);
     let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [99, 3], "crowded scene");
     let (mean, _, _) = region_stats(&g, |_, _| true);
