@@ -453,7 +453,6 @@ impl PreparedScene {
                 pad: [0; 2],
             })
             .collect();
-        let emits = |mat: u32| scene.materials[mat as usize].emits();
         // Lights are chosen in proportion to emitted power: area x mean emission (x2 if two-sided).
         // In f64: a large lamp's power overflows f32 (1e12 radiance over 1e24 of
         // area), and the probabilities are all that leaves here.
@@ -470,7 +469,7 @@ impl PreparedScene {
             .enumerate()
             .map(|(i, s)| {
                 let mut light = shared::NO_LIGHT;
-                if emits(s.material) {
+                if scene.material_emits(s.material) {
                     light = lights.len() as u32;
                     lights.push(GpuLight { kind: shared::LIGHT_SPHERE, index: i as u32, pmf: 0.0, cdf: 0.0 });
                     powers.push(power(s.material, 4.0 * std::f64::consts::PI * (s.radius as f64).powi(2)));
@@ -488,7 +487,7 @@ impl PreparedScene {
                 let w = n / n.length_squared();
                 let normal = n / area;
                 let mut light = shared::NO_LIGHT;
-                if emits(q.material) {
+                if scene.material_emits(q.material) {
                     light = lights.len() as u32;
                     lights.push(GpuLight { kind: shared::LIGHT_QUAD, index: i as u32, pmf: 0.0, cdf: 0.0 });
                     powers.push(power(q.material, q.edge_u.as_dvec3().cross(q.edge_v.as_dvec3()).length()));
@@ -539,7 +538,7 @@ impl PreparedScene {
         if opts.learn_fraction && opts.guiding != GuidingMode::Off {
             flags |= shared::FLAG_LEARN_FRACTION;
         }
-        if opts.russian_roulette_depth.is_none() && last_ray_to_lights(scene.environment, &lights) {
+        if last_ray_to_lights(scene.environment, &lights, opts.russian_roulette_depth.is_some()) {
             flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;
         }
         let mut params = RenderParams {
@@ -637,15 +636,15 @@ pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
 /// tests are written out per specialized slot, so every light must lie in one
 /// (the first `SPEC_SPHERES` spheres and `SPEC_QUADS` quads, in the order of
 /// [`PreparedScene::quads`]). A scene with no light has nothing to find.
-/// `PreparedScene::new` sets the flag only without Russian roulette: with it few
-/// paths reach the last vertex, and the test is code the kernel carries for
-/// little (door's unguided H200 frame 1.2 % longer with it; `BENCHMARKS.md`).
-pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight]) -> bool {
+/// Not with Russian `roulette`: with it few paths reach the last vertex, and the
+/// test is code the kernel carries for little (door's unguided H200 frame 1.2 %
+/// longer with it; `BENCHMARKS.md`).
+pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool) -> bool {
     let in_slot = |l: &GpuLight| match l.kind {
         shared::LIGHT_SPHERE => l.index < shared::SPEC_SPHERES,
         _ => l.index < shared::SPEC_QUADS,
     };
-    environment == Vec3::ZERO && lights.iter().all(in_slot)
+    !roulette && environment == Vec3::ZERO && lights.iter().all(in_slot)
 }
 
 /// The order of the scene's quads in [`PreparedScene::quads`], and how many of
@@ -696,10 +695,10 @@ pub fn occluding_order(scene: &Scene) -> (Vec<usize>, u32) {
         !(below && above)
     };
     let mut bounding: Vec<bool> = scene.quads.iter().map(bounds_scene).collect();
-    let emits = |m: u32| scene.materials[m as usize].emits();
-    let lamp_quads: Vec<usize> = (0..scene.quads.len()).filter(|&i| emits(scene.quads[i].material)).collect();
+    let lamp_quads: Vec<usize> =
+        (0..scene.quads.len()).filter(|&i| scene.material_emits(scene.quads[i].material)).collect();
     if let [lamp] = lamp_quads[..] {
-        if !scene.spheres.iter().any(|s| emits(s.material)) {
+        if !scene.spheres.iter().any(|s| scene.material_emits(s.material)) {
             bounding[lamp] = true;
         }
     }

@@ -137,14 +137,19 @@ impl Scene {
         load::parse_str(text, name)
     }
 
+    /// Whether material `m` emits ([`Material::emits`]): a sphere or quad made of
+    /// it is one of the scene's lights.
+    pub fn material_emits(&self, m: u32) -> bool {
+        self.materials[m as usize].emits()
+    }
+
     /// Whether anything gives light: a sphere or quad whose material emits, or
     /// the environment. A scene without renders black, which a loader cannot
     /// call wrong (a test may want it) but a user should hear about.
     pub fn emits_light(&self) -> bool {
-        let emits = |m: u32| self.materials[m as usize].emits();
         self.environment.max_element() > 0.0
-            || self.spheres.iter().any(|s| emits(s.material))
-            || self.quads.iter().any(|q| emits(q.material))
+            || self.spheres.iter().any(|s| self.material_emits(s.material))
+            || self.quads.iter().any(|q| self.material_emits(q.material))
     }
 }
 
