@@ -634,9 +634,16 @@ fn compare(image: &Path, reference: &Path) -> Result<()> {
 }
 
 fn plot(stats: &[PathBuf], output: &Path) -> Result<()> {
+    // One curve per file, however its path is written: `a.json` and `./a.json`,
+    // or a link and its target, are the same file.
+    let key =
+        |p: &Path| std::fs::canonicalize(p).or_else(|_| std::path::absolute(p)).unwrap_or_else(|_| p.to_path_buf());
     for (i, p) in stats.iter().enumerate() {
-        if stats[..i].contains(p) {
-            bail!("{} is given twice: each statistics file is one curve", p.display());
+        if let Some(q) = stats[..i].iter().find(|q| key(q) == key(p)) {
+            if q == p {
+                bail!("{} is given twice: each statistics file is one curve", p.display());
+            }
+            bail!("{} and {} are the same file: each statistics file is one curve", q.display(), p.display());
         }
     }
     let runs = stats.iter().map(|p| RenderStats::load(p)).collect::<Result<Vec<_>>>()?;

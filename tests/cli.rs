@@ -461,4 +461,23 @@ fn a_guiding_box_away_from_the_scene_and_other_slips_are_named() {
     let (ok, err) =
         run(&["plot", stats.to_str().unwrap(), stats.to_str().unwrap(), "-o", tmp("twice.png").to_str().unwrap()]);
     assert!(!ok && err.contains("is given twice"), "{err}");
+    // The same file under two names: through `..`, and through a link to it.
+    std::fs::write(&stats, "{}").unwrap();
+    let dir = stats.parent().unwrap();
+    let around = dir.join("..").join(dir.file_name().unwrap()).join("stats-twice.json");
+    let (ok, err) =
+        run(&["plot", stats.to_str().unwrap(), around.to_str().unwrap(), "-o", tmp("twice.png").to_str().unwrap()]);
+    assert!(!ok && err.contains("are the same file"), "{err}");
+    let link = tmp("stats-link.json");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&stats, &link).unwrap();
+    let (ok, err) =
+        run(&["plot", link.to_str().unwrap(), stats.to_str().unwrap(), "-o", tmp("twice.png").to_str().unwrap()]);
+    assert!(!ok && err.contains("are the same file"), "{err}");
+    // Two files: the check passes them, and the first one's content is what fails.
+    let other = tmp("stats-other.json");
+    std::fs::write(&other, "{}").unwrap();
+    let (ok, err) =
+        run(&["plot", stats.to_str().unwrap(), other.to_str().unwrap(), "-o", tmp("twice.png").to_str().unwrap()]);
+    assert!(!ok && !err.contains("same file") && !err.contains("given twice"), "{err}");
 }
