@@ -31,6 +31,8 @@
 #define LIGHT_SPHERE 0
 #define LIGHT_QUAD 1
 #define NO_LIGHT 4294967295
+// A face of the room (src/math/geometry.rs `Room`) that no quad covers.
+#define NO_QUAD 4294967295
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
 // bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light, and bit
 // (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough
@@ -125,7 +127,16 @@
 // (geometry.glsl; src/prepared.rs `geometry_specialization`).
 #define SPEC_LIGHT_QUADS 385
 #define SPEC_LIGHT_SPHERES 386
-#define NUM_SPEC_CONSTANTS 387
+// The room (geometry.glsl `room_hit`; src/math/geometry.rs `Room`): how many of
+// its faces have a quad (the scene's last quads, which the closest-hit walk
+// leaves to room_hit), its box (6 floats: min, then max), and per face
+// 2 * axis + side the index of its quad, NO_QUAD where the face is open; and
+// whether a ray may meet a wall from outside (the camera's may: `Room::entering`).
+#define SPEC_ROOM_QUADS 387
+#define SPEC_ROOM_BOUNDS 388
+#define SPEC_ROOM_FACES 394
+#define SPEC_ROOM_ENTERING 400
+#define NUM_SPEC_CONSTANTS 401
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 #define NUM_COUNTERS 4

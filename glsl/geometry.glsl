@@ -176,6 +176,24 @@ layout(constant_id = SPEC_NUM_QUADS) const uint SCENE_QUADS = 0u;
 // params.occluding_quads: the quads a shadow ray tests come first; the rest bound
 // the scene and cannot block one (src/prepared.rs `occluding_order`).
 layout(constant_id = SPEC_OCCLUDING_QUADS) const uint OCCLUDING_QUADS = 0u;
+// src/math/geometry.rs `Room`: the box whose faces are walls, and the quad that
+// covers each face (NO_QUAD where it is open). Those quads are the scene's last
+// ROOM_QUADS, and the closest-hit walk leaves them to room_hit.
+layout(constant_id = SPEC_ROOM_QUADS) const uint ROOM_QUADS = 0u;
+layout(constant_id = SPEC_ROOM_BOUNDS + 0) const float ROOM_MIN_X = 0.0;
+layout(constant_id = SPEC_ROOM_BOUNDS + 1) const float ROOM_MIN_Y = 0.0;
+layout(constant_id = SPEC_ROOM_BOUNDS + 2) const float ROOM_MIN_Z = 0.0;
+layout(constant_id = SPEC_ROOM_BOUNDS + 3) const float ROOM_MAX_X = 0.0;
+layout(constant_id = SPEC_ROOM_BOUNDS + 4) const float ROOM_MAX_Y = 0.0;
+layout(constant_id = SPEC_ROOM_BOUNDS + 5) const float ROOM_MAX_Z = 0.0;
+layout(constant_id = SPEC_ROOM_FACES + 0) const uint ROOM_FACE_0 = NO_QUAD;
+layout(constant_id = SPEC_ROOM_FACES + 1) const uint ROOM_FACE_1 = NO_QUAD;
+layout(constant_id = SPEC_ROOM_FACES + 2) const uint ROOM_FACE_2 = NO_QUAD;
+layout(constant_id = SPEC_ROOM_FACES + 3) const uint ROOM_FACE_3 = NO_QUAD;
+layout(constant_id = SPEC_ROOM_FACES + 4) const uint ROOM_FACE_4 = NO_QUAD;
+layout(constant_id = SPEC_ROOM_FACES + 5) const uint ROOM_FACE_5 = NO_QUAD;
+layout(constant_id = SPEC_ROOM_ENTERING) const bool ROOM_ENTERING = false;
+
 
 // The first SPEC_SPHERES spheres and SPEC_QUADS quads as specialization
 // constants, one float each (common.glsl: SPEC_QUAD_BASE, SPEC_SPHERE_BASE):
@@ -223,9 +241,12 @@ layout(constant_id = SPEC_COMPACT_SPHERES) const uint COMPACT_SPHERES = 0u;
 // How many spheres and quads are specialization constants, and how many more the
 // uniform buffer holds: the first ones, up to the capacities.
 uint spec_sphere_count() { return min(SCENE_SPHERES, uint(SPEC_SPHERES)); }
-uint spec_quad_count() { return min(SCENE_QUADS, uint(SPEC_QUADS)); }
+// The quads' counts are those of the closest-hit walk: the room's quads, the
+// last, are left to room_hit (shadow rays test the first OCCLUDING_QUADS alone).
+uint walked_quads() { return SCENE_QUADS - ROOM_QUADS; }
+uint spec_quad_count() { return min(walked_quads(), uint(SPEC_QUADS)); }
 uint const_sphere_count() { return min(SCENE_SPHERES, uint(CONST_SPHERES)); }
-uint const_quad_count() { return min(SCENE_QUADS, uint(CONST_QUADS)); }
+uint const_quad_count() { return min(walked_quads(), uint(CONST_QUADS)); }
 
 // The hit tests of primitive i of the uniform buffer.
 float const_sphere(uint i, vec3 o, vec3 d, float t_max) {
@@ -242,6 +263,42 @@ float const_quad(uint i, vec3 o, vec3 d, float t_max) {
     uint k = 4u * i;
     return intersect_quad_at(const_quads[k], const_quads[k + 1u].xyz, const_quads[k + 2u].xyz,
                              const_quads[k + 3u].xyz, o, d, t_max);
+}
+
+// The quad of the room's face on `axis`, at its max side or its min.
+uint room_face(uint axis, bool at_max) {
+    if (axis == 0u) return at_max ? ROOM_FACE_1 : ROOM_FACE_0;
+    if (axis == 1u) return at_max ? ROOM_FACE_3 : ROOM_FACE_2;
+    return at_max ? ROOM_FACE_5 : ROOM_FACE_4;
+}
+
+// src/math/geometry.rs `Room::hit`: the first of the room's quads the ray meets
+// in (0, best), by one slab test (the distances by the ray's reciprocal, as the
+// specialized quads' own tests take them); its index in `q`. The face a ray
+// enters by only where ROOM_ENTERING says a ray may come from outside.
+bool room_hit(vec3 o, vec3 d, vec3 inv_d, float best, out float t, out uint q) {
+    vec3 t_lo = (vec3(ROOM_MIN_X, ROOM_MIN_Y, ROOM_MIN_Z) - o) * inv_d;
+    vec3 t_hi = (vec3(ROOM_MAX_X, ROOM_MAX_Y, ROOM_MAX_Z) - o) * inv_d;
+    vec3 near = min(t_lo, t_hi);
+    vec3 far = max(t_lo, t_hi);
+    float t_enter = max(near.x, max(near.y, near.z));
+    float t_exit = min(far.x, min(far.y, far.z));
+    if (!(t_enter <= t_exit)) return false;
+    // The axes whose planes give t_enter and t_exit (selects, not d[axis]: see normal_class).
+    uint ax = far.x == t_exit ? 0u : (far.y == t_exit ? 1u : 2u);
+    float dx = ax == 0u ? d.x : (ax == 1u ? d.y : d.z);
+    t = t_exit;
+    q = room_face(ax, dx > 0.0);
+    if (ROOM_ENTERING) {
+        uint ae = near.x == t_enter ? 0u : (near.y == t_enter ? 1u : 2u);
+        float de = ae == 0u ? d.x : (ae == 1u ? d.y : d.z);
+        uint qe = room_face(ae, de < 0.0);
+        if (t_enter > 0.0 && qe != NO_QUAD) {
+            t = t_enter;
+            q = qe;
+        }
+    }
+    return q != NO_QUAD && t > 0.0 && t < best;
 }
 
 // Each kind of primitive is walked in three runs: the specialized slots, the
@@ -269,6 +326,11 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         float t = intersect_sphere(spheres[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = true; }
     }
+    if (ROOM_QUADS > 0u) {
+        float t;
+        uint q;
+        if (room_hit(o, d, inv_d, best, t, q)) { best = t; found = int(q); is_sphere = false; }
+    }
 #define NEAREST_SPEC_QUAD(i) \
     if (i < spec_quad_count()) { \
         float t = SPEC_QUAD_HIT(i, o, d, best); \
@@ -280,7 +342,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         float t = const_quad(i, o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
-    for (uint i = nq; i < SCENE_QUADS; ++i) {
+    for (uint i = nq; i < walked_quads(); ++i) {
         float t = intersect_quad(quads[i], o, d, best);
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }

@@ -5,6 +5,7 @@
 //! precomputed normals, light probabilities and camera vectors agree exactly.
 
 use crate::guide::{self, Bins, Grid, GuideConfig, GuidingMode};
+use crate::math::geometry::Room;
 use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::shared;
@@ -201,7 +202,11 @@ const _: () = assert!(
 );
 const _: () = assert!(shared::SPEC_LIGHT_QUADS == shared::SPEC_COMPACT_SPHERES + 1);
 const _: () = assert!(shared::SPEC_LIGHT_SPHERES == shared::SPEC_LIGHT_QUADS + 1);
-const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_LIGHT_SPHERES + 1);
+const _: () = assert!(shared::SPEC_ROOM_QUADS == shared::SPEC_LIGHT_SPHERES + 1);
+const _: () = assert!(shared::SPEC_ROOM_BOUNDS == shared::SPEC_ROOM_QUADS + 1);
+const _: () = assert!(shared::SPEC_ROOM_FACES == shared::SPEC_ROOM_BOUNDS + 6);
+const _: () = assert!(shared::SPEC_ROOM_ENTERING == shared::SPEC_ROOM_FACES + 6);
+const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_ROOM_ENTERING + 1);
 // geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
@@ -379,6 +384,8 @@ pub struct PreparedScene {
     pub lights: Vec<GpuLight>,
     /// Guiding geometry, when guiding is on.
     pub guide: Option<GuideConfig>,
+    /// The walls found by one slab test ([`room_walls`]); [`Room::NONE`] where there are none.
+    pub room: Room,
 }
 
 fn v4(v: Vec3, w: f32) -> [f32; 4] {
@@ -435,6 +442,13 @@ impl PreparedScene {
         for (i, q) in self.quads.iter().take(shared::SPEC_QUADS as usize).enumerate() {
             out[at(shared::SPEC_LIGHT_QUADS)] |= ((q.light != shared::NO_LIGHT) as u32) << i;
         }
+        let r = &self.room;
+        out[at(shared::SPEC_ROOM_QUADS)] = r.quads;
+        let bounds = at(shared::SPEC_ROOM_BOUNDS);
+        out[bounds..bounds + 6].copy_from_slice(&bits(&[r.min.to_array(), r.max.to_array()].concat()));
+        let faces = at(shared::SPEC_ROOM_FACES);
+        out[faces..faces + 6].copy_from_slice(&r.faces);
+        out[at(shared::SPEC_ROOM_ENTERING)] = r.entering as u32;
         out
     }
 
@@ -505,8 +519,24 @@ impl PreparedScene {
                 }
             })
             .collect();
-        // The quads that can block a shadow ray first; lights follow their quads.
-        let (order, occluding_quads) = occluding_order(scene);
+        // The quads that can block a shadow ray first, the room's walls last;
+        // lights follow their quads.
+        let (mut order, occluding_quads) = occluding_order(scene);
+        let walls = room_walls(scene, &order[occluding_quads as usize..]);
+        let mut room = Room::NONE;
+        if let Some((min, max, faces)) = walls {
+            let is_wall = |i: &usize| faces.contains(&Some(*i));
+            let (rest, last): (Vec<usize>, Vec<usize>) = order.iter().partition(|i| !is_wall(i));
+            order = [rest, last].concat();
+            let at = |i: usize| order.iter().position(|&j| j == i).unwrap() as u32;
+            room = Room {
+                min,
+                max,
+                faces: faces.map(|f| f.map_or(shared::NO_QUAD, at)),
+                quads: faces.iter().flatten().count() as u32,
+                entering: false,
+            };
+        }
         let quads: Vec<GpuQuad> = order.iter().map(|&i| quads[i]).collect();
         for (j, q) in quads.iter().enumerate() {
             if q.light != shared::NO_LIGHT {
@@ -571,7 +601,8 @@ impl PreparedScene {
             scene_kinds: scene_kinds(&materials, &lights),
         };
         params.set_camera(&scene.camera);
-        let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None };
+        room.entering = room.camera_may_enter(&params);
+        let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None, room };
         let bins = match opts.guiding {
             GuidingMode::Off => None,
             GuidingMode::Octant => Some(Bins::OCTANT),
@@ -706,6 +737,60 @@ pub fn occluding_order(scene: &Scene) -> (Vec<usize>, u32) {
     let occluding = order.len() as u32;
     order.extend((0..scene.quads.len()).filter(|&i| bounding[i]));
     (order, occluding)
+}
+
+/// The room of a scene ([`Room`]): the box around every primitive (quads'
+/// corners, spheres' extents), and for each of its six faces the first of
+/// `candidates` (indices into the scene's quads; the quads that bound the scene,
+/// [`occluding_order`]) that lies in that face along two axes and covers it
+/// whole, as the box's own numbers say, or None. None where no face has one, or
+/// the box is flat or not finite (smallpt's huge spheres: no quads).
+pub fn room_walls(scene: &Scene, candidates: &[usize]) -> Option<(Vec3, Vec3, [Option<usize>; 6])> {
+    let corners = |q: &crate::scene::Quad| {
+        let (o, u, v) = (q.origin, q.edge_u, q.edge_v);
+        [o, o + u, o + v, o + u + v]
+    };
+    let (mut min, mut max) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for q in &scene.quads {
+        for c in corners(q) {
+            (min, max) = (min.min(c), max.max(c));
+        }
+    }
+    for s in &scene.spheres {
+        (min, max) = (min.min(s.center - s.radius), max.max(s.center + s.radius));
+    }
+    if !(min.is_finite() && max.is_finite() && (max - min).cmpgt(Vec3::ZERO).all()) {
+        return None;
+    }
+    // The one axis an edge runs along, None for an edge askew.
+    let axis = |e: Vec3| {
+        let along: Vec<usize> = (0..3).filter(|&a| e[a] != 0.0).collect();
+        (along.len() == 1).then(|| along[0])
+    };
+    let mut faces = [None; 6];
+    for &i in candidates {
+        let q = &scene.quads[i];
+        let (Some(a_u), Some(a_v)) = (axis(q.edge_u), axis(q.edge_v)) else { continue };
+        if a_u == a_v {
+            continue;
+        }
+        let a = 3 - a_u - a_v;
+        let c = corners(q);
+        let lo = c.iter().fold(Vec3::splat(f32::INFINITY), |m, &p| m.min(p));
+        let hi = c.iter().fold(Vec3::splat(f32::NEG_INFINITY), |m, &p| m.max(p));
+        let covers = [a_u, a_v].iter().all(|&b| lo[b] == min[b] && hi[b] == max[b]);
+        let side = if lo[a] == min[a] {
+            0
+        } else if lo[a] == max[a] {
+            1
+        } else {
+            continue;
+        };
+        if covers && faces[2 * a + side].is_none() {
+            faces[2 * a + side] = Some(i);
+        }
+    }
+    faces.iter().any(Option::is_some).then_some((min, max, faces))
 }
 
 #[cfg(test)]
@@ -947,8 +1032,9 @@ mod tests {
     /// door.toml: the partition's three pieces (both rooms lie on both sides of
     /// their plane) can block a shadow ray, in their scene order; the six walls of
     /// the rooms cannot, nor the lamp, the scene's one light, on which every
-    /// shadow ray ends: they come last, in scene order. The lamp's light follows
-    /// its quad.
+    /// shadow ray ends: they come last, in scene order. In the prepared scene the
+    /// walls, which are the room's (`room_walls`), follow the lamp. The lamp's
+    /// light follows its quad.
     #[test]
     fn shadow_rays_test_the_quads_inside_the_scene_first() {
         let s = scene("door");
@@ -957,12 +1043,12 @@ mod tests {
         assert_eq!(order, vec![6, 7, 8, 0, 1, 2, 3, 4, 5, 9]);
         let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options");
         assert_eq!(p.params.occluding_quads, 3);
-        for (j, &i) in order.iter().enumerate() {
+        for (j, &i) in [6, 7, 8, 9, 0, 1, 2, 3, 4, 5].iter().enumerate() {
             assert_eq!(p.quads[j].origin[..3], s.quads[i].origin.to_array());
         }
         assert_eq!(p.lights.len(), 1);
-        assert_eq!(p.lights[0].index, 9);
-        assert_eq!(p.quads[9].light, 0);
+        assert_eq!(p.lights[0].index, 3);
+        assert_eq!(p.quads[3].light, 0);
         // The seed's boxes: the lamp alone could (the ceiling is above it, the
         // rest below), and it is the one light of seed-exp1 and exp2; seed-exp3
         // has a second, a sphere, whose shadow rays the lamp can block.
@@ -1022,5 +1108,117 @@ mod tests {
         assert_eq!(order(0.999, 0.0), (vec![0, 1], 2));
         // The panel dips below the floor.
         assert_eq!(order(1.0, -0.001), (vec![0, 1], 2));
+    }
+
+    /// The room of the shipped scenes: seed-exp2's five walls (its front is
+    /// open), door's six (its partition and lamp are not walls), none in
+    /// smallpt (spheres only); the walls go last, after the other quads, each
+    /// face naming the quad that covers it.
+    #[test]
+    fn rooms_are_found_where_quads_cover_the_faces_of_the_box() {
+        let prep = |name: &str| {
+            let s = scene(name);
+            (PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap(), s)
+        };
+        let (p, s) = prep("seed-exp2");
+        assert_eq!((p.room.min, p.room.max), (Vec3::ZERO, Vec3::new(100.0, 80.0, 160.0)));
+        assert_eq!(p.room.quads, 5);
+        // min x: left wall; max x: right; min y: floor; max y: ceiling; min z: back.
+        let want = [Some(3), Some(4), Some(0), Some(1), Some(2), None];
+        for (face, w) in want.iter().enumerate() {
+            let q = p.room.faces[face];
+            match w {
+                None => assert_eq!(q, shared::NO_QUAD, "face {face} is open"),
+                Some(i) => {
+                    assert!(q >= 1, "face {face}: the walls come after the lamp");
+                    let (a, b) = (&p.quads[q as usize], &s.quads[*i]);
+                    assert_eq!(a.origin[..3], b.origin.to_array(), "face {face}");
+                }
+            }
+        }
+        let (p, _) = prep("door");
+        assert_eq!((p.room.quads, p.quads.len()), (6, 10));
+        assert!(p.room.faces.iter().all(|q| (4..10).contains(q)), "{:?}", p.room.faces);
+        assert_eq!(p.params.occluding_quads, 3, "the partition still blocks shadow rays");
+        assert_eq!(prep("smallpt").0.room, Room::NONE);
+        // A wall short of its face is no wall of the room: door's floor cut at
+        // x = 8.5 leaves the floor to the walk (and the box is still 9 long:
+        // the ceiling spans it).
+        let mut s = scene("door");
+        s.quads[0].edge_v = Vec3::new(8.5, 0.0, 0.0);
+        let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap();
+        assert_eq!((p.room.quads, p.room.faces[2]), (5, shared::NO_QUAD));
+    }
+
+    /// The walk with the room finds what the walk over every quad finds: the
+    /// same distance and surface for rays from inside the box, from outside it
+    /// with the entering face tested, and, without it, from where seed-exp2's
+    /// camera stands (in front of its open face); but where a hit lies on an
+    /// edge of the box, where either wall is right.
+    #[test]
+    fn the_room_test_finds_what_the_quads_own_tests_find() {
+        use crate::math::geometry::intersect;
+        use crate::math::rng::Rng;
+        use crate::math::sampling::uniform_sphere;
+        for name in ["seed-exp2", "door", "seed-exp1"] {
+            let s = scene(name);
+            let with = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap();
+            assert!(with.room.quads > 0, "{name}");
+            assert!(!with.room.entering, "{name}: the camera looks in through an open face, or stands inside");
+            let without = PreparedScene { room: Room::NONE, ..with.clone() };
+            let entering = PreparedScene { room: Room { entering: true, ..with.room }, ..with.clone() };
+            let (lo, hi) = (with.room.min, with.room.max);
+            let size = (hi - lo).max_element();
+            let cam = Vec3::from_slice(&with.params.cam_position_near[..3]);
+            let mut rng = Rng::new(7, 0, 0, 0);
+            let (mut checked, mut walls) = (0, 0);
+            for k in 0..30000 {
+                let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                // A third of the origins inside the box, a third in a box three
+                // times as large (entering face tested), a third near the camera.
+                let (o, room) = match k % 3 {
+                    0 => (lo + u * (hi - lo), &with),
+                    1 => (lo - (hi - lo) + u * 3.0 * (hi - lo), &entering),
+                    _ => (cam + (u - 0.5) * 1e-2 * size, &with),
+                };
+                let d = uniform_sphere([rng.next_f32(), rng.next_f32()]);
+                let (a, b) = (intersect(room, o, d, f32::INFINITY), intersect(&without, o, d, f32::INFINITY));
+                let on_edge = |p: Vec3| {
+                    let near = |x: f32, l: f32, h: f32| (x - l).abs() < 1e-4 * size || (x - h).abs() < 1e-4 * size;
+                    (0..3).filter(|&a| near(p[a], lo[a], hi[a])).count() >= 2
+                };
+                match (a, b) {
+                    (None, None) => {}
+                    (Some(a), Some(b)) if on_edge(b.p) => assert!((a.t - b.t).abs() <= 1e-4 * b.t, "{name}: {o} {d}"),
+                    (Some(a), Some(b)) => {
+                        assert!((a.t - b.t).abs() <= 1e-6 * b.t, "{name}: {o} {d}: t {} against {}", a.t, b.t);
+                        assert_eq!((a.material, a.light, a.n), (b.material, b.light, b.n), "{name}: {o} {d}");
+                        checked += 1;
+                        walls += with.room.faces.iter().any(|&q| {
+                            q != shared::NO_QUAD
+                                && with.quads[q as usize].material == a.material
+                                && with.quads[q as usize].normal[..3] == a.n.to_array()
+                        }) as u32;
+                    }
+                    (a, b) => panic!("{name}: {o} {d}: {a:?} with the room, {b:?} without"),
+                }
+            }
+            assert!(checked > 5000 && walls > 2000, "{name}: {checked} hits, {walls} on walls");
+        }
+        // A camera moved outside, beyond a wall, may meet walls from outside.
+        let s = scene("door");
+        let mut p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap();
+        assert!(!p.room.camera_may_enter(&p.params));
+        p.params.cam_position_near[0] = -1.0;
+        assert!(p.room.camera_may_enter(&p.params));
+        let s = scene("seed-exp2");
+        let mut p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap();
+        p.params.cam_position_near[1] = 90.0;
+        assert!(p.room.camera_may_enter(&p.params), "above the ceiling");
+        p.params.cam_position_near[1] = 40.0;
+        p.params.cam_position_near[3] = 30.0;
+        assert!(!p.room.camera_may_enter(&p.params), "in front of the open face, rays starting 30 from it");
+        p.params.cam_position_near[3] = 45.0;
+        assert!(p.room.camera_may_enter(&p.params), "rays starting 45 from it may start above the ceiling");
     }
 }

@@ -388,3 +388,60 @@ fn the_last_ray_to_lights_changes_no_pixel() {
         assert!(c.0.pixels == d.0.pixels, "{guiding:?}: CPU image");
     }
 }
+
+/// The room's slab test (`Room`, `room_hit`) finds the walls the quads' own
+/// tests find: the GPU renders seed-exp2 (five walls, looked into through its
+/// open face) and door (six, the camera inside) as it does with every quad
+/// walked (`Room::NONE`), unguided and guided, and seed-exp2 from outside its
+/// left wall too, where the camera's rays meet that wall from outside and the
+/// kernel tests the face a ray enters by (`Room::entering`). The same to
+/// rounding: a ray that leaves the box along an edge may take either wall.
+#[test]
+fn the_room_finds_the_walls_the_quads_find_on_the_gpu() {
+    let ctx = gpu();
+    let mut outside = scene("seed-exp2.toml");
+    outside.camera.position = glam::Vec3::new(-60.0, 40.0, 230.0);
+    outside.camera.forward = (glam::Vec3::new(50.0, 38.0, 60.0) - outside.camera.position).normalize();
+    let cases = [
+        (scene("seed-exp2.toml"), rlpt::guide::GuidingMode::Off, false),
+        (scene("seed-exp2.toml"), rlpt::guide::GuidingMode::Sphere, false),
+        (scene("door.toml"), rlpt::guide::GuidingMode::Off, false),
+        (scene("door.toml"), rlpt::guide::GuidingMode::Sphere, false),
+        (outside, rlpt::guide::GuidingMode::Off, true),
+    ];
+    for (scene, guiding, entering) in cases {
+        let mut opts = options(&scene, 32, 24, 128);
+        opts.guiding = guiding;
+        let with = PreparedScene::new(&scene, &opts).expect("valid options");
+        assert!(with.room.quads >= 5, "{guiding:?}: the scene has a room");
+        assert_eq!(with.room.entering, entering, "{guiding:?}");
+        let without = PreparedScene { room: rlpt::math::geometry::Room::NONE, ..with.clone() };
+        let render = |p: &PreparedScene| {
+            let mut r = GpuRenderer::new(&ctx, p).expect("renderer");
+            let segments: u64 = (0..opts.frames()).map(|_| r.render_frames(1).expect("render").segments).sum();
+            (r.film().expect("readback"), segments)
+        };
+        let ((a, sa), (b, sb)) = (render(&with), render(&without));
+        assert_no_validation_messages(&ctx);
+        let total: f64 = b.pixels.iter().map(|p| p.sum[..3].iter().map(|&v| v as f64).sum::<f64>()).sum();
+        let diff: f64 = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| (0..3).map(|c| (p.sum[c] as f64 - q.sum[c] as f64).abs()).sum::<f64>())
+            .sum();
+        assert!(total > 0.0, "{guiding:?}: the image has light");
+        assert!(
+            diff <= 1e-4 * total,
+            "{guiding:?}, entering {entering}: images differ by {:e} of their sum",
+            diff / total
+        );
+        assert!(sa.abs_diff(sb) as f64 <= 1e-5 * sb as f64, "{guiding:?}: rays {sa} with the room, {sb} without");
+        if entering {
+            // The wall hides part of the room from the camera: some pixels are black
+            // that a ray passing through the wall's outside would light.
+            let dark = a.pixels.iter().filter(|p| p.sum[0] == 0.0).count();
+            assert!(dark > a.pixels.len() / 10, "the left wall's outside fills part of the view: {dark} black pixels");
+        }
+    }
+}

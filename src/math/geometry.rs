@@ -224,7 +224,97 @@ pub fn quad_points_scale(origin: Vec3, edge_u: Vec3, edge_v: Vec3) -> f32 {
     max_abs(origin) + max_abs(edge_u) + max_abs(edge_v)
 }
 
-/// Nearest hit along the unit direction `d` closer than `t_max`.
+/// The box whose faces are walls of the scene (`crate::prepared::room_walls`
+/// finds it): the box around every primitive, and the quads that lie in its
+/// faces and cover them whole. A ray meets such a quad exactly where it
+/// crosses that face of the box, and a line crosses a box's surface at most
+/// twice, entering and leaving, so one slab test per ray finds which of them it
+/// meets first ([`Room::hit`]) in place of a hit test per quad: the five walls of
+/// the seed's rooms, the six of door's. `glsl/geometry.glsl` `room_hit` is the
+/// same test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Room {
+    pub min: Vec3,
+    pub max: Vec3,
+    /// Per face `2 * axis + side` (side 1 the face at `max`): the index in
+    /// [`PreparedScene::quads`] of the quad that covers it, `shared::NO_QUAD`
+    /// where the face is open.
+    pub faces: [u32; 6],
+    /// How many faces have a quad. Those quads are the last of
+    /// [`PreparedScene::quads`], and the closest-hit walk leaves them to [`Room::hit`].
+    pub quads: u32,
+    /// Whether a ray may meet a wall from outside the box ([`Room::camera_may_enter`]):
+    /// where not, the test leaves out the face a ray enters by.
+    pub entering: bool,
+}
+
+impl Room {
+    /// No room: every quad has its own hit test.
+    pub const NONE: Room =
+        Room { min: Vec3::ZERO, max: Vec3::ZERO, faces: [shared::NO_QUAD; 6], quads: 0, entering: false };
+
+    /// Whether the camera's rays may start outside the box beyond a face that
+    /// has a quad, and so meet that wall from outside. Every other ray starts on a
+    /// surface inside the box, or leaves it for good: the primitives all lie
+    /// inside it, so a ray that starts outside (off a wall it left outward) has
+    /// nothing to come back to. seed-exp1 to exp3 look in through their open face,
+    /// and door's camera stands inside its room: none of them needs the entering
+    /// face. The camera's rays start `near` from its position, and a margin of
+    /// rounding is counted in.
+    pub fn camera_may_enter(&self, p: &crate::prepared::RenderParams) -> bool {
+        let c = p.cam_position_near;
+        let reach = c[3].max(0.0);
+        (0..6).any(|f| {
+            let a = f / 2;
+            let margin = 1e-5 * (1.0 + self.min[a].abs().max(self.max[a].abs()));
+            let beyond =
+                if f % 2 == 1 { c[a] + reach >= self.max[a] - margin } else { c[a] - reach <= self.min[a] + margin };
+            self.faces[f] != shared::NO_QUAD && beyond
+        })
+    }
+
+    /// The first of the room's quads that the ray from `o` along `d` meets at a
+    /// distance in (0, t_max), and its index in [`PreparedScene::quads`]. From
+    /// outside the box, the face it enters by, where that face has a quad and
+    /// `entering` is set; else the face it leaves by. The distances are the quads' own (plane offset
+    /// minus origin, over the direction's component), as [`intersect_quad`]
+    /// computes them.
+    pub fn hit(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, u32)> {
+        if self.quads == 0 {
+            return None;
+        }
+        let t_lo = (self.min - o) / d;
+        let t_hi = (self.max - o) / d;
+        let (near, far) = (t_lo.min(t_hi), t_lo.max(t_hi));
+        let (t_enter, t_exit) = (near.max_element(), far.min_element());
+        if !(t_enter <= t_exit) {
+            return None;
+        }
+        // The axis whose planes give `t`, and the quad of the face there.
+        let face = |t: f32, ts: Vec3, entering: bool| {
+            let a = if ts.x == t {
+                0
+            } else if ts.y == t {
+                1
+            } else {
+                2
+            };
+            let at_max = if entering { d[a] < 0.0 } else { d[a] > 0.0 };
+            self.faces[2 * a + at_max as usize]
+        };
+        if self.entering {
+            let q = face(t_enter, near, true);
+            if t_enter > 0.0 && q != shared::NO_QUAD {
+                return (t_enter < t_max).then_some((t_enter, q));
+            }
+        }
+        let q = face(t_exit, far, false);
+        (q != shared::NO_QUAD && t_exit > 0.0 && t_exit < t_max).then_some((t_exit, q))
+    }
+}
+
+/// Nearest hit along the unit direction `d` closer than `t_max`: the spheres,
+/// the room's walls ([`Room::hit`]), then the other quads.
 pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
     let mut best = t_max;
     let mut found: Option<(bool, usize)> = None;
@@ -234,7 +324,12 @@ pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<
             found = Some((true, i));
         }
     }
-    for (i, q) in scene.quads.iter().enumerate() {
+    if let Some((t, i)) = scene.room.hit(o, d, best) {
+        best = t;
+        found = Some((false, i as usize));
+    }
+    let walked = scene.quads.len() - scene.room.quads as usize;
+    for (i, q) in scene.quads[..walked].iter().enumerate() {
         if let Some(t) = intersect_quad(q, o, d, best) {
             best = t;
             found = Some((false, i));

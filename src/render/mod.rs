@@ -192,6 +192,8 @@ pub struct GpuRenderer {
     scene_constants: Buffer,
     /// The scene's hit-test data as specialization constants (`PreparedScene::geometry_specialization`).
     geometry: Vec<u32>,
+    /// The scene's room, whose `entering` follows the camera (`set_params`).
+    room: crate::math::geometry::Room,
     accum: Buffer,
     readback: Buffer,
     counters: Buffer,
@@ -311,6 +313,7 @@ impl GpuRenderer {
             scene_buffers,
             scene_constants,
             geometry,
+            room: scene.room,
             accum,
             readback,
             counters,
@@ -373,7 +376,9 @@ impl GpuRenderer {
     /// The image size and the guiding geometry must stay those the renderer was made
     /// with; restart the accumulation when the image they describe changes.
     /// Where a change of flags (NEE...) or of the bounce limit changes the kernel's
-    /// specialization constants, the path-tracing pipeline is built anew.
+    /// specialization constants, the path-tracing pipeline is built anew; so too
+    /// where the camera moves out of the scene's room or back in
+    /// (`Room::camera_may_enter`).
     pub fn set_params(&mut self, params: &crate::prepared::RenderParams) -> Result<(), GpuError> {
         let p = &self.params;
         assert_eq!(
@@ -381,7 +386,10 @@ impl GpuRenderer {
             (params.width, params.height, params.guide_bins, params.guide_cells),
             "set_params keeps the image size and the guiding geometry"
         );
-        if specialization(params) != specialization(p) {
+        let entering = self.room.camera_may_enter(params);
+        if specialization(params) != specialization(p) || entering != self.room.entering {
+            self.room.entering = entering;
+            self.geometry[(shared::SPEC_ROOM_ENTERING - shared::SPEC_QUAD_BASE) as usize] = entering as u32;
             // No frame is in flight: run_commands waits for each submission.
             (self.pipeline, self.recording) =
                 path_pipelines(&self.ctx, self.kernel, self.learning.is_some(), params, &self.geometry)?;
