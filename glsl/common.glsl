@@ -9,13 +9,15 @@
 #define SAMPLES_X 8
 #define SAMPLES_Y 8
 #define SAMPLES_PER_FRAME 64
-// Pixels per workgroup of the guided kernels, and of the unguided one: its
-// local_size_z, the specialization constant SPEC_PIXELS_PER_GROUP (src/render
-// `pixels_per_group`). Smaller groups free an SM's slots sooner after their
-// longest path, and the unguided kernels were up to 3 % faster with 2 on the
-// H200, the guided ones not (BENCHMARKS.md).
+// Pixels per workgroup, local_size_z, the specialization constant
+// SPEC_PIXELS_PER_GROUP (src/render `pixels_per_group`): PIXELS_PER_GROUP for the
+// guided kernels of scenes with mirror, glass or glossy materials,
+// PIXELS_PER_GROUP_SMALL for the others and for the unguided kernel. Smaller
+// groups free an SM's slots sooner after their longest path; on the H200 they
+// took those kernels to 72 registers and made them 2 to 12 % faster, but the
+// guided kernels of the seed's scenes with glass and GGX 4 % slower (BENCHMARKS.md).
 #define PIXELS_PER_GROUP 4
-#define PIXELS_PER_GROUP_UNGUIDED 2
+#define PIXELS_PER_GROUP_SMALL 2
 // Largest subgroup size the reduction handles with shuffles alone; smaller
 // subgroups combine their partial sums through shared memory.
 #define MAX_REDUCE_LANES 64
@@ -104,7 +106,7 @@
 #define SPEC_SCENE_KINDS 13
 // params.num_lights: a scene with one light skips choosing one (geometry.glsl).
 #define SPEC_NUM_LIGHTS 14
-// The workgroup's pixels (local_size_z): PIXELS_PER_GROUP or PIXELS_PER_GROUP_UNGUIDED.
+// The workgroup's pixels (local_size_z): PIXELS_PER_GROUP or PIXELS_PER_GROUP_SMALL.
 #define SPEC_PIXELS_PER_GROUP 15
 // The hit-test data of the first SPEC_QUADS quads and SPEC_SPHERES spheres, one
 // float per constant (geometry.glsl; src/prepared.rs `geometry_specialization`):

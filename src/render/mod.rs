@@ -352,7 +352,7 @@ impl GpuRenderer {
     /// Records the dispatches of one frame (`frame_dispatches`); `push` is the
     /// kernel's frame, accumulated frames and ablation bits.
     fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: [u32; 3]) {
-        let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some()));
+        let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some(), self.params.scene_kinds));
         for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push[0], self.height) {
             let pipeline = match (&self.recording, d.recording) {
                 (Some(r), true) => r,
@@ -603,17 +603,21 @@ impl GpuRenderer {
 }
 
 /// Pixels per workgroup of the path-tracing kernel, its `local_size_z`
-/// (`SPEC_PIXELS_PER_GROUP`): 4 for the guided kernels, 2 for the unguided one.
-/// Smaller groups free an SM's slots sooner after their longest path; on the
-/// H200 the unguided kernel ran seed-exp2, exp3 and door 2.3, 3.1 and 1.7 %
-/// faster with 2 than with 4 (seed-exp2's and exp3's at 72 registers instead of
-/// 80 and 77), while the guided kernels of seed-exp2 and exp3 were as fast or 4 %
-/// slower (BENCHMARKS.md).
-pub fn pixels_per_group(guided: bool) -> u32 {
-    if guided {
+/// (`SPEC_PIXELS_PER_GROUP`), for a scene of the material kinds `scene_kinds`
+/// (`RenderParams::scene_kinds`): 4 for the guided kernels of scenes with
+/// mirror, glass or glossy materials, 2 for the others and for the unguided
+/// kernel. Smaller groups free an SM's slots sooner after their longest path.
+/// On the H200 the unguided kernel ran seed-exp2, exp3 and door 2.3, 3.1 and 1.7 %
+/// faster with 2 than with 4, and the guided kernels of seed-exp1 and door, whose
+/// materials are all diffuse, 3.1 and 6.0 % (72 registers instead of 79 and 80).
+/// Those of seed-exp2 and exp3, which carry the glass and GGX code, were 0.2 and
+/// 4.0 % slower with 2, as they had been at two earlier commits (BENCHMARKS.md).
+pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
+    let lobes = (1 << shared::MAT_SPECULAR) | (1 << shared::MAT_DIELECTRIC) | (1 << shared::MAT_GLOSSY);
+    if guided && scene_kinds & lobes != 0 {
         shared::PIXELS_PER_GROUP
     } else {
-        shared::PIXELS_PER_GROUP_UNGUIDED
+        shared::PIXELS_PER_GROUP_SMALL
     }
 }
 
@@ -660,7 +664,7 @@ fn path_pipeline(
     }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
-    constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(guided);
+    constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(guided, p.scene_kinds);
     constants.extend_from_slice(geometry);
     debug_assert_eq!(constants.len(), shared::NUM_SPEC_CONSTANTS as usize);
     let name = if recording { format!("{kernel} (recording)") } else { kernel.to_string() };
@@ -693,6 +697,19 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::SPEC_QUAD_
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The guided kernels of door and seed-exp1 (diffuse walls and lamps) run 2
+    /// pixels per workgroup, those of seed-exp2 and exp3 (a mirror, glass and
+    /// GGX ball) 4; the unguided kernel 2 everywhere.
+    #[test]
+    fn guided_kernels_of_all_diffuse_scenes_take_the_small_groups() {
+        for (name, guided) in [("door", 2), ("seed-exp1", 2), ("seed-exp2", 4), ("seed-exp3", 4)] {
+            let s = crate::scene::Scene::load(format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap();
+            let p = crate::prepared::PreparedScene::new(&s, &crate::prepared::RenderOptions::from_scene(&s)).unwrap();
+            assert_eq!(pixels_per_group(true, p.params.scene_kinds), guided, "{name}");
+            assert_eq!(pixels_per_group(false, p.params.scene_kinds), 2, "{name}");
+        }
+    }
 
     /// Every specialization constant carries its own field of the parameters
     /// (distinct values, so a constant wired to the wrong field shows).
