@@ -13,9 +13,10 @@
 // SPEC_PIXELS_PER_GROUP (src/render `pixels_per_group`): PIXELS_PER_GROUP for the
 // guided kernels of scenes with mirror, glass or glossy materials,
 // PIXELS_PER_GROUP_SMALL for the others and for the unguided kernel. Smaller
-// groups free an SM's slots sooner after their longest path; on the H200 they
-// took those kernels to 72 registers and made them 2 to 12 % faster, but the
-// guided kernels of the seed's scenes with glass and GGX 4 % slower (BENCHMARKS.md).
+// groups free an SM's slots sooner after their longest path: on the H200 the
+// unguided kernels were up to 3 % faster with 2, the guided ones of seed-exp1
+// and door 3.0 and 2.1 %, those of seed-exp2 and exp3 (glass and GGX) 0.2 and
+// 4.0 % slower (BENCHMARKS.md).
 #define PIXELS_PER_GROUP 4
 #define PIXELS_PER_GROUP_SMALL 2
 // Largest subgroup size the reduction handles with shuffles alone; smaller

@@ -609,9 +609,10 @@ impl GpuRenderer {
 /// kernel. Smaller groups free an SM's slots sooner after their longest path.
 /// On the H200 the unguided kernel ran seed-exp2, exp3 and door 2.3, 3.1 and 1.7 %
 /// faster with 2 than with 4, and the guided kernels of seed-exp1 and door, whose
-/// materials are all diffuse, 3.1 and 6.0 % (72 registers instead of 79 and 80).
-/// Those of seed-exp2 and exp3, which carry the glass and GGX code, were 0.2 and
-/// 4.0 % slower with 2, as they had been at two earlier commits (BENCHMARKS.md).
+/// materials are all diffuse, 3.0 and 2.1 % (seed-exp1's at 72 registers instead
+/// of 79). Those of seed-exp2 and exp3, which carry the glass and GGX code, were
+/// 0.2 and 4.0 % slower with 2, as they had been at two earlier commits
+/// (BENCHMARKS.md).
 pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
     let lobes = (1 << shared::MAT_SPECULAR) | (1 << shared::MAT_DIELECTRIC) | (1 << shared::MAT_GLOSSY);
     if guided && scene_kinds & lobes != 0 {
