@@ -276,9 +276,9 @@ impl Room {
     /// The first of the room's quads that the ray from `o` along `d` meets at a
     /// distance in (0, t_max), and its index in [`PreparedScene::quads`]. From
     /// outside the box, the face it enters by, where that face has a quad and
-    /// `entering` is set; else the face it leaves by. The distances are the quads' own (plane offset
-    /// minus origin, over the direction's component), as [`intersect_quad`]
-    /// computes them.
+    /// `entering` is set; else the face it leaves by. The distances are the
+    /// quads' own (plane offset minus origin, over the direction's component),
+    /// as [`intersect_quad`] computes them.
     pub fn hit(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, u32)> {
         if self.quads == 0 {
             return None;
