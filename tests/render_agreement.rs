@@ -445,3 +445,40 @@ fn the_room_finds_the_walls_the_quads_find_on_the_gpu() {
         }
     }
 }
+
+/// A camera that moves out of the room (the viewer's `set_params`) turns on the
+/// test of the face a ray enters by, and one that moves back turns it off: the
+/// renderer rebuilds its kernels both times, and renders what a renderer made
+/// for that camera renders.
+#[test]
+fn a_camera_moving_out_of_the_room_turns_the_entering_test_on() {
+    let ctx = gpu();
+    let scene = scene("seed-exp2.toml");
+    let opts = options(&scene, 32, 24, 64);
+    let inside = PreparedScene::new(&scene, &opts).expect("valid options");
+    assert!(!inside.room.entering);
+    let mut moved = scene.clone();
+    moved.camera.position = glam::Vec3::new(-60.0, 40.0, 230.0);
+    moved.camera.forward = (glam::Vec3::new(50.0, 38.0, 60.0) - moved.camera.position).normalize();
+    let outside = PreparedScene::new(&moved, &opts).expect("valid options");
+    assert!(outside.room.entering);
+    let frame = |r: &mut GpuRenderer| {
+        r.reset_accumulation().expect("reset");
+        r.render_frames(1).expect("render");
+        r.film().expect("readback").pixels
+    };
+    // Frame k of a renderer draws frame k's random numbers, whatever came before.
+    let nth = |p: &PreparedScene, k: usize| {
+        let mut r = GpuRenderer::new(&ctx, p).expect("renderer");
+        (0..=k).map(|_| frame(&mut r)).last().unwrap()
+    };
+    let (want_out, want_in) = (nth(&outside, 1), nth(&inside, 2));
+    assert!(want_out != nth(&inside, 1), "the two cameras see different images");
+    let mut r = GpuRenderer::new(&ctx, &inside).expect("renderer");
+    frame(&mut r);
+    r.set_params(&outside.params).expect("camera moved out");
+    assert!(frame(&mut r) == want_out, "the moved camera renders as a renderer made for it");
+    r.set_params(&inside.params).expect("camera moved back");
+    assert!(frame(&mut r) == want_in, "and back in, as one made for the first camera");
+    assert_no_validation_messages(&ctx);
+}
