@@ -194,7 +194,6 @@ layout(constant_id = SPEC_ROOM_FACES + 4) const uint ROOM_FACE_4 = NO_QUAD;
 layout(constant_id = SPEC_ROOM_FACES + 5) const uint ROOM_FACE_5 = NO_QUAD;
 layout(constant_id = SPEC_ROOM_ENTERING) const bool ROOM_ENTERING = false;
 
-
 // The first SPEC_SPHERES spheres and SPEC_QUADS quads as specialization
 // constants, one float each (common.glsl: SPEC_QUAD_BASE, SPEC_SPHERE_BASE):
 // their tests are written out once per slot below, so every operand is a number

@@ -392,6 +392,12 @@ fn v4(v: Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
 
+/// Where specialization constant `id` (from `SPEC_QUAD_BASE` on) lies in
+/// [`PreparedScene::geometry_specialization`]'s vector.
+pub fn geometry_index(id: u32) -> usize {
+    (id - shared::SPEC_QUAD_BASE) as usize
+}
+
 impl PreparedScene {
     /// The uniform buffer of `glsl/geometry.glsl` (`SceneConstantsBlock`): the
     /// first `CONST_SPHERES` spheres (center_radius, anchor_radius, axis) and the first
@@ -422,19 +428,19 @@ impl PreparedScene {
     pub fn geometry_specialization(&self) -> Vec<u32> {
         let quad_floats = shared::SPEC_QUAD_FLOATS as usize;
         let sphere_floats = shared::SPEC_SPHERE_FLOATS as usize;
-        let mut out = vec![0u32; (shared::NUM_SPEC_CONSTANTS - shared::SPEC_QUAD_BASE) as usize];
+        let mut out = vec![0u32; geometry_index(shared::NUM_SPEC_CONSTANTS)];
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
         for (i, q) in self.quads.iter().take(shared::SPEC_QUADS as usize).enumerate() {
             let floats = [&q.normal[..], &q.origin[..3], &q.dual_u[..3], &q.dual_v[..3]].concat();
             out[quad_floats * i..quad_floats * (i + 1)].copy_from_slice(&bits(&floats));
         }
-        let spheres = (shared::SPEC_SPHERE_BASE - shared::SPEC_QUAD_BASE) as usize;
+        let spheres = geometry_index(shared::SPEC_SPHERE_BASE);
         for (i, s) in self.spheres.iter().take(shared::SPEC_SPHERES as usize).enumerate() {
             let floats = [&s.center_radius[..3], &s.anchor_radius[..], &s.axis[..3]].concat();
             let k = spheres + sphere_floats * i;
             out[k..k + sphere_floats].copy_from_slice(&bits(&floats));
         }
-        let at = |id: u32| (id - shared::SPEC_QUAD_BASE) as usize;
+        let at = geometry_index;
         for (i, s) in self.spheres.iter().take(shared::SPEC_SPHERES as usize).enumerate() {
             out[at(shared::SPEC_COMPACT_SPHERES)] |= (s.compact() as u32) << i;
             out[at(shared::SPEC_LIGHT_SPHERES)] |= ((s.light != shared::NO_LIGHT) as u32) << i;
@@ -870,7 +876,7 @@ mod tests {
         let p = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).expect("valid options");
         let c = p.geometry_specialization();
         assert_eq!(c.len() as u32, shared::NUM_SPEC_CONSTANTS - shared::SPEC_QUAD_BASE);
-        let at = |id: u32| f32::from_bits(c[(id - shared::SPEC_QUAD_BASE) as usize]);
+        let at = |id: u32| f32::from_bits(c[geometry_index(id)]);
         assert!(p.quads.len() >= 6 && p.spheres.len() >= 9);
         for (i, q) in p.quads.iter().enumerate() {
             let base = shared::SPEC_QUAD_BASE + shared::SPEC_QUAD_FLOATS * i as u32;
@@ -896,13 +902,11 @@ mod tests {
         let used_quads = shared::SPEC_QUAD_BASE + shared::SPEC_QUAD_FLOATS * p.quads.len() as u32;
         let used_spheres = shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERE_FLOATS * p.spheres.len() as u32;
         for id in (used_quads..shared::SPEC_SPHERE_BASE).chain(used_spheres..shared::SPEC_COMPACT_SPHERES) {
-            assert_eq!(c[(id - shared::SPEC_QUAD_BASE) as usize], 0, "unused constant {id}");
+            assert_eq!(c[geometry_index(id)], 0, "unused constant {id}");
         }
         // Every sphere of seed-exp3 is compact; of smallpt's, the balls (radius 16.5) are,
         // not the walls (1e5, centres 1e5 + 80 or less from the origin) nor the lamp (600 at 687).
-        let mask = |p: &PreparedScene| {
-            p.geometry_specialization()[(shared::SPEC_COMPACT_SPHERES - shared::SPEC_QUAD_BASE) as usize]
-        };
+        let mask = |p: &PreparedScene| p.geometry_specialization()[geometry_index(shared::SPEC_COMPACT_SPHERES)];
         assert_eq!(mask(&p), (1u32 << p.spheres.len()) - 1);
         let smallpt = scene("smallpt");
         let sp = PreparedScene::new(&smallpt, &RenderOptions::from_scene(&smallpt)).expect("valid options");
@@ -911,7 +915,7 @@ mod tests {
         assert!(want != 0 && want != (1u32 << sp.spheres.len()) - 1, "smallpt has both kinds: {want:b}");
         // The lights' slots: seed-exp3's lamp quad (moved to the front as the one
         // quad that can block a shadow ray) and its warm globe, its last sphere.
-        let slots = |p: &PreparedScene, id: u32| p.geometry_specialization()[(id - shared::SPEC_QUAD_BASE) as usize];
+        let slots = |p: &PreparedScene, id: u32| p.geometry_specialization()[geometry_index(id)];
         assert_eq!(slots(&p, shared::SPEC_LIGHT_QUADS), 1);
         assert_eq!(slots(&p, shared::SPEC_LIGHT_SPHERES), 1 << (p.spheres.len() - 1));
         for (i, q) in p.quads.iter().enumerate() {

@@ -389,7 +389,7 @@ impl GpuRenderer {
         let entering = self.room.camera_may_enter(params);
         if specialization(params) != specialization(p) || entering != self.room.entering {
             self.room.entering = entering;
-            self.geometry[(shared::SPEC_ROOM_ENTERING - shared::SPEC_QUAD_BASE) as usize] = entering as u32;
+            self.geometry[crate::prepared::geometry_index(shared::SPEC_ROOM_ENTERING)] = entering as u32;
             // No frame is in flight: run_commands waits for each submission.
             (self.pipeline, self.recording) =
                 path_pipelines(&self.ctx, self.kernel, self.learning.is_some(), params, &self.geometry)?;
