@@ -9,10 +9,11 @@
 #             the last change of the recording stride (guide::RecordSchedule) on
 #             every scene here (bench-S-G); and, guided, after 8 (bench-early-S-G),
 #             where more rows record.
-# equal-time: for each SCENE, a reference (unguided, NEE on, 40 s of GPU time),
-#             then 10 s of GPU time for each of off / octant / sphere x NEE on /
-#             off with --stats against it (relMSE frame by frame: read at 1 s and
-#             10 s), and a plot.
+# equal-time: for each SCENE, a reference (unguided, NEE on, 40 s of GPU time)
+#             with its per-pixel variance, then 10 s of GPU time for each of off /
+#             octant / sphere x NEE on / off with --stats against it (relMSE frame
+#             by frame, and less the reference's variance: read at 1 s and 10 s),
+#             and a plot.
 # settings:   for each SCENE, a reference (unguided, NEE on, 30 s), then 2 s of
 #             GPU time per guiding setting (guided fraction, bins, and for door
 #             the grid), NEE on, with --stats against it: which settings pay.
@@ -41,13 +42,14 @@ timing)
     ;;
 equal-time)
     for s in "$@"; do
-        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7
+        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
+            --variance "$out/ref-$s.var.exr"
         stats=()
         for nee in on off; do
             for g in off octant sphere; do
                 "$rlpt" render "scenes/$s.toml" -o "$out/$s-$g-nee-$nee.exr" --spp 100000000 --time 10 \
                     --guiding "$g" --nee "$nee" --reference "$out/ref-$s.exr" \
-                    --stats "$out/stats-$s-$g-nee-$nee.json"
+                    --reference-variance "$out/ref-$s.var.exr" --stats "$out/stats-$s-$g-nee-$nee.json"
                 stats+=("$out/stats-$s-$g-nee-$nee.json")
             done
         done

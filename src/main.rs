@@ -33,7 +33,14 @@ enum Command {
     /// List the Vulkan devices, their drivers and subgroup sizes, and what rlpt needs that they lack.
     Devices,
     /// Print relMSE, RMSE and MAPE of an image against a reference (EXR or PNG).
-    Compare { image: PathBuf, reference: PathBuf },
+    Compare {
+        image: PathBuf,
+        reference: PathBuf,
+        /// The reference's per-pixel variance (EXR, from `render --variance`): also print
+        /// the relMSE less the reference's own noise, the error against the true image.
+        #[arg(long)]
+        reference_variance: Option<PathBuf>,
+    },
     /// Time every GPU pass of every frame (timestamp queries): a table, JSON, a Chrome trace.
     Bench(BenchArgs),
     /// Plot relMSE against time from `render --stats` files (log-log PNG).
@@ -212,6 +219,15 @@ struct RenderArgs {
     /// Reference image (EXR) to measure relMSE against, frame by frame, for --stats.
     #[arg(long)]
     reference: Option<PathBuf>,
+    /// The reference's per-pixel variance (EXR, from `render --variance`): --stats then
+    /// also records the relMSE less the reference's own noise, the error against the
+    /// true image (`rel_mse_debiased`).
+    #[arg(long, requires = "reference")]
+    reference_variance: Option<PathBuf>,
+    /// Also write the variance of each pixel's estimate (linear EXR), from the spread of
+    /// its frames' 64-sample means (at least 2 frames): a reference's, for --reference-variance.
+    #[arg(long)]
+    variance: Option<PathBuf>,
     /// Write per-frame statistics (time, relMSE, zero-radiance paths) as JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -351,7 +367,9 @@ fn main() {
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
-        Command::Compare { image, reference } => compare(&image, &reference),
+        Command::Compare { image, reference, reference_variance } => {
+            compare(&image, &reference, reference_variance.as_deref())
+        }
         Command::Plot { stats, output } => plot(&stats, &output),
     };
     if let Err(e) = result {
@@ -411,9 +429,14 @@ fn render(args: RenderArgs) -> Result<()> {
     if let Some(stats) = &args.stats {
         check_output("--stats", stats, None)?;
     }
+    if let Some(variance) = &args.variance {
+        check_output("--variance", variance, Some(&["exr"]))?;
+    }
     let mut outputs = vec![("--output", args.output.as_path())];
     outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
+    outputs.extend(args.variance.as_deref().map(|p| ("--variance", p)));
     outputs.extend(args.reference.as_deref().map(|p| ("--reference", p)));
+    outputs.extend(args.reference_variance.as_deref().map(|p| ("--reference-variance", p)));
     check_distinct(&outputs)?;
     let scene = Scene::load(&args.scene)?;
     warn_before_render(&args.settings, &scene);
@@ -445,11 +468,21 @@ fn render(args: RenderArgs) -> Result<()> {
             let r = metrics::Reference::new(r).map_err(|m| {
                 anyhow::anyhow!("--reference {}: {m}: every relMSE against it would be NaN", path.display())
             })?;
-            Some(r)
+            Some(match &args.reference_variance {
+                Some(v) => with_reference_variance(r, v)?,
+                None => r,
+            })
         }
         None => None,
     };
     let frames = opts.frames();
+    if args.variance.is_some() && frames < 2 && args.time.is_none() {
+        bail!(
+            "--variance needs at least 2 frames ({} samples per pixel): a pixel's variance is measured \
+             from the spread of its frames",
+            2 * shared::SAMPLES_PER_FRAME
+        );
+    }
     let mut spp = frames * shared::SAMPLES_PER_FRAME;
     if spp != opts.spp && args.time.is_none() {
         eprintln!(
@@ -522,14 +555,14 @@ fn render(args: RenderArgs) -> Result<()> {
         gpu_ms_total += frame_ms;
         let out_of_time = args.time.is_some_and(|limit| gpu_ms_total >= limit * 1e3);
         let last = f + 1 == frames || out_of_time;
-        let rel_mse = match &reference {
+        let errors = match &reference {
             Some(r) if last || mark || measure_at(f + 1) => {
                 let current = renderer.film()?;
                 let e = r.compare(&current.mean()).map_err(anyhow::Error::msg)?;
                 if last {
                     film = Some(current);
                 }
-                Some(e.rel_mse)
+                Some(e)
             }
             _ => None,
         };
@@ -538,7 +571,8 @@ fn render(args: RenderArgs) -> Result<()> {
             spp: (f + 1) * shared::SAMPLES_PER_FRAME,
             gpu_ms,
             elapsed_ms: gpu_ms_total,
-            rel_mse,
+            rel_mse: errors.map(|e| e.rel_mse),
+            rel_mse_debiased: errors.and_then(|e| e.rel_mse_debiased),
             zero_fraction: Some(zero_paths as f64 / paths_per_frame),
         });
         if !shown && start.elapsed() > Duration::from_secs(1) {
@@ -557,8 +591,24 @@ fn render(args: RenderArgs) -> Result<()> {
         None => renderer.film()?,
     };
     let elapsed = start.elapsed().as_secs_f64();
+    let variance = match &args.variance {
+        Some(path) => Some((
+            path,
+            film.variance_of_mean().ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--variance {}: the render stopped after 1 frame, and a pixel's variance is measured from \
+                     the spread of at least 2 (give --time more)",
+                    path.display()
+                )
+            })?,
+        )),
+        None => None,
+    };
     let image = film.mean();
     image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    if let Some((path, v)) = variance {
+        v.save(path).with_context(|| format!("writing {}", path.display()))?;
+    }
     if image.pixels.iter().all(|p| *p == [0.0; 3]) && scene.emits_light() {
         eprintln!(
             "warning: every pixel of {} is black: no path found light (is the camera inside a closed object, \
@@ -579,7 +629,12 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         _ => String::new(),
     };
-    let rel = stats.frames.last().and_then(|f| f.rel_mse).map(|e| format!(", relMSE {e:.3e}")).unwrap_or_default();
+    let last_frame = stats.frames.last();
+    let rel = last_frame.and_then(|f| f.rel_mse).map(|e| format!(", relMSE {e:.3e}")).unwrap_or_default();
+    let rel = match last_frame.and_then(|f| f.rel_mse_debiased) {
+        Some(d) => format!("{rel} ({d:.3e} less the reference's variance)"),
+        None => rel,
+    };
     println!(
         "{}: {}x{}, {} spp, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
@@ -615,7 +670,21 @@ fn file_name(p: &Path) -> String {
     p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
 }
 
-fn compare(image: &Path, reference: &Path) -> Result<()> {
+/// The reference with its variance read from `path` (`render --variance`), checked.
+fn with_reference_variance(reference: metrics::Reference, path: &Path) -> Result<metrics::Reference> {
+    let (v, format) =
+        Image::load_format(path).with_context(|| format!("reading the reference's variance {}", path.display()))?;
+    if format != rlpt::image::Format::Exr {
+        bail!(
+            "--reference-variance {} is {}: a variance is a linear EXR (`rlpt render --variance VAR.exr`)",
+            path.display(),
+            format.describe()
+        );
+    }
+    reference.with_variance(v).map_err(|m| anyhow::anyhow!("--reference-variance {}: {m}", path.display()))
+}
+
+fn compare(image: &Path, reference: &Path, reference_variance: Option<&Path>) -> Result<()> {
     let (a, fa) = Image::load_format(image).with_context(|| format!("reading {}", image.display()))?;
     let (b, fb) = Image::load_format(reference).with_context(|| format!("reading {}", reference.display()))?;
     if fa != fb {
@@ -627,9 +696,22 @@ fn compare(image: &Path, reference: &Path) -> Result<()> {
             fb.describe()
         );
     }
-    let e = metrics::compare(&a, &b)
-        .map_err(|m| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display()))?;
-    println!("relMSE {:.6e}  RMSE {:.6e}  MAPE {:.6e}", e.rel_mse, e.rmse, e.mape);
+    if let (Some(v), rlpt::image::Format::Png) = (reference_variance, fa) {
+        bail!(
+            "--reference-variance {} is the variance of linear values: compare two EXRs with it, not PNGs",
+            v.display()
+        );
+    }
+    let against = |m: String| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display());
+    let e = match reference_variance {
+        Some(v) => {
+            let r = metrics::Reference::new(b).map_err(against)?;
+            with_reference_variance(r, v)?.compare(&a).map_err(against)?
+        }
+        None => metrics::compare(&a, &b).map_err(against)?,
+    };
+    let debiased = e.rel_mse_debiased.map(|d| format!("  relMSE less the reference's variance {d:.6e}"));
+    println!("relMSE {:.6e}  RMSE {:.6e}  MAPE {:.6e}{}", e.rel_mse, e.rmse, e.mape, debiased.unwrap_or_default());
     Ok(())
 }
 

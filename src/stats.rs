@@ -52,6 +52,11 @@ pub struct FrameStats {
     pub elapsed_ms: f64,
     /// Relative MSE against the `--reference` image, if one was given.
     pub rel_mse: Option<f64>,
+    /// The relMSE less the reference's own variance (`--reference-variance`;
+    /// `metrics::rel_mse_debiased`): the error against the true image. None
+    /// without it (and in files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rel_mse_debiased: Option<f64>,
     /// Fraction of this frame's paths that carried zero radiance.
     pub zero_fraction: Option<f64>,
 }

@@ -481,3 +481,143 @@ fn a_guiding_box_away_from_the_scene_and_other_slips_are_named() {
         run(&["plot", stats.to_str().unwrap(), other.to_str().unwrap(), "-o", tmp("twice.png").to_str().unwrap()]);
     assert!(!ok && !err.contains("same file") && !err.contains("given twice"), "{err}");
 }
+
+/// `render --variance` and `--reference-variance`: against a reference as noisy
+/// as the image (seed-exp1 at 48x32, 256 spp each, CPU renderer), the plain
+/// relMSE counts the reference's noise with the image's, about twice the
+/// image's error; less the reference's variance it is the image's own. The same
+/// image measured against a render of 16 times the samples, less that render's
+/// variance, is a second estimate of the same error: the two agree within 5
+/// standard errors of their per-pixel difference, and the plain figure is far
+/// above both.
+#[test]
+fn a_references_variance_takes_its_noise_out_of_the_relmse() {
+    use rlpt::image::Image;
+    let p = |x: &std::path::PathBuf| x.to_str().unwrap().to_owned();
+    let cpu_render = |spp: &str, seed: &str, out: &std::path::PathBuf, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "scenes/seed-exp1.toml",
+            "--width",
+            "48",
+            "--height",
+            "32",
+            "--device",
+            "cpu",
+            "--spp",
+            spp,
+            "--seed",
+            seed,
+        ];
+        args.extend_from_slice(extra);
+        let out = p(out);
+        args.extend_from_slice(&["-o", &out]);
+        let o = rlpt().args(&args).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let (reference, reference_var) = (tmp("dv-ref.exr"), tmp("dv-ref.var.exr"));
+    let (long, long_var) = (tmp("dv-long.exr"), tmp("dv-long.var.exr"));
+    let (image, stats) = (tmp("dv-image.exr"), tmp("dv-stats.json"));
+    cpu_render("256", "1", &reference, &["--variance", &p(&reference_var)]);
+    cpu_render("4096", "2", &long, &["--variance", &p(&long_var)]);
+    let summary = cpu_render(
+        "256",
+        "3",
+        &image,
+        &["--reference", &p(&reference), "--reference-variance", &p(&reference_var), "--stats", &p(&stats)],
+    );
+    assert!(summary.contains("less the reference's variance"), "{summary}");
+    let last = rlpt::stats::RenderStats::load(&stats).unwrap().frames.pop().unwrap();
+    let (plain, debiased) = (last.rel_mse.unwrap(), last.rel_mse_debiased.unwrap());
+
+    // Per-pixel terms against either reference, from the files.
+    let load = |f: &std::path::PathBuf| Image::load(f).unwrap();
+    let (x, r, rv, l, lv) = (load(&image), load(&reference), load(&reference_var), load(&long), load(&long_var));
+    let term = |i: usize, r: &Image, v: &Image| -> f64 {
+        (0..3)
+            .map(|c| {
+                rlpt::metrics::rel_mse_debiased(x.pixels[i][c] as f64, r.pixels[i][c] as f64, v.pixels[i][c] as f64)
+            })
+            .sum::<f64>()
+            / 3.0
+    };
+    let n = x.pixels.len();
+    let against_long: f64 = (0..n).map(|i| term(i, &l, &lv)).sum::<f64>() / n as f64;
+    let mean_here: f64 = (0..n).map(|i| term(i, &r, &rv)).sum::<f64>() / n as f64;
+    assert!((mean_here - debiased).abs() <= 1e-6 * debiased.abs(), "{mean_here} against the stats' {debiased}");
+    let diffs: Vec<f64> = (0..n).map(|i| term(i, &r, &rv) - term(i, &l, &lv)).collect();
+    let mean = diffs.iter().sum::<f64>() / n as f64;
+    let se = (diffs.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / ((n - 1) * n) as f64).sqrt();
+    eprintln!("plain {plain:.4e}, less the reference's variance {debiased:.4e}, against the long render {against_long:.4e} (se {se:.2e})");
+    assert!(
+        (debiased - against_long).abs() <= 5.0 * se,
+        "less the reference's variance {debiased:.4e}, against the long render {against_long:.4e} (se {se:.2e})"
+    );
+    assert!(plain > 1.5 * against_long, "plain {plain:.4e} against the image's own error {against_long:.4e}");
+    // compare says the same.
+    let o = rlpt()
+        .args(["compare", &p(&image), &p(&reference), "--reference-variance", &p(&reference_var)])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && stdout.contains(&format!("less the reference's variance {debiased:.6e}")),
+        "{stdout}"
+    );
+}
+
+/// What `--variance` and `--reference-variance` refuse, by name, before rendering
+/// where they can: a variance that is not an EXR, or of another size, or negative;
+/// a render of one frame; a variance without the reference it belongs to; PNGs.
+#[test]
+fn reference_variances_are_checked() {
+    use rlpt::image::Image;
+    let p = |x: &std::path::PathBuf| x.to_str().unwrap().to_owned();
+    let mut r = Image::new(4, 3);
+    r.pixels.iter_mut().for_each(|px| *px = [0.5, 0.25, 1.0]);
+    let (reference, png) = (tmp("rv-ref.exr"), tmp("rv-ref.png"));
+    r.save(&reference).unwrap();
+    r.save(&png).unwrap();
+    let mut v = Image::new(4, 3);
+    let good = tmp("rv-good.exr");
+    v.save(&good).unwrap();
+    v.pixels[5] = [0.0, -1.0, 0.0];
+    let negative = tmp("rv-negative.exr");
+    v.save(&negative).unwrap();
+    let small = tmp("rv-small.exr");
+    Image::new(2, 2).save(&small).unwrap();
+    let out = p(&tmp("rv-out.exr"));
+    let render = |extra: &[&str]| {
+        let mut args =
+            vec!["render", "scenes/furnace-open.toml", "--width", "4", "--height", "3", "--device", "cpu", "-o", &out];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
+    let with = |var: &std::path::PathBuf| {
+        render(&["--spp", "128", "--reference", &p(&reference), "--reference-variance", &p(var)])
+    };
+    assert!(with(&good).0);
+    let (ok, err) = with(&negative);
+    assert!(!ok && err.contains("--reference-variance") && err.contains("negative value at pixel (1, 1)"), "{err}");
+    let (ok, err) = with(&small);
+    assert!(!ok && err.contains("variance image is 2x2 but the reference is 4x3"), "{err}");
+    let (ok, err) = with(&png);
+    assert!(!ok && err.contains("is a PNG") && err.contains("linear EXR"), "{err}");
+    let (ok, err) = render(&["--spp", "128", "--reference-variance", &p(&good)]);
+    assert!(!ok && err.contains("--reference"), "{err}");
+    let (ok, err) = render(&["--spp", "64", "--variance", &p(&tmp("rv-one.exr"))]);
+    assert!(!ok && err.contains("--variance needs at least 2 frames"), "{err}");
+    let (ok, err) = render(&["--spp", "128", "--variance", &p(&tmp("rv-var.png"))]);
+    assert!(!ok && err.contains("--variance") && err.contains(".exr"), "{err}");
+    let (ok, err) = render(&["--spp", "128", "--variance", &out]);
+    assert!(!ok && err.contains("--output and --variance both name"), "{err}");
+    // The variance written is the film's: 2 frames, a finite non-negative image of the render's size.
+    let var_out = tmp("rv-written.exr");
+    assert!(render(&["--spp", "128", "--variance", &p(&var_out)]).0);
+    let written = Image::load(&var_out).unwrap();
+    assert_eq!((written.width, written.height), (4, 3));
+    assert!(written.pixels.iter().all(|px| px.iter().all(|&c| c.is_finite() && c >= 0.0)));
+    let (ok, err) = run(&["compare", &p(&png), &p(&png), "--reference-variance", &p(&good)]);
+    assert!(!ok && err.contains("compare two EXRs with it"), "{err}");
+}

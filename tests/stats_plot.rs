@@ -28,6 +28,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
                 gpu_ms: Some(frame_ms),
                 elapsed_ms,
                 rel_mse: Some(constant / (elapsed_ms / 1000.0) * wobble),
+                rel_mse_debiased: None,
                 zero_fraction: Some(0.25),
             }
         })
@@ -56,10 +57,15 @@ fn json_round_trip() {
     stats.frames[2].rel_mse = None;
     stats.frames[3].zero_fraction = None;
     stats.frames[4].elapsed_ms = 0.1 + 0.2; // not exactly representable: must still round-trip exactly
+                                            // Against a reference with its variance, the debiased relMSE too (it may be negative).
+    stats.frames[0].rel_mse_debiased = Some(-1.25e-7);
+    stats.frames[4].rel_mse_debiased = Some(0.1 + 0.2);
     stats.save(&path).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("\n  \"label\": \"door.toml guiding=sphere nee=on\""), "not pretty JSON:\n{text}");
     assert!(text.contains("\"gpu_ms\": null"), "{text}");
+    // Absent where no variance was given, as in files written before it existed.
+    assert_eq!(text.matches("rel_mse_debiased").count(), 2, "{text}");
     let loaded = RenderStats::load(&path).unwrap();
     assert_eq!(loaded, stats);
 }
