@@ -55,6 +55,10 @@
 // (src/prepared.rs `last_ray_to_lights`: set where, besides, every light has a
 // specialized slot and the scene has no roulette).
 #define FLAG_LAST_RAY_TO_LIGHTS 16
+// The frame counters (paths that carried nothing, rays traced) are kept: `rlpt
+// bench` and `render --stats` set it. Without it the kernel has none of their
+// code (src/prepared.rs `RenderOptions::counters`).
+#define FLAG_COUNTERS 32
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
 #define ABLATE_RECORD 1

@@ -123,14 +123,17 @@ void record(uint key, float target, float counted, float factor) {
 #define GUIDED 0
 #endif
 
+// Whether the frame counters are kept (FLAG_COUNTERS): without them the kernel
+// counts nothing, and their code is compiled out.
+const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
 // Where trace_path counts its rays: with the depth in one register where the
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
 // depth: with the mask there too, seed-exp1's frames were 1.1 % (unguided) and
 // 2.7 % (guided) longer on the H200.
-const bool PACK_RAYS = (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
+const bool PACK_RAYS = COUNTERS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
-#define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else segments += 1u
+#define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else if (COUNTERS) segments += 1u
 
 // The ray into the last vertex is traced in full only where its line meets a
 // light (FLAG_LAST_RAY_TO_LIGHTS), unless the kernel records that vertex's target.
@@ -392,12 +395,14 @@ void main() {
         // A NaN or infinite sample would poison the pixel for good; it is dropped, as on the CPU.
         if (any(isnan(radiance)) || any(isinf(radiance))) radiance = vec3(0.0);
     }
-    // Frame counters: one atomic per subgroup.
-    uint zero_sum = subgroupAdd(zero);
-    uint segment_sum = subgroupAdd(segments);
-    if (subgroupElect()) {
-        atomicAdd(counters[COUNTER_ZERO_PATHS], zero_sum);
-        atomicAdd(counters[COUNTER_SEGMENTS], segment_sum);
+    // Frame counters: one atomic per subgroup, where they are kept.
+    if (COUNTERS) {
+        uint zero_sum = subgroupAdd(zero);
+        uint segment_sum = subgroupAdd(segments);
+        if (subgroupElect()) {
+            atomicAdd(counters[COUNTER_ZERO_PATHS], zero_sum);
+            atomicAdd(counters[COUNTER_SEGMENTS], segment_sum);
+        }
     }
 
     // Every invocation takes part in the reduction, inside the image or not.

@@ -45,8 +45,9 @@ pub struct FrameRecord {
     pub learn_fold_ms: f64,
     pub learn_rows_ms: f64,
     pub total_ms: f64,
-    pub segments: u64,
-    pub zero_paths: u64,
+    /// Rays traced and paths that carried nothing; null with `--counters off`.
+    pub segments: Option<u64>,
+    pub zero_paths: Option<u64>,
 }
 
 /// What `rlpt bench` measured.
@@ -62,12 +63,13 @@ pub struct BenchReport {
     /// with guiding the sampling rows are rebuilt after one frame in 4 to 32, which a
     /// median frame would leave out).
     pub msamples_per_s: f64,
-    /// Rays traced (camera, bounce, shadow) over the total measured time.
-    pub msegments_per_s: f64,
+    /// Rays traced (camera, bounce, shadow) over the total measured time; this
+    /// and the next two are null where the frames kept no counters (`--counters off`).
+    pub msegments_per_s: Option<f64>,
     /// Rays per path, averaged over the measured frames.
-    pub segments_per_path: f64,
+    pub segments_per_path: Option<f64>,
     /// Fraction of paths that carried no radiance, over the measured frames.
-    pub zero_fraction: f64,
+    pub zero_fraction: Option<f64>,
     /// What the driver reports about each pipeline (registers, shared memory...).
     pub pipelines: Vec<PipelineReport>,
 }
@@ -126,15 +128,16 @@ impl BenchReport {
         passes.push(Summary::of("frame", &column(|f| f.total_ms)));
         let passes: Vec<Summary> = passes.into_iter().flatten().collect();
         let total_ms: f64 = frames.iter().map(|f| f.total_ms).sum();
-        let segments: u64 = frames.iter().map(|f| f.segments).sum();
-        let zero: u64 = frames.iter().map(|f| f.zero_paths).sum();
+        // Summed where every frame counted.
+        let segments: Option<u64> = frames.iter().map(|f| f.segments).sum();
+        let zero: Option<u64> = frames.iter().map(|f| f.zero_paths).sum();
         let paths = setup.samples_per_frame as f64 * frames.len() as f64;
         BenchReport {
             setup,
             msamples_per_s: paths / total_ms * 1e-3,
-            msegments_per_s: segments as f64 / total_ms * 1e-3,
-            segments_per_path: segments as f64 / paths,
-            zero_fraction: zero as f64 / paths,
+            msegments_per_s: segments.map(|s| s as f64 / total_ms * 1e-3),
+            segments_per_path: segments.map(|s| s as f64 / paths),
+            zero_fraction: zero.map(|z| z as f64 / paths),
             frames,
             passes,
             pipelines,
@@ -169,10 +172,17 @@ impl BenchReport {
                 s.pass, s.median_ms, s.min_ms, s.max_ms, s.mean_ms
             );
         }
-        out += &format!(
-            "{:.1} Msamples/s (mean frame), {:.1} Msegments/s, {:.2} segments per path, {:.4} of paths carried no radiance\n",
-            self.msamples_per_s, self.msegments_per_s, self.segments_per_path, self.zero_fraction
-        );
+        out += &match (self.msegments_per_s, self.segments_per_path, self.zero_fraction) {
+            (Some(per_s), Some(per_path), Some(zero)) => format!(
+                "{:.1} Msamples/s (mean frame), {per_s:.1} Msegments/s, {per_path:.2} segments per path, {zero:.4} of \
+                 paths carried no radiance\n",
+                self.msamples_per_s
+            ),
+            _ => format!(
+                "{:.1} Msamples/s (mean frame); segments and paths without radiance not counted (--counters off)\n",
+                self.msamples_per_s
+            ),
+        };
         for p in &self.pipelines {
             let interesting: Vec<String> = p
                 .statistics
@@ -238,8 +248,8 @@ mod tests {
             pathtrace_ms: 2.0,
             learn_fold_ms: 0.5,
             learn_rows_ms: 0.25,
-            zero_paths: 1,
-            segments: 10,
+            zero_paths: Some(1),
+            segments: Some(10),
         };
         let v = chrome_trace("dev", &[t(100.0), t(103.0)], 5);
         let ev = v["traceEvents"].as_array().unwrap();

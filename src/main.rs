@@ -287,6 +287,10 @@ struct BenchArgs {
     /// learns as usual), to see what each costs. The image is then not rlpt's.
     #[arg(long, value_enum, value_delimiter = ',')]
     ablate: Vec<AblateArg>,
+    /// Count the rays traced and the paths that carried nothing (on, the default), or
+    /// time the kernel that `render` and `view` run, compiled without those counters.
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    counters: OnOff,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -444,6 +448,8 @@ fn render(args: RenderArgs) -> Result<()> {
     if let Some(s) = args.spp {
         opts.spp = s;
     }
+    // The zero-radiance fraction of --stats comes from the kernel's counters.
+    opts.counters = args.stats.is_some();
     let reference = match &args.reference {
         Some(path) => {
             let (r, format) =
@@ -543,7 +549,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let (gpu_ms, zero_paths) = match &mut renderer {
             Renderer::Cpu(r) => {
                 r.render_frame();
-                (None, r.last_counters.zero_paths)
+                (None, Some(r.last_counters.zero_paths))
             }
             Renderer::Gpu(r) => {
                 let t = r.render_frames(1)?;
@@ -573,7 +579,7 @@ fn render(args: RenderArgs) -> Result<()> {
             elapsed_ms: gpu_ms_total,
             rel_mse: errors.map(|e| e.rel_mse),
             rel_mse_debiased: errors.and_then(|e| e.rel_mse_debiased),
-            zero_fraction: Some(zero_paths as f64 / paths_per_frame),
+            zero_fraction: zero_paths.map(|z| z as f64 / paths_per_frame),
         });
         if !shown && start.elapsed() > Duration::from_secs(1) {
             bar.set_draw_target(ProgressDrawTarget::stderr());
@@ -757,9 +763,13 @@ fn bench(args: BenchArgs) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: bench needs at least one measured frame");
     }
+    if args.counters == OnOff::Off && args.settings.device == DeviceKind::Cpu {
+        eprintln!("note: --counters off compiles the GPU kernel's counters out; the CPU renderer counts always");
+    }
     let scene = Scene::load(&args.scene)?;
     warn_before_render(&args.settings, &scene);
-    let opts = args.settings.options(&scene);
+    let mut opts = args.settings.options(&scene);
+    opts.counters = args.counters == OnOff::On;
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
     warn_memory(&opts, args.settings.device);
@@ -800,8 +810,8 @@ fn bench(args: BenchArgs) -> Result<()> {
                     times.push(rlpt::render::PassTimes {
                         start_ms: 0.0,
                         pathtrace_ms: ms,
-                        zero_paths: c.zero_paths,
-                        segments: c.segments,
+                        zero_paths: Some(c.zero_paths),
+                        segments: Some(c.segments),
                         ..Default::default()
                     });
                 }

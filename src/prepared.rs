@@ -286,6 +286,11 @@ pub struct RenderOptions {
     /// None: [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
     /// ([`crate::guide::guided_vertices`]).
     pub guided_vertices: Option<u32>,
+    /// Whether the GPU kernel keeps the frame counters: the paths that carried no
+    /// radiance and the rays traced (`FrameTimings`), which `rlpt bench` and
+    /// `render --stats` report. Off, the kernel is compiled without their code
+    /// (`FLAG_COUNTERS`) and they cost nothing. The CPU renderer counts always.
+    pub counters: bool,
 }
 
 impl RenderOptions {
@@ -308,6 +313,7 @@ impl RenderOptions {
             guide_floor: 0.5,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             guided_vertices: None,
+            counters: false,
         }
     }
 
@@ -576,6 +582,9 @@ impl PreparedScene {
         }
         if last_ray_to_lights(scene.environment, &lights, opts.russian_roulette_depth.is_some()) {
             flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;
+        }
+        if opts.counters {
+            flags |= shared::FLAG_COUNTERS;
         }
         let mut params = RenderParams {
             cam_position_near: [0.0; 4],

@@ -155,6 +155,46 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     }
 }
 
+/// `bench --counters off` times the kernel `render` runs, compiled without the
+/// frame counters: the JSON then has no counts (null, not zero), and the table
+/// says they were not counted; the render's own summary (no --stats) needs none.
+#[test]
+fn bench_without_counters_reports_no_counts() {
+    let json = tmp("bench-uncounted.json");
+    let (ok, err) = run(&[
+        "bench",
+        "scenes/door.toml",
+        "--width",
+        "16",
+        "--height",
+        "8",
+        "--frames",
+        "2",
+        "--warmup",
+        "0",
+        "--counters",
+        "off",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for key in ["msegments_per_s", "segments_per_path", "zero_fraction"] {
+        assert!(report[key].is_null(), "{key}: {}", report[key]);
+    }
+    for f in report["frames"].as_array().unwrap() {
+        assert!(f["segments"].is_null() && f["zero_paths"].is_null(), "{f}");
+    }
+    assert!(report["msamples_per_s"].as_f64().unwrap() > 0.0);
+    let o = rlpt()
+        .args(["bench", "scenes/door.toml", "--width", "16", "--height", "8", "--frames", "1", "--warmup", "0"])
+        .args(["--counters", "off"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && stdout.contains("not counted (--counters off)"), "{stdout}");
+}
+
 #[test]
 fn bench_refuses_a_trace_without_gpu_timestamps() {
     let o = rlpt()

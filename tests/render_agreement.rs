@@ -317,12 +317,13 @@ fn gpu_and_cpu_count_the_same_rays() {
             let scene = scene(name);
             let mut opts = options(&scene, 32, 24, 256);
             opts.guiding = guiding;
+            opts.counters = true;
             let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
             let mut gpu = GpuRenderer::new(&ctx, &prepared).expect("renderer");
             let mut cpu = rlpt::cpu::CpuRenderer::new(&prepared);
             let (mut g, mut c) = (0u64, 0u64);
             for _ in 0..opts.frames() {
-                g += gpu.render_frames(1).expect("render").segments;
+                g += gpu.render_frames(1).expect("render").segments.expect("counted");
                 cpu.render_frame();
                 c += cpu.last_counters.segments;
             }
@@ -344,6 +345,41 @@ fn gpu_and_cpu_count_the_same_rays() {
     }
 }
 
+/// The frame counters off (`RenderOptions::counters`, the kernel compiled without
+/// them): the same image bit for bit as with them, and no counts where none were
+/// kept; with roulette (door, whose kernels pack the ray count beside the depth
+/// when they count) and without, unguided and guided.
+#[test]
+fn the_counters_change_no_pixel_and_count_only_when_on() {
+    let ctx = gpu();
+    for name in ["door.toml", "seed-exp1.toml"] {
+        for guiding in [rlpt::guide::GuidingMode::Off, rlpt::guide::GuidingMode::Sphere] {
+            let scene = scene(name);
+            let mut opts = options(&scene, 24, 16, 128);
+            opts.guiding = guiding;
+            let render = |counters: bool| {
+                let o = RenderOptions { counters, ..opts.clone() };
+                let prepared = PreparedScene::new(&scene, &o).expect("valid options");
+                assert_eq!(prepared.params.flags & rlpt::shared::FLAG_COUNTERS != 0, counters);
+                let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+                let counts: Vec<_> = (0..o.frames())
+                    .map(|_| {
+                        let t = r.render_frames(1).expect("render");
+                        (t.segments, t.zero_paths)
+                    })
+                    .collect();
+                (r.film().expect("readback"), counts)
+            };
+            let ((on, counted), (off, uncounted)) = (render(true), render(false));
+            assert_no_validation_messages(&ctx);
+            assert!(on.pixels.iter().any(|p| p.sum[0] > 0.0), "{name} {guiding:?}: the image has light");
+            assert!(on.pixels == off.pixels, "{name} {guiding:?}: the counters changed the image");
+            assert!(counted.iter().all(|&(s, z)| s.is_some_and(|s| s > 0) && z.is_some()), "{counted:?}");
+            assert!(uncounted.iter().all(|&c| c == (None, None)), "{uncounted:?}");
+        }
+    }
+}
+
 /// The ray into a path's last vertex traced in full only where its line meets a
 /// light (`FLAG_LAST_RAY_TO_LIGHTS`) changes nothing: the same image, bit for bit,
 /// and the same rays counted, on the GPU (unguided and guided) and on the CPU.
@@ -357,6 +393,7 @@ fn the_last_ray_to_lights_changes_no_pixel() {
     let scene = scene("seed-exp3.toml");
     let mut opts = options(&scene, 24, 16, 128);
     opts.max_bounces = 2;
+    opts.counters = true;
     for guiding in [rlpt::guide::GuidingMode::Off, rlpt::guide::GuidingMode::Sphere] {
         opts.guiding = guiding;
         let with = PreparedScene::new(&scene, &opts).expect("valid options");
@@ -365,7 +402,8 @@ fn the_last_ray_to_lights_changes_no_pixel() {
         without.params.flags &= !rlpt::shared::FLAG_LAST_RAY_TO_LIGHTS;
         let gpu_render = |p: &PreparedScene| {
             let mut r = GpuRenderer::new(&ctx, p).expect("renderer");
-            let segments: u64 = (0..opts.frames()).map(|_| r.render_frames(1).expect("render").segments).sum();
+            let segments: u64 =
+                (0..opts.frames()).map(|_| r.render_frames(1).expect("render").segments.expect("counted")).sum();
             (r.film().expect("readback"), segments)
         };
         let cpu_render = |p: &PreparedScene| {
@@ -412,13 +450,15 @@ fn the_room_finds_the_walls_the_quads_find_on_the_gpu() {
     for (scene, guiding, entering) in cases {
         let mut opts = options(&scene, 32, 24, 128);
         opts.guiding = guiding;
+        opts.counters = true;
         let with = PreparedScene::new(&scene, &opts).expect("valid options");
         assert!(with.room.quads >= 5, "{guiding:?}: the scene has a room");
         assert_eq!(with.room.entering, entering, "{guiding:?}");
         let without = PreparedScene { room: rlpt::math::geometry::Room::NONE, ..with.clone() };
         let render = |p: &PreparedScene| {
             let mut r = GpuRenderer::new(&ctx, p).expect("renderer");
-            let segments: u64 = (0..opts.frames()).map(|_| r.render_frames(1).expect("render").segments).sum();
+            let segments: u64 =
+                (0..opts.frames()).map(|_| r.render_frames(1).expect("render").segments.expect("counted")).sum();
             (r.film().expect("readback"), segments)
         };
         let ((a, sa), (b, sb)) = (render(&with), render(&without));

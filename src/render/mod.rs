@@ -18,10 +18,11 @@ pub struct FrameTimings {
     pub pathtrace_ms: f64,
     /// GPU time of the learning pass (ms; 0 without guiding).
     pub learn_ms: f64,
-    /// Paths that carried zero radiance.
-    pub zero_paths: u64,
-    /// Rays traced: camera, bounce and shadow rays.
-    pub segments: u64,
+    /// Paths that carried zero radiance; None where the kernel keeps no counters
+    /// (`RenderOptions::counters`).
+    pub zero_paths: Option<u64>,
+    /// Rays traced: camera, bounce and shadow rays; None likewise.
+    pub segments: Option<u64>,
 }
 
 impl FrameTimings {
@@ -42,10 +43,11 @@ pub struct PassTimes {
     pub learn_fold_ms: f64,
     /// Rebuilding the sampling rows, alias tables (`learn.comp` phase 1; as the fold), ms.
     pub learn_rows_ms: f64,
-    /// Paths that carried zero radiance.
-    pub zero_paths: u64,
-    /// Rays traced: camera, bounce and shadow rays.
-    pub segments: u64,
+    /// Paths that carried zero radiance; None where the kernel keeps no counters
+    /// (`RenderOptions::counters`).
+    pub zero_paths: Option<u64>,
+    /// Rays traced: camera, bounce and shadow rays; None likewise.
+    pub segments: Option<u64>,
 }
 
 /// The guiding buffers and the pass that learns from them.
@@ -489,12 +491,8 @@ impl GpuRenderer {
         })?;
         self.frames_traced += count;
         self.accum_frames += count;
-        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
-        let mut t = FrameTimings {
-            zero_paths: c[shared::COUNTER_ZERO_PATHS as usize] as u64,
-            segments: c[shared::COUNTER_SEGMENTS as usize] as u64,
-            ..Default::default()
-        };
+        let (zero_paths, segments) = self.read_counters();
+        let mut t = FrameTimings { zero_paths, segments, ..Default::default() };
         if timestamps {
             let s = self.timer.read(3)?;
             // With several frames in one submission, learning between them counts as path tracing
@@ -533,14 +531,14 @@ impl GpuRenderer {
         })?;
         self.frames_traced += 1;
         self.accum_frames += 1;
-        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let (zero_paths, segments) = self.read_counters();
         let s = self.timer.read(if learns { 4 } else { 2 })?;
         let ms = |a: u64, b: u64| self.timer.ticks_to_ms(a, b);
         let mut t = PassTimes {
             start_ms: s[0] as f64 * self.ctx.info.timestamp_period_ns as f64 * 1e-6,
             pathtrace_ms: ms(s[0], s[1]),
-            zero_paths: c[shared::COUNTER_ZERO_PATHS as usize] as u64,
-            segments: c[shared::COUNTER_SEGMENTS as usize] as u64,
+            zero_paths,
+            segments,
             ..Default::default()
         };
         if learns {
@@ -548,6 +546,16 @@ impl GpuRenderer {
             t.learn_rows_ms = ms(s[2], s[3]);
         }
         Ok(t)
+    }
+
+    /// The frame counters copied back by the last submission: (paths that carried
+    /// nothing, rays traced), None where the kernel keeps none (`FLAG_COUNTERS`).
+    fn read_counters(&self) -> (Option<u64>, Option<u64>) {
+        if self.params.flags & shared::FLAG_COUNTERS == 0 {
+            return (None, None);
+        }
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        (Some(c[shared::COUNTER_ZERO_PATHS as usize] as u64), Some(c[shared::COUNTER_SEGMENTS as usize] as u64))
     }
 
     /// What the driver reports about the compiled pipelines (registers, shared
