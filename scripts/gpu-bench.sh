@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The measurements behind BENCHMARKS.md, in one go on a GPU machine.
 #
-#   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...]
+#   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...|learning-rate SCENE...|
+#                                     deep-guiding|counters]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
@@ -20,6 +21,14 @@
 # learning-rate: for each SCENE, what equal-time runs, and every guided setting
 #             again with Q's learning-rate exponent 1 and 0.75 (stats-wW-...),
 #             against the same reference.
+# deep-guiding: door.toml's candidates from the CPU renderer's per-sample study
+#             (BENCHMARKS.md, "What bounds door"): a reference with its variance,
+#             then 10 s of sphere guiding with guided sampling at every vertex
+#             (--guided-vertices 16, door's bounce limit) and 8x16, 12x24 or 16x32
+#             bins, against the default and unguided, NEE on; and their frame
+#             times (bench after 640 warm-up frames).
+# counters:   `rlpt bench` of the four scenes with --counters on and off, guiding
+#             off and sphere: what the frame counters cost a frame.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -97,8 +106,34 @@ learning-rate)
         done
     done
     ;;
+deep-guiding)
+    s=door
+    "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
+        --variance "$out/ref-$s.var.exr"
+    run() { # NAME ARGS...
+        local name=$1
+        shift
+        "$rlpt" render "scenes/$s.toml" -o "$out/out.exr" --spp 100000000 --time 10 --reference "$out/ref-$s.exr" \
+            --reference-variance "$out/ref-$s.var.exr" --stats "$out/deep-$s-$name.json" "$@"
+        "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 640 --json "$out/bench-deep-$s-$name.json" "$@" \
+            | tee "$out/bench-deep-$s-$name.txt"
+    }
+    run off --guiding off
+    run sphere --guiding sphere
+    for b in 8x16 12x24 16x32; do run "sphere-all-$b" --guiding sphere --guided-vertices 16 --bins "$b"; done
+    ;;
+counters)
+    for s in seed-exp1 seed-exp2 seed-exp3 door; do
+        for g in off sphere; do
+            for c in on off; do
+                "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 640 --guiding "$g" --counters "$c" \
+                    --json "$out/bench-counters-$c-$s-$g.json" | tee "$out/bench-counters-$c-$s-$g.txt"
+            done
+        done
+    done
+    ;;
 *)
-    echo "unknown stage $stage: timing, equal-time, settings or learning-rate" >&2
+    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding or counters" >&2
     exit 2
     ;;
 esac
