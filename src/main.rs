@@ -482,7 +482,7 @@ fn render(args: RenderArgs) -> Result<()> {
         None => None,
     };
     let frames = opts.frames();
-    if args.variance.is_some() && frames < 2 && args.time.is_none() {
+    if args.variance.is_some() && frames < 2 {
         bail!(
             "--variance needs at least 2 frames ({} samples per pixel): a pixel's variance is measured \
              from the spread of its frames",
@@ -597,22 +597,17 @@ fn render(args: RenderArgs) -> Result<()> {
         None => renderer.film()?,
     };
     let elapsed = start.elapsed().as_secs_f64();
-    let variance = match &args.variance {
-        Some(path) => Some((
-            path,
-            film.variance_of_mean().ok_or_else(|| {
-                anyhow::anyhow!(
-                    "--variance {}: the render stopped after 1 frame, and a pixel's variance is measured from \
-                     the spread of at least 2 (give --time more)",
-                    path.display()
-                )
-            })?,
-        )),
-        None => None,
-    };
     let image = film.mean();
     image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
-    if let Some((path, v)) = variance {
+    if let Some(path) = &args.variance {
+        let v = film.variance_of_mean().ok_or_else(|| {
+            anyhow::anyhow!(
+                "--variance {}: the render stopped after 1 frame, and a pixel's variance is measured from the \
+                 spread of at least 2 (give --time more); the image was written to {}",
+                path.display(),
+                args.output.display()
+            )
+        })?;
         v.save(path).with_context(|| format!("writing {}", path.display()))?;
     }
     if image.pixels.iter().all(|p| *p == [0.0; 3]) && scene.emits_light() {
