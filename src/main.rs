@@ -50,6 +50,10 @@ enum Command {
         stats: Vec<PathBuf>,
         #[arg(short, long)]
         output: PathBuf,
+        /// Plot the relMSE less the reference's variance (`render --reference-variance`)
+        /// instead of the plain relMSE.
+        #[arg(long)]
+        debiased: bool,
     },
 }
 
@@ -374,7 +378,7 @@ fn main() {
         Command::Compare { image, reference, reference_variance } => {
             compare(&image, &reference, reference_variance.as_deref())
         }
-        Command::Plot { stats, output } => plot(&stats, &output),
+        Command::Plot { stats, output, debiased } => plot(&stats, &output, debiased),
     };
     if let Err(e) = result {
         eprintln!("rlpt: error: {e:#}");
@@ -716,7 +720,8 @@ fn compare(image: &Path, reference: &Path, reference_variance: Option<&Path>) ->
     Ok(())
 }
 
-fn plot(stats: &[PathBuf], output: &Path) -> Result<()> {
+fn plot(stats: &[PathBuf], output: &Path, debiased: bool) -> Result<()> {
+    let metric = if debiased { rlpt::plot::Metric::RelMseDebiased } else { rlpt::plot::Metric::RelMse };
     // One curve per file, however its path is written: `a.json` and `./a.json`,
     // or a link and its target, are the same file.
     let key =
@@ -730,8 +735,8 @@ fn plot(stats: &[PathBuf], output: &Path) -> Result<()> {
         }
     }
     let runs = stats.iter().map(|p| RenderStats::load(p)).collect::<Result<Vec<_>>>()?;
-    rlpt::plot::plot_convergence(&runs, output)?;
-    for n in rlpt::plot::plot_notes(&runs) {
+    rlpt::plot::plot_convergence(&runs, output, metric)?;
+    for n in rlpt::plot::plot_notes(&runs, metric) {
         eprintln!("note: {n}");
     }
     println!("wrote {}", output.display());

@@ -65,20 +65,59 @@ fn dash_pattern(index: usize) -> Option<(f64, f64)> {
     }
 }
 
-/// Plots relMSE (y) against elapsed render time in seconds (x), both on log10
-/// axes, one curve per run with a legend of the labels, into a
-/// [`PLOT_WIDTH`]x[`PLOT_HEIGHT`] PNG at `out`, which must end in `.png`.
+/// Which relMSE a plot draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Metric {
+    /// `rel_mse`: against the reference.
+    #[default]
+    RelMse,
+    /// `rel_mse_debiased`: less the reference's own variance, the error against
+    /// the true image (`render --reference-variance`).
+    RelMseDebiased,
+}
+
+impl Metric {
+    /// The metric's value at a frame, where it was measured.
+    pub fn of(self, f: &crate::stats::FrameStats) -> Option<f64> {
+        match self {
+            Metric::RelMse => f.rel_mse,
+            Metric::RelMseDebiased => f.rel_mse_debiased,
+        }
+    }
+
+    /// The metric as the axis and the messages name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::RelMse => "relMSE",
+            Metric::RelMseDebiased => "relMSE less the reference's variance",
+        }
+    }
+
+    /// The options of `rlpt render` that record it.
+    fn recorded_by(self) -> &'static str {
+        match self {
+            Metric::RelMse => "--reference",
+            Metric::RelMseDebiased => "--reference and --reference-variance",
+        }
+    }
+}
+
+/// Plots `metric` (y; relMSE, or relMSE less the reference's variance) against
+/// elapsed render time in seconds (x), both on log10 axes, one curve per run with
+/// a legend of the labels, into a [`PLOT_WIDTH`]x[`PLOT_HEIGHT`] PNG at `out`,
+/// which must end in `.png`.
 ///
-/// Frames without `rel_mse` are skipped, and so are points with a non-positive
-/// (or non-finite) time or relMSE, which a log axis cannot show. A run without
-/// any `rel_mse` is an error naming its label. The parent directory of `out`
-/// must exist.
-pub fn plot_convergence(runs: &[RenderStats], out: &Path) -> anyhow::Result<()> {
+/// Frames without the metric are skipped, and so are points with a non-positive
+/// (or non-finite) time or value, which a log axis cannot show (the debiased
+/// relMSE of a frame can be negative). A run without any value of the metric is
+/// an error naming its label. The parent directory of `out` must exist.
+pub fn plot_convergence(runs: &[RenderStats], out: &Path, metric: Metric) -> anyhow::Result<()> {
     let is_png = out.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png"));
     if !is_png {
         bail!("cannot write convergence plot {}: the output file must end in .png", out.display());
     }
-    let image = render_convergence(runs).with_context(|| format!("cannot plot convergence to {}", out.display()))?;
+    let image =
+        render_convergence(runs, metric).with_context(|| format!("cannot plot convergence to {}", out.display()))?;
     let mut bytes = Vec::new();
     PngEncoder::new(&mut bytes)
         .write_image(image.as_raw(), image.width(), image.height(), ExtendedColorType::Rgb8)
@@ -87,11 +126,11 @@ pub fn plot_convergence(runs: &[RenderStats], out: &Path) -> anyhow::Result<()> 
 }
 
 /// Draws the plot of [`plot_convergence`] into an image instead of a file.
-pub fn render_convergence(runs: &[RenderStats]) -> anyhow::Result<RgbImage> {
+pub fn render_convergence(runs: &[RenderStats], metric: Metric) -> anyhow::Result<RgbImage> {
     if runs.is_empty() {
         bail!("no runs to plot");
     }
-    let curves = runs.iter().map(curve_points).collect::<anyhow::Result<Vec<_>>>()?;
+    let curves = runs.iter().map(|r| curve_points(r, metric)).collect::<anyhow::Result<Vec<_>>>()?;
     let xs: Vec<f64> = curves.iter().flatten().map(|p| p.0).collect();
     let ys: Vec<f64> = curves.iter().flatten().map(|p| p.1).collect();
     let x_axis = LogAxis::fit(&xs);
@@ -106,8 +145,9 @@ pub fn render_convergence(runs: &[RenderStats]) -> anyhow::Result<RgbImage> {
     let x_labels = x_axis.label_masks(tick_font, exponent_font);
     let y_labels = y_axis.label_masks(tick_font, exponent_font);
     let x_title = Mask::text(&[Span::new("time (s)", label_font)]);
-    let y_title = Mask::text(&[Span::new("relMSE", label_font)]).rotated_ccw();
-    let title = Mask::text(&[Span::new(&elide(&title_text(runs), title_font, PLOT_WIDTH as i64 - 40), title_font)]);
+    let y_title = Mask::text(&[Span::new(metric.name(), label_font)]).rotated_ccw();
+    let title =
+        Mask::text(&[Span::new(&elide(&title_text(runs, metric), title_font, PLOT_WIDTH as i64 - 40), title_font)]);
 
     // Layout: the plot area is what the title, the tick labels and the axis
     // titles leave free.
@@ -185,17 +225,18 @@ pub fn render_convergence(runs: &[RenderStats]) -> anyhow::Result<RgbImage> {
     Ok(canvas.image)
 }
 
-/// The (seconds, relMSE) points of one run that a log-log plot can show.
-fn curve_points(run: &RenderStats) -> anyhow::Result<Vec<(f64, f64)>> {
+/// The (seconds, value) points of one run that a log-log plot of `metric` can show.
+fn curve_points(run: &RenderStats, metric: Metric) -> anyhow::Result<Vec<(f64, f64)>> {
     let recorded: Vec<(f64, f64)> =
-        run.frames.iter().filter_map(|f| f.rel_mse.map(|rel_mse| (f.elapsed_ms / 1000.0, rel_mse))).collect();
+        run.frames.iter().filter_map(|f| metric.of(f).map(|v| (f.elapsed_ms / 1000.0, v))).collect();
+    let name = metric.name();
     if recorded.is_empty() {
-        bail!("run '{}' has no relMSE values: render with --reference to record relMSE", run.label);
+        bail!("run '{}' has no {name} values: render with {} to record it", run.label, metric.recorded_by());
     }
     let positive = |v: f64| v.is_finite() && v > 0.0;
     let points: Vec<(f64, f64)> = recorded.into_iter().filter(|&(x, y)| positive(x) && positive(y)).collect();
     if points.is_empty() {
-        bail!("run '{}' has no frame with a positive time and relMSE to put on log axes", run.label);
+        bail!("run '{}' has no frame with a positive time and {name} to put on log axes", run.label);
     }
     Ok(points)
 }
@@ -204,14 +245,15 @@ fn curve_points(run: &RenderStats) -> anyhow::Result<Vec<(f64, f64)>> {
 /// recorded points that log axes cannot show (a time or relMSE at or below 0,
 /// such as a first frame that matches its own reference exactly), and runs of
 /// different scenes or sizes, whose relMSE do not compare.
-pub fn plot_notes(runs: &[RenderStats]) -> Vec<String> {
+pub fn plot_notes(runs: &[RenderStats], metric: Metric) -> Vec<String> {
     let mut notes = Vec::new();
+    let name = metric.name();
     for run in runs {
-        let recorded = run.frames.iter().filter(|f| f.rel_mse.is_some()).count();
-        let shown = curve_points(run).map_or(0, |p| p.len());
+        let recorded = run.frames.iter().filter(|f| metric.of(f).is_some()).count();
+        let shown = curve_points(run, metric).map_or(0, |p| p.len());
         if shown > 0 && shown < recorded {
             notes.push(format!(
-                "run '{}': {} of its {recorded} relMSE points have a time or relMSE at or below 0 and are not \
+                "run '{}': {} of its {recorded} {name} points have a time or value at or below 0 and are not \
                  on the log axes",
                 run.label,
                 recorded - shown
@@ -231,9 +273,9 @@ pub fn plot_notes(runs: &[RenderStats]) -> Vec<String> {
 }
 
 /// "relMSE against time", with the scene and resolution when all runs share them.
-fn title_text(runs: &[RenderStats]) -> String {
+fn title_text(runs: &[RenderStats], metric: Metric) -> String {
     let first = &runs[0];
-    let mut title = String::from("relMSE against render time");
+    let mut title = format!("{} against render time", metric.name());
     if !first.scene.is_empty() && runs.iter().all(|r| r.scene == first.scene) {
         title += &format!(": {}", first.scene);
         if runs.iter().all(|r| (r.width, r.height) == (first.width, first.height)) {

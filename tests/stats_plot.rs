@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use rlpt::plot::{plot_convergence, run_colour, PLOT_HEIGHT, PLOT_WIDTH};
+use rlpt::plot::{plot_convergence, run_colour, Metric, PLOT_HEIGHT, PLOT_WIDTH};
 use rlpt::stats::{FrameStats, RenderStats};
 
 /// A fresh, empty directory for one test.
@@ -98,7 +98,7 @@ fn plot_of_two_runs_shows_both() {
         synthetic_run("door.toml guiding=off nee=on", 0.5, 20.0, 200),
         synthetic_run("door.toml guiding=sphere nee=on", 0.08, 24.0, 200),
     ];
-    plot_convergence(&runs, &out).unwrap();
+    plot_convergence(&runs, &out, Metric::RelMse).unwrap();
 
     let image = image::open(&out).unwrap().into_rgb8();
     assert_eq!((image.width(), image.height()), (PLOT_WIDTH, PLOT_HEIGHT));
@@ -123,7 +123,7 @@ fn run_without_rel_mse_is_an_error_naming_it() {
         frame.rel_mse = None;
     }
     let runs = [synthetic_run("cornell.toml guiding=sphere nee=off", 0.1, 10.0, 10), blind];
-    let message = format!("{:#}", plot_convergence(&runs, &out).unwrap_err());
+    let message = format!("{:#}", plot_convergence(&runs, &out, Metric::RelMse).unwrap_err());
     assert!(message.contains("cornell.toml guiding=off nee=off"), "{message}");
     assert!(message.contains("--reference"), "{message}");
     assert!(!out.exists());
@@ -138,7 +138,7 @@ fn frames_without_rel_mse_or_positive_values_are_skipped() {
     run.frames[1].rel_mse = Some(0.0);
     run.frames[2].rel_mse = Some(f64::NAN);
     run.frames[3].elapsed_ms = 0.0;
-    plot_convergence(&[run], &out).unwrap();
+    plot_convergence(&[run], &out, Metric::RelMse).unwrap();
     assert!(out.is_file());
 }
 
@@ -148,33 +148,63 @@ fn non_png_output_is_refused() {
     let runs = [synthetic_run("a", 0.1, 10.0, 10)];
     for name in ["convergence.jpg", "convergence", "convergence.png.txt"] {
         let out = dir.join(name);
-        let message = format!("{:#}", plot_convergence(&runs, &out).unwrap_err());
+        let message = format!("{:#}", plot_convergence(&runs, &out, Metric::RelMse).unwrap_err());
         assert!(message.contains(&out.display().to_string()), "{message}");
         assert!(message.contains(".png"), "{message}");
         assert!(!out.exists());
     }
     // The extension is not case-sensitive.
-    plot_convergence(&runs, &dir.join("convergence.PNG")).unwrap();
+    plot_convergence(&runs, &dir.join("convergence.PNG"), Metric::RelMse).unwrap();
 }
 
 #[test]
 fn plot_notes_name_dropped_points_and_mixed_runs() {
     let a = synthetic_run("a", 0.02, 10.0, 6);
-    assert!(rlpt::plot::plot_notes(std::slice::from_ref(&a)).is_empty());
+    assert!(rlpt::plot::plot_notes(std::slice::from_ref(&a), Metric::RelMse).is_empty());
     // A first frame that matches its own reference exactly: relMSE 0, off the log axis.
     let mut exact = a.clone();
     exact.frames[0].rel_mse = Some(0.0);
     exact.frames[1].elapsed_ms = 0.0;
-    let notes = rlpt::plot::plot_notes(&[exact]);
+    let notes = rlpt::plot::plot_notes(&[exact], Metric::RelMse);
     assert_eq!(notes.len(), 1, "{notes:?}");
     assert!(notes[0].contains("run 'a': 2 of its 6 relMSE points"), "{notes:?}");
     // Two scenes, or two sizes, on one plot.
     let mut other = synthetic_run("b", 0.02, 10.0, 6);
     other.scene = "scenes/seed-exp1.toml".into();
-    let notes = rlpt::plot::plot_notes(&[a.clone(), other]);
+    let notes = rlpt::plot::plot_notes(&[a.clone(), other], Metric::RelMse);
     assert!(notes.len() == 1 && notes[0].contains("different scenes or sizes"), "{notes:?}");
     let mut smaller = synthetic_run("c", 0.02, 10.0, 6);
     smaller.width = 320;
-    let notes = rlpt::plot::plot_notes(&[a, smaller]);
+    let notes = rlpt::plot::plot_notes(&[a, smaller], Metric::RelMse);
     assert!(notes.len() == 1 && notes[0].contains("scenes/door.toml 320x480"), "{notes:?}");
+}
+
+/// `plot --debiased`: the relMSE less the reference's variance, whose frames can
+/// be negative (left off the log axes, and named); a run recorded without the
+/// reference's variance is an error that says how to record it.
+#[test]
+fn the_debiased_relmse_plots_and_says_what_it_needs() {
+    let dir = temp_dir("debiased");
+    let out = dir.join("debiased.png");
+    let mut run = synthetic_run("door.toml guiding=sphere nee=on", 0.08, 24.0, 60);
+    for (i, f) in run.frames.iter_mut().enumerate() {
+        f.rel_mse_debiased = f.rel_mse.map(|r| if i == 3 { -1e-9 } else { 0.8 * r });
+    }
+    plot_convergence(std::slice::from_ref(&run), &out, Metric::RelMseDebiased).unwrap();
+    let image = image::open(&out).unwrap().into_rgb8();
+    let n = image.pixels().filter(|p| p.0 == run_colour(0)).count();
+    assert!(n > 300, "the curve has only {n} pixels of its colour");
+    let notes = rlpt::plot::plot_notes(std::slice::from_ref(&run), Metric::RelMseDebiased);
+    assert!(
+        notes.len() == 1 && notes[0].contains("1 of its 60 relMSE less the reference's variance points"),
+        "{notes:?}"
+    );
+    let plain = synthetic_run("door.toml guiding=off nee=on", 0.5, 20.0, 10);
+    let message = format!("{:#}", plot_convergence(&[run, plain], &out, Metric::RelMseDebiased).unwrap_err());
+    assert!(
+        message.contains("door.toml guiding=off nee=on")
+            && message.contains("no relMSE less the reference's variance values")
+            && message.contains("--reference-variance"),
+        "{message}"
+    );
 }
