@@ -2,14 +2,16 @@
 # The measurements behind BENCHMARKS.md, in one go on a GPU machine.
 #
 #   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...|learning-rate SCENE...|
-#                                     deep-guiding|counters]
+#                                     deep-guiding [SCENE...]|counters]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
 #             frames of 64 spp at the scene's size after 640 warm-up frames, past
 #             the last change of the recording stride (guide::RecordSchedule) on
-#             every scene here (bench-S-G); and, guided, after 8 (bench-early-S-G),
-#             where more rows record.
+#             every scene here but door, whose default table with roulette (12x24
+#             bins) changes stride last at frame 1376 and is measured after 1408
+#             (bench-S-G); and, guided, after 8 (bench-early-S-G), where more rows
+#             record.
 # equal-time: for each SCENE, a reference (unguided, NEE on, 40 s of GPU time)
 #             with its per-pixel variance, then 10 s of GPU time for each of off /
 #             octant / sphere x NEE on / off with --stats against it (relMSE frame
@@ -21,12 +23,12 @@
 # learning-rate: for each SCENE, what equal-time runs, and every guided setting
 #             again with Q's learning-rate exponent 1 and 0.75 (stats-wW-...),
 #             against the same reference.
-# deep-guiding: door.toml's candidates from the CPU renderer's per-sample study
-#             (BENCHMARKS.md, "What bounds door"): a reference with its variance,
-#             then 10 s of sphere guiding with guided sampling at every vertex
-#             (--guided-vertices 16, door's bounce limit) and 8x16, 12x24 or 16x32
-#             bins, against the default and unguided, NEE on; and their frame
-#             times (bench after 640 warm-up frames).
+# deep-guiding: for each SCENE (default door and smallpt, the scenes with Russian
+#             roulette), a reference with its variance, then 10 s each, NEE on, of:
+#             unguided; sphere guiding at the defaults (with roulette every vertex
+#             guided, 12x24 bins); the former defaults (the first 2 vertices, 8x16
+#             bins); every vertex at 8x16 and at 16x32 bins; and their frame times
+#             (bench after 1408 warm-up frames, past door's last change of stride).
 # counters:   `rlpt bench` of the four scenes with --counters on and off, guiding
 #             off and sphere: what the frame counters cost a frame.
 set -euo pipefail
@@ -39,8 +41,10 @@ case "$stage" in
 timing)
     "$rlpt" devices >"$out/devices.txt"
     for s in seed-exp1 seed-exp2 seed-exp3 door; do
+        warmup=640
+        [ "$s" = door ] && warmup=1408
         for g in off octant sphere; do
-            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 640 --guiding "$g" --nee on \
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup "$warmup" --guiding "$g" --nee on \
                 --json "$out/bench-$s-$g.json" | tee "$out/bench-$s-$g.txt"
         done
         for g in octant sphere; do
@@ -107,20 +111,23 @@ learning-rate)
     done
     ;;
 deep-guiding)
-    s=door
-    "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
-        --variance "$out/ref-$s.var.exr"
-    run() { # NAME ARGS...
-        local name=$1
-        shift
-        "$rlpt" render "scenes/$s.toml" -o "$out/out.exr" --spp 100000000 --time 10 --reference "$out/ref-$s.exr" \
-            --reference-variance "$out/ref-$s.var.exr" --stats "$out/deep-$s-$name.json" "$@"
-        "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 640 --json "$out/bench-deep-$s-$name.json" "$@" \
-            | tee "$out/bench-deep-$s-$name.txt"
-    }
-    run off --guiding off
-    run sphere --guiding sphere
-    for b in 8x16 12x24 16x32; do run "sphere-all-$b" --guiding sphere --guided-vertices 16 --bins "$b"; done
+    [ $# -gt 0 ] || set -- door smallpt
+    for s in "$@"; do
+        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
+            --variance "$out/ref-$s.var.exr"
+        run() { # NAME ARGS...
+            local name=$1
+            shift
+            "$rlpt" render "scenes/$s.toml" -o "$out/out.exr" --spp 100000000 --time 10 --reference "$out/ref-$s.exr" \
+                --reference-variance "$out/ref-$s.var.exr" --stats "$out/deep-$s-$name.json" "$@"
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 1408 --json "$out/bench-deep-$s-$name.json" "$@" \
+                | tee "$out/bench-deep-$s-$name.txt"
+        }
+        run off --guiding off
+        run sphere --guiding sphere
+        run sphere-former --guiding sphere --guided-vertices 2 --bins 8x16
+        for b in 8x16 16x32; do run "sphere-all-$b" --guiding sphere --bins "$b"; done
+    done
     ;;
 counters)
     for s in seed-exp1 seed-exp2 seed-exp3 door; do

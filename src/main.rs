@@ -114,7 +114,8 @@ struct Settings {
     #[arg(long, value_enum, default_value_t = GuidingArg::Off)]
     guiding: GuidingArg,
     /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in
-    /// phi) [default: 8x16].
+    /// phi) [default: 12x24 in scenes with Russian roulette, where every vertex records
+    /// targets; 8x16 without].
     #[arg(long, value_parser = parse_bins)]
     bins: Option<Bins>,
     /// Probability of sampling a guided direction at a non-delta vertex (the rest: BSDF
@@ -123,8 +124,10 @@ struct Settings {
     #[arg(long, value_parser = parse_fraction, allow_negative_numbers = true)]
     guided_fraction: Option<FractionArg>,
     /// Guided sampling at the first N vertices of each path (1: the camera ray's hit
-    /// alone); deeper vertices sample the BSDF alone. Default: 2 with NEE, every
-    /// vertex without (where only guided sampling aims at the lights).
+    /// alone); deeper vertices sample the BSDF alone. Default: every vertex in scenes
+    /// with Russian roulette (which look up every vertex's cell anyway); without
+    /// roulette 2 with NEE, every vertex without (where only guided sampling aims at
+    /// the lights).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     guided_vertices: Option<u32>,
     /// Exponent W of the Q-learning rate 1/i^W for an entry's i-th target, in (0.5, 1]:
@@ -152,7 +155,7 @@ impl Settings {
         opts.nee = self.nee == OnOff::On;
         opts.power_heuristic = self.mis.unwrap_or(Heuristic::Power) == Heuristic::Power;
         opts.guiding = self.guiding_mode();
-        opts.bins = self.bins.unwrap_or(Bins::SPHERE_DEFAULT);
+        opts.bins = self.bins;
         match self.guided_fraction.unwrap_or(FractionArg::Learned) {
             FractionArg::Fixed(f) => {
                 opts.guided_fraction = f;

@@ -142,8 +142,9 @@ pub struct RenderParams {
     pub guide_cells: u32,
     pub guide_floor: f32,
     /// Vertices of a path that mix guided sampling in: those at depth < this; 0 for
-    /// the default of the NEE flag, read through [`crate::guide::guided_vertices`],
-    /// so that switching NEE (`set_nee`, the viewer's N key) switches the default too.
+    /// the default of the roulette and NEE flags, read through
+    /// [`crate::guide::guided_vertices`], so that switching NEE (`set_nee`, the
+    /// viewer's N key) switches the default too (in a scene without roulette).
     pub guide_vertices: u32,
     /// Shadow rays test the first this many quads only: the rest bound the scene
     /// ([`occluding_order`]) and cannot block a segment between two of its points.
@@ -210,13 +211,17 @@ const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_ROOM_ENTERING +
 // geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
-/// Guided sampling's default reach with NEE: a path's first two vertices. There,
-/// deeper vertices gained nothing measurable per sample on the seed scenes and
-/// little on door.toml, while their table lookups cost (H200, relMSE at 10 s of
-/// equal time over unguided, guiding every vertex against the first two: 1.51
-/// against 1.27 on seed-exp1, 0.58 against 0.59 on door; BENCHMARKS.md). Without
-/// NEE only guided sampling aims at the lights, at every vertex, and limiting it
-/// costs (door 0.22 against 0.38): then every vertex is guided.
+/// Guided sampling's default reach with NEE in a scene without Russian roulette:
+/// a path's first two vertices. There, deeper vertices gained nothing measurable
+/// per sample on the seed scenes, while their table lookups and the recording of
+/// their targets cost (H200, relMSE at 10 s of equal time over unguided, guiding
+/// every vertex against the first two: 1.51 against 1.27 on seed-exp1;
+/// BENCHMARKS.md). Without NEE only guided sampling aims at the lights, at every
+/// vertex, and limiting it costs (door 0.22 against 0.38): then every vertex is
+/// guided. So is every vertex where Russian roulette is on (door.toml), whatever
+/// NEE says: there every vertex records targets and looks up its cell for learned
+/// roulette anyway, and guiding them all paid at equal time
+/// ([`crate::guide::guided_vertices`]).
 pub const DEFAULT_GUIDED_VERTICES_NEE: u32 = 2;
 
 /// Largest image width or height, in pixels, a scene or an option may ask for.
@@ -270,8 +275,11 @@ pub struct RenderOptions {
     pub power_heuristic: bool,
     /// Learned guiding: off, octant (2x4 bins) or sphere (`bins`).
     pub guiding: GuidingMode,
-    /// Bins of `GuidingMode::Sphere`.
-    pub bins: Bins,
+    /// Bins of `GuidingMode::Sphere`. None: the default for the scene,
+    /// [`crate::guide::default_bins`] (12x24 with Russian roulette, 8x16 without),
+    /// which [`PreparedScene::new`] resolves; the prepared scene's
+    /// `guide.bins` holds the bins used.
+    pub bins: Option<Bins>,
     /// Probability of guided sampling at a non-delta vertex: fixed, or each
     /// cell's starting value where `learn_fraction`.
     pub guided_fraction: f32,
@@ -283,7 +291,8 @@ pub struct RenderOptions {
     pub learning_rate_exponent: f32,
     /// Guided sampling at the first this many vertices (at least 1) of each path
     /// (depth 0 is the camera ray's hit); deeper vertices sample the BSDF alone.
-    /// None: [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
+    /// None: every vertex with Russian roulette (`russian_roulette_depth`);
+    /// without it [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
     /// ([`crate::guide::guided_vertices`]).
     pub guided_vertices: Option<u32>,
     /// Whether the GPU kernel keeps the frame counters: the paths that carried no
@@ -307,7 +316,7 @@ impl RenderOptions {
             nee: true,
             power_heuristic: true,
             guiding: GuidingMode::Off,
-            bins: Bins::SPHERE_DEFAULT,
+            bins: None,
             guided_fraction: 0.5,
             learn_fraction: true,
             guide_floor: 0.5,
@@ -352,8 +361,10 @@ impl RenderOptions {
         if self.max_bounces > MAX_BOUNCES {
             return err("max_bounces", self.max_bounces.to_string(), format!("at most {MAX_BOUNCES} bounces"));
         }
-        if let Err(e) = Bins::check(self.bins.rows, self.bins.cols) {
-            return err("bins", format!("{}x{}", self.bins.rows, self.bins.cols), e);
+        if let Some(bins) = self.bins {
+            if let Err(e) = Bins::check(bins.rows, bins.cols) {
+                return err("bins", format!("{}x{}", bins.rows, bins.cols), e);
+            }
         }
         if let Err(e) = check_guided_fraction(self.guided_fraction) {
             return err("guided_fraction", self.guided_fraction.to_string(), e);
@@ -571,7 +582,8 @@ impl PreparedScene {
         if opts.nee {
             flags |= shared::FLAG_NEE;
         }
-        if opts.russian_roulette_depth.is_some() {
+        let roulette = opts.russian_roulette_depth.is_some();
+        if roulette {
             flags |= shared::FLAG_RUSSIAN_ROULETTE;
         }
         if opts.power_heuristic {
@@ -580,7 +592,7 @@ impl PreparedScene {
         if opts.learn_fraction && opts.guiding != GuidingMode::Off {
             flags |= shared::FLAG_LEARN_FRACTION;
         }
-        if last_ray_to_lights(scene.environment, &lights, opts.russian_roulette_depth.is_some()) {
+        if last_ray_to_lights(scene.environment, &lights, roulette) {
             flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;
         }
         if opts.counters {
@@ -621,7 +633,7 @@ impl PreparedScene {
         let bins = match opts.guiding {
             GuidingMode::Off => None,
             GuidingMode::Octant => Some(Bins::OCTANT),
-            GuidingMode::Sphere => Some(opts.bins),
+            GuidingMode::Sphere => Some(opts.bins.unwrap_or(guide::default_bins(roulette))),
         };
         if let Some(bins) = bins {
             let grid = Grid::for_scene(&prepared, &scene.guiding);
@@ -648,7 +660,7 @@ impl PreparedScene {
             [p.guide_res_x, p.guide_res_y, p.guide_res_z] = grid.res;
             p.guide_cells = grid.cells();
             p.guide_floor = cfg.floor;
-            // 0: the default for whichever NEE setting the params hold.
+            // 0: the default for whichever NEE and roulette flags the params hold.
             p.guide_vertices = opts.guided_vertices.unwrap_or(0);
             prepared.guide = Some(cfg);
         }
@@ -824,7 +836,12 @@ mod tests {
         // The edges that are allowed.
         for ok in [
             RenderOptions { width: 1, height: MAX_IMAGE_SIDE, max_bounces: MAX_BOUNCES, spp: MAX_SPP, ..good.clone() },
-            RenderOptions { bins: Bins { rows: 32, cols: 32 }, guided_fraction: 0.0, guide_floor: 0.0, ..good.clone() },
+            RenderOptions {
+                bins: Some(Bins { rows: 32, cols: 32 }),
+                guided_fraction: 0.0,
+                guide_floor: 0.0,
+                ..good.clone()
+            },
             RenderOptions { learning_rate_exponent: 0.500001, guided_vertices: Some(1), ..good.clone() },
         ] {
             assert_eq!(ok.check(), Ok(()), "{ok:?}");
@@ -835,8 +852,8 @@ mod tests {
             (RenderOptions { spp: 0, ..good.clone() }, "spp"),
             (RenderOptions { spp: MAX_SPP + 1, ..good.clone() }, "spp"),
             (RenderOptions { max_bounces: MAX_BOUNCES + 1, ..good.clone() }, "max_bounces"),
-            (RenderOptions { bins: Bins { rows: 0, cols: 16 }, ..good.clone() }, "bins"),
-            (RenderOptions { bins: Bins { rows: 65536, cols: 65536 }, ..good.clone() }, "bins"),
+            (RenderOptions { bins: Some(Bins { rows: 0, cols: 16 }), ..good.clone() }, "bins"),
+            (RenderOptions { bins: Some(Bins { rows: 65536, cols: 65536 }), ..good.clone() }, "bins"),
             (RenderOptions { guided_fraction: 1.0, ..good.clone() }, "guided_fraction"),
             (RenderOptions { guided_fraction: f32::NAN, ..good.clone() }, "guided_fraction"),
             (RenderOptions { guided_fraction: -0.25, learn_fraction: true, ..good.clone() }, "guided_fraction"),
@@ -856,18 +873,89 @@ mod tests {
         }
     }
 
-    /// The default follows the NEE flag of the params, also when it is switched
-    /// after the scene was prepared; an explicit count stays.
+    /// Without Russian roulette the default follows the NEE flag of the params,
+    /// also when it is switched after the scene was prepared; an explicit count
+    /// stays.
     #[test]
     fn guided_vertices_default_to_two_with_nee_and_all_without() {
+        assert_eq!(DEFAULT_GUIDED_VERTICES_NEE, 2);
         let mut p = RenderParams { flags: shared::FLAG_NEE, ..Default::default() };
-        assert_eq!(guided_vertices(&p), DEFAULT_GUIDED_VERTICES_NEE);
+        assert_eq!(guided_vertices(&p), 2);
         p.set_nee(false);
         assert_eq!(guided_vertices(&p), u32::MAX);
         p.guide_vertices = 3;
         assert_eq!(guided_vertices(&p), 3);
         p.set_nee(true);
         assert_eq!(guided_vertices(&p), 3);
+    }
+
+    /// With Russian roulette the default is every vertex, NEE on or off; an
+    /// explicit count stays.
+    #[test]
+    fn guided_vertices_default_to_all_with_roulette() {
+        let mut p = RenderParams { flags: shared::FLAG_RUSSIAN_ROULETTE | shared::FLAG_NEE, ..Default::default() };
+        assert_eq!(guided_vertices(&p), u32::MAX);
+        p.set_nee(false);
+        assert_eq!(guided_vertices(&p), u32::MAX);
+        p.guide_vertices = 2;
+        assert_eq!(guided_vertices(&p), 2);
+        p.set_nee(true);
+        assert_eq!(guided_vertices(&p), 2);
+    }
+
+    /// Prepared from the scenes' own settings: door.toml and smallpt.toml (with
+    /// roulette) guide every vertex, seed-exp1 (without) the first two with NEE and
+    /// every vertex without; an explicit count wins.
+    #[test]
+    fn prepared_scenes_guide_the_vertices_of_their_roulette() {
+        for (name, roulette, nee_default) in
+            [("door", true, u32::MAX), ("smallpt", true, u32::MAX), ("seed-exp1", false, 2)]
+        {
+            let s = scene(name);
+            assert_eq!(s.render.russian_roulette_depth.is_some(), roulette, "{name}");
+            for (nee, want) in [(true, nee_default), (false, u32::MAX)] {
+                let o = RenderOptions { guiding: GuidingMode::Sphere, nee, ..RenderOptions::from_scene(&s) };
+                let p = PreparedScene::new(&s, &o).expect("valid options");
+                assert_eq!(p.params.flags & shared::FLAG_RUSSIAN_ROULETTE != 0, roulette, "{name}");
+                assert_eq!(guided_vertices(&p.params), want, "{name}, NEE {nee}");
+                let o = RenderOptions { guided_vertices: Some(3), ..o };
+                let p = PreparedScene::new(&s, &o).expect("valid options");
+                assert_eq!(guided_vertices(&p.params), 3, "{name}, NEE {nee}, explicit");
+            }
+        }
+    }
+
+    /// `--guiding sphere` without bins takes 12x24 in scenes with Russian roulette
+    /// and 8x16 without; bins given win; octant stays 2x4, and no guiding has none.
+    #[test]
+    fn sphere_bins_default_to_the_scenes_roulette() {
+        assert_eq!(guide::default_bins(true), Bins { rows: 12, cols: 24 });
+        assert_eq!(guide::default_bins(false), Bins { rows: 8, cols: 16 });
+        let given = Bins { rows: 16, cols: 32 };
+        for (name, default) in [
+            ("door", Bins { rows: 12, cols: 24 }),
+            ("smallpt", Bins { rows: 12, cols: 24 }),
+            ("seed-exp1", Bins { rows: 8, cols: 16 }),
+        ] {
+            let s = scene(name);
+            let bins_of = |guiding: GuidingMode, bins: Option<Bins>| {
+                let o = RenderOptions { guiding, bins, ..RenderOptions::from_scene(&s) };
+                assert_eq!(o.check(), Ok(()));
+                let p = PreparedScene::new(&s, &o).expect("valid options");
+                let b = p.guide.map(|g| g.bins);
+                if let Some(b) = b {
+                    let got = (p.params.guide_bins, p.params.guide_rows, p.params.guide_cols);
+                    assert_eq!(got, (b.count(), b.rows, b.cols), "{name}: the params carry the bins");
+                }
+                b
+            };
+            assert_eq!(RenderOptions::from_scene(&s).bins, None, "{name}");
+            assert_eq!(bins_of(GuidingMode::Sphere, None), Some(default), "{name}");
+            assert_eq!(bins_of(GuidingMode::Sphere, Some(given)), Some(given), "{name}");
+            assert_eq!(bins_of(GuidingMode::Octant, None), Some(Bins { rows: 2, cols: 4 }), "{name}");
+            assert_eq!(bins_of(GuidingMode::Octant, Some(given)), Some(Bins { rows: 2, cols: 4 }), "{name}");
+            assert_eq!(bins_of(GuidingMode::Off, None), None, "{name}");
+        }
     }
 
     fn scene(name: &str) -> Scene {

@@ -4,7 +4,8 @@
 //!
 //! - **States** are the cells of a voxel [`Grid`] over the scene.
 //! - **Actions** are [`Bins`] of directions over the whole sphere, equal in solid
-//!   angle: rows uniform in cos(theta), columns uniform in phi (world space).
+//!   angle: rows uniform in cos(theta), columns uniform in phi (world space); by
+//!   default 8x16, or 12x24 in scenes with Russian roulette ([`default_bins`]).
 //! - **Q(cell, bin)** estimates the radiance arriving at the cell from the bin's
 //!   directions (mean over RGB).
 //! - **Learning**: when a path leaves x through bin a, reaches y and continues from
@@ -28,8 +29,9 @@
 //!   one pixel row in a stride that grows from 4 to 32 as the table fills
 //!   ([`RecordSchedule`]).
 //! - **Sampling** at a non-delta vertex among a path's first `guided_vertices`
-//!   (by default two with NEE, all without; deeper vertices sample the BSDF
-//!   alone, see `prepared::DEFAULT_GUIDED_VERTICES_NEE`) is a one-sample mixture: with the
+//!   (by default all where Russian roulette is on; without roulette two with NEE,
+//!   all without; deeper vertices sample the BSDF alone, see [`guided_vertices`]
+//!   and `prepared::DEFAULT_GUIDED_VERTICES_NEE`) is a one-sample mixture: with the
 //!   guided fraction of the vertex's cell (learned per cell by default,
 //!   [`FractionState`], or fixed), times the lobe's share ([`lobe_share`]), a bin is drawn from the cell's sampling row for the vertex's
 //!   orientation class (the signed axis nearest its shading normal,
@@ -61,7 +63,8 @@ pub enum GuidingMode {
     Off,
     /// 2 x 4 bins: exactly the eight octants of the seed.
     Octant,
-    /// Finer bins over the sphere (default 8 x 16 = 128).
+    /// Finer bins over the sphere (by default 8 x 16 = 128, or 12 x 24 = 288 in
+    /// scenes with Russian roulette: [`default_bins`]).
     Sphere,
 }
 
@@ -85,7 +88,10 @@ pub struct Bins {
 
 impl Bins {
     pub const OCTANT: Bins = Bins { rows: 2, cols: 4 };
+    /// `--guiding sphere`'s bins in scenes without Russian roulette ([`default_bins`]).
     pub const SPHERE_DEFAULT: Bins = Bins { rows: 8, cols: 16 };
+    /// `--guiding sphere`'s bins in scenes with Russian roulette ([`default_bins`]).
+    pub const SPHERE_ROULETTE_DEFAULT: Bins = Bins { rows: 12, cols: 24 };
 
     pub fn count(&self) -> u32 {
         self.rows * self.cols
@@ -104,7 +110,7 @@ impl Bins {
 
     /// The column of the azimuth phi = atan2(y, x) in [0, 2 pi): the sector
     /// `floor(phi cols / 2 pi)`. Where `cols` is a multiple of 4 (the octant's 4,
-    /// the default 16), without the arctangent: (x, y) is turned back by whole
+    /// the defaults 16 and 24), without the arctangent: (x, y) is turned back by whole
     /// quarter turns into the first quadrant, (u, v) with u, v >= 0, and the
     /// sector within it counted by the sides of its `cols / 4 - 1` inner edges
     /// (v cos t - u sin t >= 0 from edge angle t on). The same function up to
@@ -168,8 +174,8 @@ impl Bins {
 
     /// Most bins a table may have. Finer tables learn too slowly to pay (512
     /// bins already had too few targets per entry at the CPU renderer's test
-    /// sizes, BENCHMARKS.md), and the bound keeps a row's 16-bit alias indices
-    /// far from the marker [`UNLEARNED`].
+    /// sizes, BENCHMARKS.md), and the bound
+    /// keeps a row's 16-bit alias indices far from the marker [`UNLEARNED`].
     pub const MAX_COUNT: u64 = 1024;
 
     /// Whether `rows` x `cols` bins are a table the renderers can build: at least
@@ -334,7 +340,8 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// H200 a quarter of seed-exp2's rows recording, with the rows rebuilt every 4
 /// frames, cost 0.44 ms per frame more than a sixteenth with a rebuild every 16,
 /// about 0.04 of it the rebuilds; going on from 16 to 32 (at 4096 paths per
-/// entry: seed-exp1 from frame 576, door 608, seed-exp2 and exp3 128) took
+/// entry: seed-exp1 from frame 576, door 608 at 8x16 bins and 1376 at its default
+/// 12x24, seed-exp2 and exp3 128) took
 /// 0.8 % off seed-exp1's guided frame and 0.6 to 1.1 % off the others, with
 /// relMSE at equal time the same or lower at 1 s and 10 s (BENCHMARKS.md). On the
 /// GPU, `crate::render::frame_dispatches` gives
@@ -414,15 +421,56 @@ impl RecordSchedule {
 }
 
 /// The vertices that mix guided sampling in: those of depth below this. The
-/// params' `guide_vertices` where set (not 0), else the default for their NEE
-/// flag: [`crate::prepared::DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex
-/// without. `glsl/pathtrace.comp` takes it as the specialization constant
+/// params' `guide_vertices` where set (not 0), else the default for their flags:
+/// every vertex where Russian roulette is on, whatever NEE says; without roulette
+/// [`crate::prepared::DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without.
+///
+/// With roulette every vertex already records Q-learning targets
+/// ([`record_vertices`]) and looks up its cell for learned roulette, so guided
+/// sampling there costs only the sampling itself. On door.toml (NVIDIA H200,
+/// commit `74d972d`, `scripts/gpu-bench.sh RLPT OUT deep-guiding`; relMSE at 10 s
+/// of equal time less the reference's variance, over unguided's): 0.46 with the
+/// first two vertices guided (8x16 bins), 0.35 with every vertex (8x16), 0.30 with
+/// every vertex and 12x24 bins (the bins of [`default_bins`] with roulette), 0.28
+/// with every vertex and 16x32 bins; on smallpt.toml, the same way, 0.68, 0.56,
+/// 0.47 and 0.44. Per sample on the CPU renderer (BENCHMARKS.md, "What bounds
+/// door"): 0.30, 0.19 and 0.17 of unguided's (first two vertices at 8x16, every
+/// vertex at 8x16, every vertex at 12x24).
+///
+/// `glsl/pathtrace.comp` takes it as the specialization constant
 /// `SPEC_GUIDE_VERTICES`.
 pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
     match p.guide_vertices {
+        0 if p.flags & crate::shared::FLAG_RUSSIAN_ROULETTE != 0 => u32::MAX,
         0 if p.flags & crate::shared::FLAG_NEE != 0 => crate::prepared::DEFAULT_GUIDED_VERTICES_NEE,
         0 => u32::MAX,
         n => n,
+    }
+}
+
+/// The bins of `--guiding sphere` where the options name none
+/// (`RenderOptions::bins` None): [`Bins::SPHERE_ROULETTE_DEFAULT`] (12x24) in a
+/// scene with Russian roulette (`russian_roulette_depth`), [`Bins::SPHERE_DEFAULT`]
+/// (8x16) without.
+///
+/// With roulette every vertex records targets ([`record_vertices`]), so each
+/// entry of the table sees several times the targets per frame and a finer table
+/// learns in time (every vertex guided, relMSE at 10 s over unguided's: door.toml
+/// 0.30 at 12x24 against 0.35 at 8x16, smallpt.toml 0.47 against 0.56; see
+/// [`guided_vertices`]). 16x32 did a little better still at 10 s on the H200
+/// (0.28 and 0.44) but learns too slowly for small images: on the test suite's
+/// door at 48x32 after 32 warm-up frames its guided variance per sample was 0.43
+/// to 0.62 of unguided's over six seeds, against 0.28 to 0.33 at 12x24 and 0.21
+/// to 0.26 at 8x16 (`learning_reduces_variance_on_door`). Where only the first two
+/// vertices are guided (the default without roulette, with NEE), finer bins gained
+/// nothing on door (CPU renderer, per sample: 0.31 of unguided's at 16x32 against
+/// 0.30 at 8x16) and lost on seed-exp1 at equal time (2 s runs on the H200, relMSE
+/// over unguided's: 2.05 at 12x24 and 2.27 at 16x32 against 1.88 at 8x16).
+pub fn default_bins(roulette: bool) -> Bins {
+    if roulette {
+        Bins::SPHERE_ROULETTE_DEFAULT
+    } else {
+        Bins::SPHERE_DEFAULT
     }
 }
 

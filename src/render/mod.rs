@@ -768,13 +768,18 @@ mod tests {
         // With Russian roulette every vertex records (learned roulette reads Q there).
         let rr = crate::prepared::RenderParams { flags: p.flags | shared::FLAG_RUSSIAN_ROULETTE, ..p };
         assert_eq!(specialization(&rr)[shared::SPEC_RECORD_VERTICES as usize], u32::MAX);
-        // guide_vertices 0: the default of the NEE flag, so that switching NEE
+        // guide_vertices 0: without roulette the default of the NEE flag, so that switching NEE
         // (set_params) changes the constants and rebuilds the kernels.
         let mut d = crate::prepared::RenderParams { guide_vertices: 0, ..p };
         let c = specialization(&d);
         let guided = shared::SPEC_GUIDE_VERTICES as usize;
         assert_eq!(c[guided], crate::prepared::DEFAULT_GUIDED_VERTICES_NEE);
         d.set_nee(false);
+        assert_eq!(specialization(&d)[guided], u32::MAX);
+        // With roulette the default is every vertex, NEE on or off.
+        d.flags |= shared::FLAG_RUSSIAN_ROULETTE;
+        assert_eq!(specialization(&d)[guided], u32::MAX);
+        d.set_nee(true);
         assert_eq!(specialization(&d)[guided], u32::MAX);
     }
 
