@@ -649,7 +649,9 @@ fn reference_variances_are_checked() {
     let (ok, err) = render(&["--spp", "64", "--variance", &p(&tmp("rv-one.exr"))]);
     assert!(!ok && err.contains("--variance needs at least 2 frames"), "{err}");
     // A render that --time stops after its first frame: the image is kept, the variance refused.
-    let (ok, err) = render(&["--spp", "100000000", "--time", "0.0001", "--variance", &p(&tmp("rv-timed.exr"))]);
+    // 1 ns: no frame is that short (at 0.1 ms, a frame of this 4x3 image sometimes
+    // was, and two frames rendered).
+    let (ok, err) = render(&["--spp", "100000000", "--time", "0.000000001", "--variance", &p(&tmp("rv-timed.exr"))]);
     assert!(!ok && err.contains("stopped after 1 frame") && err.contains("the image was written"), "{err}");
     assert!(!tmp("rv-timed.exr").exists());
     let (ok, err) = render(&["--spp", "128", "--variance", &p(&tmp("rv-var.png"))]);
