@@ -38,9 +38,11 @@
 //!   [`normal_class`]), in proportion to `(Q + floor * Qbar) cos(axis, bin)`
 //!   (an alias table, rebuilt as [`RecordSchedule::learns_after`] says: one or two loads per
 //!   sample, one per density), and a direction uniformly inside it; otherwise the BSDF is
-//!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
-//!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
-//!   zero. Cells that have learned nothing use BSDF sampling alone. The cosine is
+//!   sampled. The mixture pdf weights the path, so the image stays unbiased, and
+//!   no direction where the BSDF is non-zero gets pdf zero. The MIS weights with
+//!   light sampling use the BSDF's density alone, which still sum to one over the
+//!   two techniques and spare light samples the guided density's lookup
+//!   (`crate::cpu` `trace_path`). Cells that have learned nothing use BSDF sampling alone. The cosine is
 //!   that of the class axis, exact on axis-aligned walls; the BSDF's own lobe is
 //!   left to the BSDF half of the mixture.
 //! - **Russian roulette** with guiding keeps a path in proportion to its expected
@@ -687,7 +689,7 @@ fn alias_densities(row: &mut [AliasBin]) {
 /// class is the signed axis its shading normal is closest to ([`normal_class`]);
 /// the class's distribution weights each bin by the cosine between that axis and
 /// the bin's centre. The class is a function of the vertex alone, so the sampled
-/// directions and the pdf evaluated for MIS always come from the same distribution.
+/// directions and the pdf that weights them always come from the same distribution.
 pub const NORMAL_CLASSES: u32 = crate::shared::NORMAL_CLASSES;
 
 /// The class of a unit normal: `2 * axis + (component < 0)` for the axis of its
