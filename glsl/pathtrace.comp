@@ -286,9 +286,6 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         float pdf = 0.0;
         bool delta = false;
         bool ok = false;
-        // The density the MIS weights of a light this ray meets use: the BSDF's,
-        // where the vertex mixes too (src/cpu/mod.rs `trace_path`).
-        float mis_pdf = 0.0;
 #if GUIDED
         // The bin of wi where something reads it (qrow set): a guided direction
         // comes with its bin, a BSDF direction's is found once, below.
@@ -314,7 +311,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                 delta = s.delta;
             }
         }
-        mis_pdf = pdf;
+        // The density the MIS weights of a light this ray meets use: the BSDF's,
+        // where the vertex mixes too (src/cpu/mod.rs `trace_path`).
+        float mis_pdf = pdf;
 #if GUIDED
         if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
         // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is

@@ -186,17 +186,12 @@ pub fn trace_path(
             Some(_) if depth < guided_vertices && !bsdf.is_delta() => row_fraction * guide::lobe_share(&bsdf),
             _ => 0.0,
         };
-        // The density of the mixture of BSDF and guided sampling at a direction
-        // in bin `bin`, from the BSDF's density `pb` there.
-        let mix_pdf = |bin: u32, pb: f32| match guide {
-            Some(_) if g_frac > 0.0 => (1.0 - g_frac) * pb + g_frac * guide::bin_pdf(sampler, bin),
-            _ => pb,
-        };
         // The bin of a direction, where guiding reads it.
         let bin_of = |wi: Vec3| guide.map_or(0, |g| g.cfg.bins.index(wi));
-        // A direction of the mixture, whichever sampler chose it: (wi, BSDF x cos /
-        // mixture pdf, the density its MIS weights use, not delta, bin,
-        // fraction-gradient factor), or None where the BSDF or the density is zero.
+        // A direction of the mixture at a vertex that mixes (g_frac > 0), whichever
+        // sampler chose it: (wi, BSDF x cos / mixture pdf, the density its MIS
+        // weights use, not delta, bin, fraction-gradient factor), or None where the
+        // BSDF or the density is zero.
         //
         // The MIS weights between light sampling and the mixture use the BSDF's
         // density in place of the mixture's, at the light sample and where a
@@ -212,11 +207,11 @@ pub fn trace_path(
         let mixture_sample = |wi: Vec3, bin: u32| {
             let wi_local = frame.to_local(wi);
             let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
-            let pdf = mix_pdf(bin, pb);
+            let pg = guide::bin_pdf(sampler, bin);
+            let pdf = (1.0 - g_frac) * pb + g_frac * pg;
             (pdf > 0.0 && f.max_element() > 0.0).then(|| {
                 let weight = f * (wi_local.z.abs() / pdf);
                 let factor = if learn_fraction {
-                    let pg = guide::bin_pdf(sampler, bin);
                     guide::fraction_gradient_factor(g_frac, row_fraction, pg, pb, pdf, guide::mean3(weight))
                 } else {
                     0.0
