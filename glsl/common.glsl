@@ -55,10 +55,13 @@
 // (src/prepared.rs `last_ray_to_lights`: set where, besides, every light has a
 // specialized slot and the scene has no roulette).
 #define FLAG_LAST_RAY_TO_LIGHTS 16
-// The frame counters (paths that carried nothing, rays traced) are kept: `rlpt
-// bench` and `render --stats` set it. Without it the kernel has none of their
-// code (src/prepared.rs `RenderOptions::counters`).
+// The frame counters are kept: the paths that carried nothing (one sum per
+// subgroup after the paths) with FLAG_COUNTERS, which `render --stats` sets; the
+// rays traced and the rays the subgroups' longest paths set (counted inside the
+// path loop) with FLAG_COUNT_RAYS too, which `rlpt bench` sets. Without them the
+// kernel has none of their code (src/prepared.rs `Counters`).
 #define FLAG_COUNTERS 32
+#define FLAG_COUNT_RAYS 64
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
 #define ABLATE_RECORD 1
@@ -146,6 +149,11 @@
 #define NUM_SPEC_CONSTANTS 401
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
+// Over the subgroups that trace paths: the rays of the subgroup's longest path
+// times its lanes' pixels' share of the subgroup (lanes / min(subgroup size, 64));
+// times min(subgroup size, 64) on the host, the rays the subgroups would trace if
+// every lane's path were as long as its subgroup's longest (src/render/mod.rs).
+#define COUNTER_SUBGROUP_SEGMENTS 2
 #define NUM_COUNTERS 4
 // learn.comp: invocations per workgroup (phase 1 stages that many rows of up
 // to 128 bins in shared memory, 16 KB)

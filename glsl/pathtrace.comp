@@ -123,17 +123,23 @@ void record(uint key, float target, float counted, float factor) {
 #define GUIDED 0
 #endif
 
-// Whether the frame counters are kept (FLAG_COUNTERS): without them the kernel
-// counts nothing, and their code is compiled out.
+// Whether the frame counters are kept (FLAG_COUNTERS: paths without radiance;
+// FLAG_COUNT_RAYS: rays too): without them the kernel counts nothing, and their
+// code is compiled out. Counting rays inside the path loop cost door's guided
+// frame 5 % on the H200 (BENCHMARKS.md), so `render --stats` counts paths alone.
 const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
+// The host sets FLAG_COUNT_RAYS only beside FLAG_COUNTERS. (Written as
+// COUNTERS && ..., a specialization constant of two, Mesa 22.3's lavapipe
+// failed to translate the kernel.)
+const bool COUNT_RAYS = (FLAGS & FLAG_COUNT_RAYS) != 0u;
 // Where trace_path counts its rays: with the depth in one register where the
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
 // depth: with the mask there too, seed-exp1's frames were 1.1 % (unguided) and
 // 2.7 % (guided) longer on the H200.
-const bool PACK_RAYS = COUNTERS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
+const bool PACK_RAYS = COUNT_RAYS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
-#define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else if (COUNTERS) segments += 1u
+#define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else if (COUNT_RAYS) segments += 1u
 
 // The ray into the last vertex is traced in full only where its line meets a
 // light (FLAG_LAST_RAY_TO_LIGHTS), unless the kernel records that vertex's target.
@@ -397,13 +403,20 @@ void main() {
         // A NaN or infinite sample would poison the pixel for good; it is dropped, as on the CPU.
         if (any(isnan(radiance)) || any(isinf(radiance))) radiance = vec3(0.0);
     }
-    // Frame counters: one atomic per subgroup, where they are kept.
+    // Frame counters: one atomic per subgroup and counter, where they are kept.
     if (COUNTERS) {
         uint zero_sum = subgroupAdd(zero);
+        if (subgroupElect()) atomicAdd(counters[COUNTER_ZERO_PATHS], zero_sum);
+    }
+    if (COUNT_RAYS) {
         uint segment_sum = subgroupAdd(segments);
+        // The subgroup runs the loop until its longest path ends: its lanes'
+        // share of that, for the lane utilization `rlpt bench` prints.
+        uint longest = subgroupMax(segments);
+        uint pixels_share = subgroupAdd(inside ? 1u : 0u) / min(gl_SubgroupSize, 64u);
         if (subgroupElect()) {
-            atomicAdd(counters[COUNTER_ZERO_PATHS], zero_sum);
             atomicAdd(counters[COUNTER_SEGMENTS], segment_sum);
+            atomicAdd(counters[COUNTER_SUBGROUP_SEGMENTS], longest * pixels_share);
         }
     }
 

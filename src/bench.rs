@@ -45,9 +45,13 @@ pub struct FrameRecord {
     pub learn_fold_ms: f64,
     pub learn_rows_ms: f64,
     pub total_ms: f64,
-    /// Rays traced and paths that carried nothing; null with `--counters off`.
+    /// Rays traced and paths that carried nothing; null with `--counters off`
+    /// (the rays also with `--counters paths`).
     pub segments: Option<u64>,
     pub zero_paths: Option<u64>,
+    /// The rays the subgroups ran the path loop for (`FrameTimings::subgroup_segments`);
+    /// null likewise, and on the CPU renderer.
+    pub subgroup_segments: Option<u64>,
 }
 
 /// What `rlpt bench` measured.
@@ -64,12 +68,17 @@ pub struct BenchReport {
     /// median frame would leave out).
     pub msamples_per_s: f64,
     /// Rays traced (camera, bounce, shadow) over the total measured time; this
-    /// and the next two are null where the frames kept no counters (`--counters off`).
+    /// and the next one are null where the frames counted no rays (`--counters
+    /// off` or `paths`), the one after where they counted nothing (`off`).
     pub msegments_per_s: Option<f64>,
     /// Rays per path, averaged over the measured frames.
     pub segments_per_path: Option<f64>,
     /// Fraction of paths that carried no radiance, over the measured frames.
     pub zero_fraction: Option<f64>,
+    /// Rays traced over the rays the subgroups ran the path loop for (each
+    /// subgroup as long as its longest path): the share of lanes busy, 1 where
+    /// every path of a subgroup is as long. Null on the CPU renderer.
+    pub lane_utilization: Option<f64>,
     /// What the driver reports about each pipeline (registers, shared memory...).
     pub pipelines: Vec<PipelineReport>,
 }
@@ -117,6 +126,7 @@ impl BenchReport {
                 total_ms: t.pathtrace_ms + t.learn_fold_ms + t.learn_rows_ms,
                 segments: t.segments,
                 zero_paths: t.zero_paths,
+                subgroup_segments: t.subgroup_segments,
             })
             .collect();
         let column = |f: fn(&FrameRecord) -> f64| frames.iter().map(f).collect::<Vec<f64>>();
@@ -131,6 +141,7 @@ impl BenchReport {
         // Summed where every frame counted.
         let segments: Option<u64> = frames.iter().map(|f| f.segments).sum();
         let zero: Option<u64> = frames.iter().map(|f| f.zero_paths).sum();
+        let subgroup_segments: Option<u64> = frames.iter().map(|f| f.subgroup_segments).sum();
         let paths = setup.samples_per_frame as f64 * frames.len() as f64;
         BenchReport {
             setup,
@@ -138,6 +149,7 @@ impl BenchReport {
             msegments_per_s: segments.map(|s| s as f64 / total_ms * 1e-3),
             segments_per_path: segments.map(|s| s as f64 / paths),
             zero_fraction: zero.map(|z| z as f64 / paths),
+            lane_utilization: segments.zip(subgroup_segments).map(|(s, g)| s as f64 / g as f64),
             frames,
             passes,
             pipelines,
@@ -175,7 +187,15 @@ impl BenchReport {
         out += &match (self.msegments_per_s, self.segments_per_path, self.zero_fraction) {
             (Some(per_s), Some(per_path), Some(zero)) => format!(
                 "{:.1} Msamples/s (mean frame), {per_s:.1} Msegments/s, {per_path:.2} segments per path, {zero:.4} of \
-                 paths carried no radiance\n",
+                 paths carried no radiance{}\n",
+                self.msamples_per_s,
+                self.lane_utilization.map_or(String::new(), |u| format!(
+                    ", {u:.3} lane utilization (rays over those of each subgroup's longest path in every lane)"
+                ))
+            ),
+            (None, None, Some(zero)) => format!(
+                "{:.1} Msamples/s (mean frame), {zero:.4} of paths carried no radiance; segments not counted \
+                 (--counters paths)\n",
                 self.msamples_per_s
             ),
             _ => format!(
@@ -250,6 +270,7 @@ mod tests {
             learn_rows_ms: 0.25,
             zero_paths: Some(1),
             segments: Some(10),
+            subgroup_segments: Some(16),
         };
         let v = chrome_trace("dev", &[t(100.0), t(103.0)], 5);
         let ev = v["traceEvents"].as_array().unwrap();

@@ -9,7 +9,7 @@ use rlpt::gpu::{Context, ContextOptions};
 use rlpt::guide::{Bins, GuidingMode};
 use rlpt::image::Image;
 use rlpt::metrics;
-use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::prepared::{Counters, PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 use rlpt::shared;
@@ -73,6 +73,14 @@ enum DeviceKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum OnOff {
     On,
+    Off,
+}
+
+/// `bench --counters`: `Counters::All`, `ZeroPaths` or `Off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum CountersArg {
+    On,
+    Paths,
     Off,
 }
 
@@ -294,10 +302,12 @@ struct BenchArgs {
     /// learns as usual), to see what each costs. The image is then not rlpt's.
     #[arg(long, value_enum, value_delimiter = ',')]
     ablate: Vec<AblateArg>,
-    /// Count the rays traced and the paths that carried nothing (on, the default), or
-    /// time the kernel that `render` and `view` run, compiled without those counters.
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    counters: OnOff,
+    /// Count the rays traced, the lane utilization and the paths that carried nothing
+    /// (on, the default); the paths alone (paths: the kernel `render --stats` runs,
+    /// which leaves the counting of rays out of its path loop); or nothing (off: the
+    /// kernel that `render` and `view` run).
+    #[arg(long, value_enum, default_value_t = CountersArg::On)]
+    counters: CountersArg,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -455,8 +465,9 @@ fn render(args: RenderArgs) -> Result<()> {
     if let Some(s) = args.spp {
         opts.spp = s;
     }
-    // The zero-radiance fraction of --stats comes from the kernel's counters.
-    opts.counters = args.stats.is_some();
+    // The zero-radiance fraction of --stats comes from the kernel's counters;
+    // it counts no rays, which would cost time in the loop that --stats times.
+    opts.counters = if args.stats.is_some() { Counters::ZeroPaths } else { Counters::Off };
     let reference = match &args.reference {
         Some(path) => {
             let (r, format) =
@@ -766,13 +777,19 @@ fn bench(args: BenchArgs) -> Result<()> {
     if args.frames == 0 {
         bail!("--frames 0: bench needs at least one measured frame");
     }
-    if args.counters == OnOff::Off && args.settings.device == DeviceKind::Cpu {
-        eprintln!("note: --counters off compiles the GPU kernel's counters out; the CPU renderer counts always");
+    if args.counters != CountersArg::On && args.settings.device == DeviceKind::Cpu {
+        eprintln!(
+            "note: --counters off and paths compile the GPU kernel's counters out; the CPU renderer counts always"
+        );
     }
     let scene = Scene::load(&args.scene)?;
     warn_before_render(&args.settings, &scene);
     let mut opts = args.settings.options(&scene);
-    opts.counters = args.counters == OnOff::On;
+    opts.counters = match args.counters {
+        CountersArg::On => Counters::All,
+        CountersArg::Paths => Counters::ZeroPaths,
+        CountersArg::Off => Counters::Off,
+    };
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
     warn_memory(&opts, args.settings.device);

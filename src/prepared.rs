@@ -295,11 +295,24 @@ pub struct RenderOptions {
     /// without it [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
     /// ([`crate::guide::guided_vertices`]).
     pub guided_vertices: Option<u32>,
-    /// Whether the GPU kernel keeps the frame counters: the paths that carried no
-    /// radiance and the rays traced (`FrameTimings`), which `rlpt bench` and
-    /// `render --stats` report. Off, the kernel is compiled without their code
-    /// (`FLAG_COUNTERS`) and they cost nothing. The CPU renderer counts always.
-    pub counters: bool,
+    /// What the GPU kernel counts per frame (`FrameTimings`). The CPU renderer
+    /// counts paths and rays always.
+    pub counters: Counters,
+}
+
+/// What the GPU kernel counts per frame; what it does not count it is compiled
+/// without, at no cost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Counters {
+    /// Nothing.
+    Off,
+    /// The paths that carried no radiance (`FLAG_COUNTERS`): one sum per subgroup
+    /// after its paths end. `render --stats` counts these.
+    ZeroPaths,
+    /// Also the rays traced and the lane utilization (`FLAG_COUNT_RAYS`), counted
+    /// inside the path loop, which costs door's guided frame about 5 % on the
+    /// H200 (BENCHMARKS.md). `rlpt bench` counts these unless `--counters off`.
+    All,
 }
 
 impl RenderOptions {
@@ -322,7 +335,7 @@ impl RenderOptions {
             guide_floor: 0.5,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             guided_vertices: None,
-            counters: false,
+            counters: Counters::Off,
         }
     }
 
@@ -595,8 +608,10 @@ impl PreparedScene {
         if last_ray_to_lights(scene.environment, &lights, roulette) {
             flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;
         }
-        if opts.counters {
-            flags |= shared::FLAG_COUNTERS;
+        match opts.counters {
+            Counters::Off => {}
+            Counters::ZeroPaths => flags |= shared::FLAG_COUNTERS,
+            Counters::All => flags |= shared::FLAG_COUNTERS | shared::FLAG_COUNT_RAYS,
         }
         let mut params = RenderParams {
             cam_position_near: [0.0; 4],

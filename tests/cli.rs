@@ -195,6 +195,50 @@ fn bench_without_counters_reports_no_counts() {
     assert!(o.status.success() && stdout.contains("not counted (--counters off)"), "{stdout}");
 }
 
+/// `bench --counters paths` times the kernel `render --stats` runs: the paths
+/// that carried nothing counted, no rays (null in the JSON); `--counters on`
+/// counts both and the lane utilization, a share of the lanes in (0, 1].
+#[test]
+fn bench_counts_paths_alone_or_everything() {
+    let bench = |counters: &str| {
+        let json = tmp(&format!("bench-counters-{counters}.json"));
+        let (ok, err) = run(&[
+            "bench",
+            "scenes/door.toml",
+            "--width",
+            "16",
+            "--height",
+            "8",
+            "--frames",
+            "2",
+            "--warmup",
+            "0",
+            "--counters",
+            counters,
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(ok, "{err}");
+        serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(&json).unwrap()).unwrap()
+    };
+    let paths = bench("paths");
+    for key in ["msegments_per_s", "segments_per_path", "lane_utilization"] {
+        assert!(paths[key].is_null(), "{key}: {}", paths[key]);
+    }
+    let zero = paths["zero_fraction"].as_f64().expect("zero fraction counted");
+    for f in paths["frames"].as_array().unwrap() {
+        assert!(f["segments"].is_null() && f["subgroup_segments"].is_null() && f["zero_paths"].is_u64(), "{f}");
+    }
+    let on = bench("on");
+    // The same paths: the same number of them carried nothing.
+    assert_eq!(on["zero_fraction"].as_f64(), Some(zero));
+    let u = on["lane_utilization"].as_f64().expect("lane utilization");
+    assert!(u > 0.0 && u <= 1.0, "lane utilization {u}");
+    for f in on["frames"].as_array().unwrap() {
+        assert!(f["subgroup_segments"].as_u64() >= f["segments"].as_u64(), "{f}");
+    }
+}
+
 #[test]
 fn bench_refuses_a_trace_without_gpu_timestamps() {
     let o = rlpt()

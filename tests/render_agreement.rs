@@ -9,7 +9,7 @@ use common::*;
 use rlpt::cpu::camera_ray;
 use rlpt::film::Film;
 use rlpt::math::geometry::intersect_sphere;
-use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::prepared::{Counters, PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 
@@ -317,7 +317,7 @@ fn gpu_and_cpu_count_the_same_rays() {
             let scene = scene(name);
             let mut opts = options(&scene, 32, 24, 256);
             opts.guiding = guiding;
-            opts.counters = true;
+            opts.counters = Counters::All;
             let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
             let mut gpu = GpuRenderer::new(&ctx, &prepared).expect("renderer");
             let mut cpu = rlpt::cpu::CpuRenderer::new(&prepared);
@@ -345,39 +345,126 @@ fn gpu_and_cpu_count_the_same_rays() {
     }
 }
 
-/// The frame counters off (`RenderOptions::counters`, the kernel compiled without
-/// them): the same image bit for bit as with them, and no counts where none were
-/// kept; with roulette (door, whose kernels pack the ray count beside the depth
-/// when they count) and without, unguided and guided.
+/// The frame counters at each level (`RenderOptions::counters`, the kernel
+/// compiled without what it does not count): the same image bit for bit, and
+/// counts only where kept: none when off, the paths without radiance alone with
+/// `ZeroPaths` (`render --stats`), the same number of them and the rays with
+/// `All`; with roulette (door, whose kernels pack the ray count beside the depth
+/// when they count rays) and without, unguided and guided.
 #[test]
-fn the_counters_change_no_pixel_and_count_only_when_on() {
+fn the_counters_change_no_pixel_and_count_only_what_they_keep() {
     let ctx = gpu();
     for name in ["door.toml", "seed-exp1.toml"] {
         for guiding in [rlpt::guide::GuidingMode::Off, rlpt::guide::GuidingMode::Sphere] {
             let scene = scene(name);
             let mut opts = options(&scene, 24, 16, 128);
             opts.guiding = guiding;
-            let render = |counters: bool| {
+            let render = |counters: Counters| {
                 let o = RenderOptions { counters, ..opts.clone() };
                 let prepared = PreparedScene::new(&scene, &o).expect("valid options");
-                assert_eq!(prepared.params.flags & rlpt::shared::FLAG_COUNTERS != 0, counters);
+                let flags = prepared.params.flags;
+                assert_eq!(flags & rlpt::shared::FLAG_COUNTERS != 0, counters != Counters::Off);
+                assert_eq!(flags & rlpt::shared::FLAG_COUNT_RAYS != 0, counters == Counters::All);
                 let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
                 let counts: Vec<_> = (0..o.frames())
                     .map(|_| {
                         let t = r.render_frames(1).expect("render");
-                        (t.segments, t.zero_paths)
+                        (t.zero_paths, t.segments, t.subgroup_segments)
                     })
                     .collect();
                 (r.film().expect("readback"), counts)
             };
-            let ((on, counted), (off, uncounted)) = (render(true), render(false));
+            let (all, all_counts) = render(Counters::All);
+            let (zero, zero_counts) = render(Counters::ZeroPaths);
+            let (off, off_counts) = render(Counters::Off);
             assert_no_validation_messages(&ctx);
-            assert!(on.pixels.iter().any(|p| p.sum[0] > 0.0), "{name} {guiding:?}: the image has light");
-            assert!(on.pixels == off.pixels, "{name} {guiding:?}: the counters changed the image");
-            assert!(counted.iter().all(|&(s, z)| s.is_some_and(|s| s > 0) && z.is_some()), "{counted:?}");
-            assert!(uncounted.iter().all(|&c| c == (None, None)), "{uncounted:?}");
+            let what = format!("{name} {guiding:?}");
+            assert!(all.pixels.iter().any(|p| p.sum[0] > 0.0), "{what}: the image has light");
+            assert!(all.pixels == off.pixels, "{what}: counting everything changed the image");
+            assert!(zero.pixels == off.pixels, "{what}: counting paths changed the image");
+            let lanes = ctx.info.subgroup_size as u64;
+            for (i, (&(z, s, g), &(z0, s0, g0))) in all_counts.iter().zip(&zero_counts).enumerate() {
+                let (s, g) = (s.expect("rays counted"), g.expect("subgroups counted"));
+                // Each subgroup runs as long as its longest path: at least the rays
+                // traced, at most every lane's worth of them.
+                assert!(s > 0 && s <= g && g <= lanes * s, "{what}, frame {i}: {s} rays, {g} subgroup rays");
+                assert!(z.is_some() && z == z0, "{what}, frame {i}: paths without radiance {z:?} and {z0:?}");
+                assert_eq!((s0, g0), (None, None), "{what}, frame {i}: rays counted by ZeroPaths");
+            }
+            assert!(off_counts.iter().all(|&c| c == (None, None, None)), "{off_counts:?}");
         }
     }
+}
+
+/// The lane utilization's denominator, the rays each subgroup's longest path sets
+/// (`FrameTimings::subgroup_segments`). In the closed furnace without NEE or
+/// roulette every path traces the same rays, and the two counts are equal. On
+/// unguided door (roulette from the fifth bounce) they are the sums, over groups
+/// of subgroup-size consecutive samples of a pixel, of the CPU's paths' longest,
+/// times the group's lanes: the CPU traces the GPU's paths from the same random
+/// numbers (`gpu_and_cpu_count_the_same_rays`), so the two agree but for the
+/// few paths that rounding sends another way, each moving its group's count by
+/// at most a path's longest, 2 (bounces + 1) rays per lane.
+#[test]
+fn the_subgroups_count_the_rays_of_their_longest_paths() {
+    let ctx = gpu();
+    let lanes = ctx.info.subgroup_size.min(rlpt::shared::SAMPLES_PER_FRAME);
+    let scene_f = scene("furnace-closed.toml");
+    let mut opts = options(&scene_f, 16, 16, 64);
+    opts.nee = false;
+    opts.max_bounces = 6;
+    opts.counters = Counters::All;
+    let prepared = PreparedScene::new(&scene_f, &opts).expect("valid options");
+    assert_eq!(prepared.params.flags & rlpt::shared::FLAG_RUSSIAN_ROULETTE, 0);
+    let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    let t = r.render_frames(1).expect("render");
+    let paths = (opts.width * opts.height * rlpt::shared::SAMPLES_PER_FRAME) as u64;
+    assert_eq!(t.segments, Some(paths * (opts.max_bounces as u64 + 1)), "furnace: every path as long");
+    assert_eq!(t.subgroup_segments, t.segments, "furnace: every lane busy");
+
+    let scene_d = scene("door.toml");
+    let mut opts = options(&scene_d, 24, 16, 64);
+    opts.counters = Counters::All;
+    let prepared = PreparedScene::new(&scene_d, &opts).expect("valid options");
+    let p = &prepared.params;
+    assert!(p.flags & rlpt::shared::FLAG_RUSSIAN_ROULETTE != 0);
+    let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    let t = r.render_frames(1).expect("render");
+    assert_no_validation_messages(&ctx);
+    let (gpu_rays, gpu_longest) = (t.segments.expect("counted"), t.subgroup_segments.expect("counted"));
+    let (mut cpu_rays, mut cpu_longest) = (0u64, 0u64);
+    for y in 0..p.height {
+        for x in 0..p.width {
+            let pixel = y * p.width + x;
+            let mut longest = 0u32;
+            for sample in 0..rlpt::shared::SAMPLES_PER_FRAME {
+                let mut rng = rlpt::math::rng::Rng::new(p.seed, pixel, 0, sample);
+                let u = rlpt::cpu::pixel_jitter(sample, rng.next_2d());
+                let (o, d) = camera_ray(p, x, y, u);
+                let (_, rays) = rlpt::cpu::trace_path(&prepared, None, o, d, &mut rng, 0.0, None);
+                cpu_rays += rays as u64;
+                longest = longest.max(rays);
+                if (sample + 1) % lanes == 0 {
+                    cpu_longest += (longest * lanes) as u64;
+                    longest = 0;
+                }
+            }
+        }
+    }
+    let utilization = gpu_rays as f64 / gpu_longest as f64;
+    let per_path = 2 * (opts.max_bounces as u64 + 1);
+    let diff = gpu_longest.abs_diff(cpu_longest);
+    eprintln!(
+        "door: GPU {gpu_rays} rays, {gpu_longest} subgroup rays ({utilization:.3} utilization, {lanes} lanes); \
+         CPU {cpu_rays}, {cpu_longest}"
+    );
+    assert!(utilization < 0.9, "door: roulette leaves lanes idle, utilization {utilization:.3}");
+    // A hundredth of the groups' counts may move, each by at most a longest path in every lane.
+    let groups = cpu_longest / (lanes as u64 * per_path) + 1;
+    assert!(
+        diff <= (groups / 100 + 1) * lanes as u64 * per_path,
+        "door: GPU {gpu_longest} subgroup rays against the CPU's {cpu_longest}"
+    );
 }
 
 /// The ray into a path's last vertex traced in full only where its line meets a
@@ -393,7 +480,7 @@ fn the_last_ray_to_lights_changes_no_pixel() {
     let scene = scene("seed-exp3.toml");
     let mut opts = options(&scene, 24, 16, 128);
     opts.max_bounces = 2;
-    opts.counters = true;
+    opts.counters = Counters::All;
     for guiding in [rlpt::guide::GuidingMode::Off, rlpt::guide::GuidingMode::Sphere] {
         opts.guiding = guiding;
         let with = PreparedScene::new(&scene, &opts).expect("valid options");
@@ -450,7 +537,7 @@ fn the_room_finds_the_walls_the_quads_find_on_the_gpu() {
     for (scene, guiding, entering) in cases {
         let mut opts = options(&scene, 32, 24, 128);
         opts.guiding = guiding;
-        opts.counters = true;
+        opts.counters = Counters::All;
         let with = PreparedScene::new(&scene, &opts).expect("valid options");
         assert!(with.room.quads >= 5, "{guiding:?}: the scene has a room");
         assert_eq!(with.room.entering, entering, "{guiding:?}");

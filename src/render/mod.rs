@@ -21,8 +21,13 @@ pub struct FrameTimings {
     /// Paths that carried zero radiance; None where the kernel keeps no counters
     /// (`RenderOptions::counters`).
     pub zero_paths: Option<u64>,
-    /// Rays traced: camera, bounce and shadow rays; None likewise.
+    /// Rays traced: camera, bounce and shadow rays; None where the kernel counts
+    /// no rays (`Counters::All` counts them).
     pub segments: Option<u64>,
+    /// The rays the subgroups would have traced had every lane's path been as long
+    /// as the longest of its subgroup, which the subgroup runs the loop for: over
+    /// it, `segments` is the share of lanes busy (the lane utilization); None likewise.
+    pub subgroup_segments: Option<u64>,
 }
 
 impl FrameTimings {
@@ -46,8 +51,13 @@ pub struct PassTimes {
     /// Paths that carried zero radiance; None where the kernel keeps no counters
     /// (`RenderOptions::counters`).
     pub zero_paths: Option<u64>,
-    /// Rays traced: camera, bounce and shadow rays; None likewise.
+    /// Rays traced: camera, bounce and shadow rays; None where the kernel counts
+    /// no rays (`Counters::All` counts them).
     pub segments: Option<u64>,
+    /// The rays the subgroups would have traced had every lane's path been as long
+    /// as the longest of its subgroup, which the subgroup runs the loop for: over
+    /// it, `segments` is the share of lanes busy (the lane utilization); None likewise.
+    pub subgroup_segments: Option<u64>,
 }
 
 /// The guiding buffers and the pass that learns from them.
@@ -491,8 +501,8 @@ impl GpuRenderer {
         })?;
         self.frames_traced += count;
         self.accum_frames += count;
-        let (zero_paths, segments) = self.read_counters();
-        let mut t = FrameTimings { zero_paths, segments, ..Default::default() };
+        let (zero_paths, segments, subgroup_segments) = self.read_counters();
+        let mut t = FrameTimings { zero_paths, segments, subgroup_segments, ..Default::default() };
         if timestamps {
             let s = self.timer.read(3)?;
             // With several frames in one submission, learning between them counts as path tracing
@@ -531,7 +541,7 @@ impl GpuRenderer {
         })?;
         self.frames_traced += 1;
         self.accum_frames += 1;
-        let (zero_paths, segments) = self.read_counters();
+        let (zero_paths, segments, subgroup_segments) = self.read_counters();
         let s = self.timer.read(if learns { 4 } else { 2 })?;
         let ms = |a: u64, b: u64| self.timer.ticks_to_ms(a, b);
         let mut t = PassTimes {
@@ -539,6 +549,7 @@ impl GpuRenderer {
             pathtrace_ms: ms(s[0], s[1]),
             zero_paths,
             segments,
+            subgroup_segments,
             ..Default::default()
         };
         if learns {
@@ -549,13 +560,24 @@ impl GpuRenderer {
     }
 
     /// The frame counters copied back by the last submission: (paths that carried
-    /// nothing, rays traced), None where the kernel keeps none (`FLAG_COUNTERS`).
-    fn read_counters(&self) -> (Option<u64>, Option<u64>) {
-        if self.params.flags & shared::FLAG_COUNTERS == 0 {
-            return (None, None);
+    /// nothing, rays traced, the subgroups' rays as `FrameTimings::subgroup_segments`
+    /// has them), None where the kernel keeps none (`FLAG_COUNTERS`,
+    /// `FLAG_COUNT_RAYS`).
+    fn read_counters(&self) -> (Option<u64>, Option<u64>, Option<u64>) {
+        let flags = self.params.flags;
+        if flags & shared::FLAG_COUNTERS == 0 {
+            return (None, None, None);
         }
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
-        (Some(c[shared::COUNTER_ZERO_PATHS as usize] as u64), Some(c[shared::COUNTER_SEGMENTS as usize] as u64))
+        let zero = Some(c[shared::COUNTER_ZERO_PATHS as usize] as u64);
+        if flags & shared::FLAG_COUNT_RAYS == 0 {
+            return (zero, None, None);
+        }
+        // The kernel adds the longest path's rays once per subgroup's worth of
+        // lanes that trace paths, min(subgroup size, 64) lanes (pathtrace.comp).
+        let lanes = self.ctx.info.subgroup_size.min(shared::SAMPLES_PER_FRAME) as u64;
+        let subgroups = c[shared::COUNTER_SUBGROUP_SEGMENTS as usize] as u64 * lanes;
+        (zero, Some(c[shared::COUNTER_SEGMENTS as usize] as u64), Some(subgroups))
     }
 
     /// What the driver reports about the compiled pipelines (registers, shared
