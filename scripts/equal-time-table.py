@@ -5,13 +5,13 @@
 
 Reads OUTDIR/stats-SCENE-G-nee-N.json (`rlpt render --stats`) for G in off / octant /
 sphere and N in on / off, and prints one markdown row per run: relMSE at 1 s (the
-first frame at or past 1 s of GPU time, where `rlpt render` measures it), at 10 s
-(the run's last frame, the first at or past 10 s),
-samples per pixel and zero-radiance fraction at the last frame, and the ratio of the
-relMSE to the best unguided setting's (NEE on or off) at the same times. Where the
-runs were measured against a reference with its variance (`--reference-variance`),
-a second line per scene and setting gives the same with the relMSE less the
-reference's variance (`rel_mse_debiased`), the error against the true image.
+first frame at or past 1 s of GPU time, where `rlpt render` measures it) / at 10 s
+(the run's last frame, the first at or past 10 s); where the runs were measured
+against a reference with its variance (`--reference-variance`), the same less the
+reference's variance (`rel_mse_debiased`, the error against the true image);
+samples per pixel and zero-radiance fraction at the last frame; and the ratio of
+the relMSE to the best unguided setting's (NEE on or off) at the same times, and
+of the relMSE less the reference's variance likewise.
 """
 import json
 import sys
@@ -49,18 +49,20 @@ def main():
             for g in ("off", "octant", "sphere"):
                 runs[(nee, g)] = load(f"{out}/stats-{scene}-{g}-nee-{nee}.json")
         debiased = all(r["d1"] is not None and r["d10"] is not None for r in runs.values())
-        for k1, k10, what in [("r1", "r10", "")] + ([("d1", "d10", " (less the reference's variance)")] if debiased else []):
-            best1 = min(runs[("on", "off")][k1], runs[("off", "off")][k1])
-            best10 = min(runs[("on", "off")][k10], runs[("off", "off")][k10])
-            for nee in ("on", "off"):
-                for g in ("off", "octant", "sphere"):
-                    r = runs[(nee, g)]
-                    ratio = "" if g == "off" else f"{r[k1] / best1:.2f} / {r[k10] / best10:.2f}"
-                    zero = "" if r["zero"] is None else f"{r['zero']:.3f}"
-                    print(
-                        f"| {scene}{what} | {nee} | {g} | {r[k1]:.3e} | {r[k10]:.3e} | {r['spp']} | {zero} | {ratio} |"
-                    )
-
+        best = {k: min(runs[("on", "off")][k], runs[("off", "off")][k]) for k in ("r1", "r10", "d1", "d10")
+                if all(r[k] is not None for r in runs.values())}
+        for nee in ("on", "off"):
+            for g in ("off", "octant", "sphere"):
+                r = runs[(nee, g)]
+                zero = "" if r["zero"] is None else f"{r['zero']:.3f}"
+                ratio = "" if g == "off" else f"{r['r1'] / best['r1']:.2f} / {r['r10'] / best['r10']:.2f}"
+                cells = [scene, nee, g, f"{r['r1']:.3e} / {r['r10']:.3e}"]
+                if debiased:
+                    cells.append(f"{r['d1']:.3e} / {r['d10']:.3e}")
+                cells += [str(r["spp"]), zero, ratio]
+                if debiased:
+                    cells.append("" if g == "off" else f"{r['d1'] / best['d1']:.2f} / {r['d10'] / best['d10']:.2f}")
+                print("| " + " | ".join(cells) + " |")
 
 if __name__ == "__main__":
     main()

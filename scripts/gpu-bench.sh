@@ -29,8 +29,9 @@
 #             guided, 12x24 bins); the former defaults (the first 2 vertices, 8x16
 #             bins); every vertex at 8x16 and at 16x32 bins; and their frame times
 #             (bench after 1408 warm-up frames, past door's last change of stride).
-# counters:   `rlpt bench` of the four scenes with --counters on and off, guiding
-#             off and sphere: what the frame counters cost a frame.
+# counters:   `rlpt bench` of the four scenes with --counters on, paths (the
+#             kernel `render --stats` runs) and off, guiding off and sphere: what
+#             the frame counters cost a frame (door guided after 1408 warm-up frames).
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -132,8 +133,10 @@ deep-guiding)
 counters)
     for s in seed-exp1 seed-exp2 seed-exp3 door; do
         for g in off sphere; do
-            for c in on off; do
-                "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 640 --guiding "$g" --counters "$c" \
+            warmup=640
+            [ "$s" = door ] && [ "$g" = sphere ] && warmup=1408
+            for c in on paths off; do
+                "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup "$warmup" --guiding "$g" --counters "$c" \
                     --json "$out/bench-counters-$c-$s-$g.json" | tee "$out/bench-counters-$c-$s-$g.txt"
             done
         done
