@@ -268,9 +268,13 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                     float len = length(seg);
                     COUNT_RAY();
                     if (!occluded(origin, seg / len, len)) {
-                        // MIS against the BSDF's density, also where the vertex mixes
-                        // in guided sampling (see `mis_pdf` below).
-                        float w = mis_weight(ls.pdf, pdf_bsdf, power);
+                        // MIS against the mixture's density where the vertex mixes
+                        // (src/cpu/mod.rs `trace_path`, `mixture_sample`).
+                        float pdf_mix = pdf_bsdf;
+#if GUIDED
+                        if (g_frac > 0.0) pdf_mix = (1.0 - g_frac) * pdf_mix + g_frac * guided_pdf(row, ls.wi);
+#endif
+                        float w = mis_weight(ls.pdf, pdf_mix, power);
                         radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
                     }
                 }
@@ -317,9 +321,6 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                 delta = s.delta;
             }
         }
-        // The density the MIS weights of a light this ray meets use: the BSDF's,
-        // where the vertex mixes too (src/cpu/mod.rs `trace_path`).
-        float mis_pdf = pdf;
 #if GUIDED
         if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
         // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
@@ -333,7 +334,6 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
             float pdf_guided = bin_pdf(row, wi_bin);
             pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * pdf_guided;
-            mis_pdf = pdf_bsdf;
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
             // share * g (1 - g) is g_frac (1 - g).
@@ -347,7 +347,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #endif
         if (last || !ok) break;
         beta *= weight;
-        prev_pdf = mis_pdf;
+        prev_pdf = pdf;
         prev_delta = delta;
         prev_p = hit.p;
 #if GUIDED

@@ -189,21 +189,18 @@ pub fn trace_path(
         // The bin of a direction, where guiding reads it.
         let bin_of = |wi: Vec3| guide.map_or(0, |g| g.cfg.bins.index(wi));
         // A direction of the mixture at a vertex that mixes (g_frac > 0), whichever
-        // sampler chose it: (wi, BSDF x cos / mixture pdf, the density its MIS
-        // weights use, not delta, bin, fraction-gradient factor), or None where the
-        // BSDF or the density is zero.
+        // sampler chose it: (wi, BSDF x cos / mixture pdf, the mixture pdf, not
+        // delta, bin, fraction-gradient factor), or None where the BSDF or the
+        // density is zero.
         //
-        // The MIS weights between light sampling and the mixture use the BSDF's
-        // density in place of the mixture's, at the light sample and where a
-        // mixture direction meets a light alike. Any weights that sum to one over
-        // the techniques that can draw a direction keep MIS unbiased, and these do
-        // wherever a light emits (its density is positive there): a mixture
-        // direction the BSDF cannot draw gets weight 0 and light sampling's weight
-        // 1. Light samples then need no guided density, one table lookup fewer at
-        // every vertex that mixes (NVIDIA H200, equal time: door 0.275 of
-        // unguided's relMSE at 10 s against 0.280, its frame 5.6 % shorter;
-        // seed-exp1 0.913 against 0.920; BENCHMARKS.md), at a little more
-        // variance per sample.
+        // The MIS weights between light sampling and the mixture use the mixture's
+        // density, the one the direction was drawn from: at the light sample too,
+        // which costs it the guided density of its bin. With the BSDF's density
+        // in their place (`66e227a` to `1bb27b7`; unbiased too, the weights
+        // summing to one wherever a light emits) door's frame was 5.6 % shorter
+        // and its error at equal time 2 % lower, but smallpt's, whose lamp light
+        // sampling finds worse than the guided directions do, was 1.8 times as
+        // high (NVIDIA H100, 10 s: 0.83 of unguided's against 0.47; BENCHMARKS.md).
         let mixture_sample = |wi: Vec3, bin: u32| {
             let wi_local = frame.to_local(wi);
             let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
@@ -216,7 +213,7 @@ pub fn trace_path(
                 } else {
                     0.0
                 };
-                (wi, weight, pb, false, bin, factor)
+                (wi, weight, pdf, false, bin, factor)
             })
         };
         let last = depth >= p.max_bounces;
@@ -234,9 +231,14 @@ pub fn trace_path(
                     let len = seg.length();
                     segments += 1;
                     if !occluded(scene, origin, seg / len, len) {
-                        // MIS against the BSDF's density alone, where the vertex
-                        // mixes too: see `mixture_sample`.
-                        let w = mis_weight(ls.pdf, pb, power);
+                        // MIS against the mixture's density where the vertex mixes
+                        // (see `mixture_sample`).
+                        let pdf = if g_frac > 0.0 {
+                            (1.0 - g_frac) * pb + g_frac * guide::bin_pdf(sampler, bin_of(ls.wi))
+                        } else {
+                            pb
+                        };
+                        let w = mis_weight(ls.pdf, pdf, power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                     }
                 }
@@ -293,9 +295,9 @@ pub fn trace_path(
         if last {
             break;
         }
-        let Some((wi, weight, mis_pdf, delta, bin, factor)) = sampled else { break };
+        let Some((wi, weight, pdf, delta, bin, factor)) = sampled else { break };
         beta *= weight;
-        prev_pdf = mis_pdf;
+        prev_pdf = pdf;
         prev_delta = delta;
         prev_p = hit.p;
         if guide.is_some() {

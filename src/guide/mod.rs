@@ -38,11 +38,10 @@
 //!   [`normal_class`]), in proportion to `(Q + floor * Qbar) cos(axis, bin)`
 //!   (an alias table, rebuilt as [`RecordSchedule::learns_after`] says: one or two loads per
 //!   sample, one per density), and a direction uniformly inside it; otherwise the BSDF is
-//!   sampled. The mixture pdf weights the path, so the image stays unbiased, and
-//!   no direction where the BSDF is non-zero gets pdf zero. The MIS weights with
-//!   light sampling use the BSDF's density alone, which still sum to one over the
-//!   two techniques and spare light samples the guided density's lookup
-//!   (`crate::cpu` `trace_path`). Cells that have learned nothing use BSDF sampling alone. The cosine is
+//!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
+//!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
+//!   zero (`crate::cpu` `trace_path` says why the MIS weights use the mixture's
+//!   density, not the BSDF's). Cells that have learned nothing use BSDF sampling alone. The cosine is
 //!   that of the class axis, exact on axis-aligned walls; the BSDF's own lobe is
 //!   left to the BSDF half of the mixture.
 //! - **Russian roulette** with guiding keeps a path in proportion to its expected
