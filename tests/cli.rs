@@ -155,12 +155,10 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     }
 }
 
-/// `bench --counters off` times the kernel `render` runs, compiled without the
-/// frame counters: the JSON then has no counts (null, not zero), and the table
-/// says they were not counted; the render's own summary (no --stats) needs none.
-#[test]
-fn bench_without_counters_reports_no_counts() {
-    let json = tmp("bench-uncounted.json");
+/// The JSON report of `rlpt bench` on a 16x8 door, two frames without warm-up,
+/// with `--counters COUNTERS`.
+fn bench_report(counters: &str) -> serde_json::Value {
+    let json = tmp(&format!("bench-counters-{counters}.json"));
     let (ok, err) = run(&[
         "bench",
         "scenes/door.toml",
@@ -173,13 +171,21 @@ fn bench_without_counters_reports_no_counts() {
         "--warmup",
         "0",
         "--counters",
-        "off",
+        counters,
         "--json",
         json.to_str().unwrap(),
     ]);
     assert!(ok, "{err}");
-    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    for key in ["msegments_per_s", "segments_per_path", "zero_fraction"] {
+    serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap()
+}
+
+/// `bench --counters off` times the kernel `render` runs, compiled without the
+/// frame counters: the JSON then has no counts (null, not zero), and the table
+/// says they were not counted; the render's own summary (no --stats) needs none.
+#[test]
+fn bench_without_counters_reports_no_counts() {
+    let report = bench_report("off");
+    for key in ["msegments_per_s", "segments_per_path", "zero_fraction", "lane_utilization"] {
         assert!(report[key].is_null(), "{key}: {}", report[key]);
     }
     for f in report["frames"].as_array().unwrap() {
@@ -200,28 +206,7 @@ fn bench_without_counters_reports_no_counts() {
 /// counts both and the lane utilization, a share of the lanes in (0, 1].
 #[test]
 fn bench_counts_paths_alone_or_everything() {
-    let bench = |counters: &str| {
-        let json = tmp(&format!("bench-counters-{counters}.json"));
-        let (ok, err) = run(&[
-            "bench",
-            "scenes/door.toml",
-            "--width",
-            "16",
-            "--height",
-            "8",
-            "--frames",
-            "2",
-            "--warmup",
-            "0",
-            "--counters",
-            counters,
-            "--json",
-            json.to_str().unwrap(),
-        ]);
-        assert!(ok, "{err}");
-        serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(&json).unwrap()).unwrap()
-    };
-    let paths = bench("paths");
+    let paths = bench_report("paths");
     for key in ["msegments_per_s", "segments_per_path", "lane_utilization"] {
         assert!(paths[key].is_null(), "{key}: {}", paths[key]);
     }
@@ -229,13 +214,14 @@ fn bench_counts_paths_alone_or_everything() {
     for f in paths["frames"].as_array().unwrap() {
         assert!(f["segments"].is_null() && f["subgroup_segments"].is_null() && f["zero_paths"].is_u64(), "{f}");
     }
-    let on = bench("on");
+    let on = bench_report("on");
     // The same paths: the same number of them carried nothing.
     assert_eq!(on["zero_fraction"].as_f64(), Some(zero));
     let u = on["lane_utilization"].as_f64().expect("lane utilization");
     assert!(u > 0.0 && u <= 1.0, "lane utilization {u}");
     for f in on["frames"].as_array().unwrap() {
-        assert!(f["subgroup_segments"].as_u64() >= f["segments"].as_u64(), "{f}");
+        let (rays, subgroups) = (f["segments"].as_u64().unwrap(), f["subgroup_segments"].as_u64().unwrap());
+        assert!(rays > 0 && subgroups >= rays, "{f}");
     }
 }
 
