@@ -147,14 +147,17 @@
 #define SPEC_ROOM_FACES 394
 #define SPEC_ROOM_ENTERING 400
 #define NUM_SPEC_CONSTANTS 401
+// Frame counters (pathtrace.comp): the paths without radiance (one word, at most
+// 64 per pixel); the rays traced and the subgroups' rays below (64-bit pairs, low
+// word first: glsl/counters.glsl).
 #define COUNTER_ZERO_PATHS 0
 #define COUNTER_SEGMENTS 1
 // Over the subgroups that trace paths: the rays of the subgroup's longest path
 // times its lanes' pixels' share of the subgroup (lanes / min(subgroup size, 64));
 // times min(subgroup size, 64) on the host, the rays the subgroups would trace if
 // every lane's path were as long as its subgroup's longest (src/render/mod.rs).
-#define COUNTER_SUBGROUP_SEGMENTS 2
-#define NUM_COUNTERS 4
+#define COUNTER_SUBGROUP_SEGMENTS 3
+#define NUM_COUNTERS 5
 // learn.comp: invocations per workgroup (phase 1 stages that many rows of up
 // to 128 bins in shared memory, 16 KB)
 #define LEARN_GROUP 16

@@ -38,6 +38,7 @@ struct AccumPixel {
 layout(std430, set = 0, binding = BINDING_ACCUM) buffer Accum { AccumPixel accum[]; };
 
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
+#include "counters.glsl"
 
 // frame: frames traced so far (decorrelates the random numbers);
 // accum_frames: frames in the accumulation buffer (restarts keep learning going);
@@ -415,8 +416,8 @@ void main() {
         uint longest = subgroupMax(segments);
         uint pixels_share = subgroupAdd(inside ? 1u : 0u) / min(gl_SubgroupSize, 64u);
         if (subgroupElect()) {
-            atomicAdd(counters[COUNTER_SEGMENTS], segment_sum);
-            atomicAdd(counters[COUNTER_SUBGROUP_SEGMENTS], longest * pixels_share);
+            counter_add64(COUNTER_SEGMENTS, segment_sum);
+            counter_add64(COUNTER_SUBGROUP_SEGMENTS, longest * pixels_share);
         }
     }
 

@@ -355,3 +355,29 @@ fn glsl_random_numbers_match_rust_bit_for_bit() {
     }
     common::assert_no_validation_messages(&ctx);
 }
+
+/// The frame counters' 64-bit sums (glsl/counters.glsl): 100 000 invocations add
+/// values near 2^28 each to one pair, so that its low word wraps about 6000 times;
+/// the pair holds the exact total. (A 4K frame traces more rays than 32 bits
+/// hold.) Without the carry the high word stays 0 and the test fails.
+#[test]
+fn frame_counters_sum_past_32_bits() {
+    let ctx = common::gpu();
+    let n = 100_000u32;
+    let values: Vec<u32> = (0..n).map(|i| 0x1000_0000 + rlpt::math::rng::pcg_hash(i) % 0x100_0000).collect();
+    let vb = Buffer::with_data(&ctx, "counter values", bytemuck::cast_slice(&values), false).unwrap();
+    let cb = Buffer::new(&ctx, "counter pair", 8, BufferUsage::Storage).unwrap();
+    let p = Pipeline::new(&ctx, "probe_counters", shader("probe_counters"), &[Binding::Storage; 2], 4).unwrap();
+    p.bind(&[&vb, &cb]);
+    ctx.run_commands("probe counters", |cmd| {
+        cb.cmd_clear(cmd);
+        ctx.barrier(cmd);
+        p.cmd_dispatch(cmd, [n.div_ceil(256), 1, 1], &n.to_le_bytes());
+    })
+    .unwrap();
+    let got: Vec<u32> = bytemuck::pod_collect_to_vec(&readback(&ctx, &cb));
+    let want: u64 = values.iter().map(|&v| v as u64).sum();
+    assert!(want >> 32 > 1000, "the test wraps the low word many times");
+    assert_eq!(got[0] as u64 | (got[1] as u64) << 32, want);
+    common::assert_no_validation_messages(&ctx);
+}

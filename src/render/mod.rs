@@ -576,8 +576,9 @@ impl GpuRenderer {
         // The kernel adds the longest path's rays once per subgroup's worth of
         // lanes that trace paths, min(subgroup size, 64) lanes (pathtrace.comp).
         let lanes = self.ctx.info.subgroup_size.min(shared::SAMPLES_PER_FRAME) as u64;
-        let subgroups = c[shared::COUNTER_SUBGROUP_SEGMENTS as usize] as u64 * lanes;
-        (zero, Some(c[shared::COUNTER_SEGMENTS as usize] as u64), Some(subgroups))
+        // 64-bit pairs, low word first (glsl/counters.glsl).
+        let pair = |i: u32| c[i as usize] as u64 | (c[i as usize + 1] as u64) << 32;
+        (zero, Some(pair(shared::COUNTER_SEGMENTS)), Some(pair(shared::COUNTER_SUBGROUP_SEGMENTS) * lanes))
     }
 
     /// What the driver reports about the compiled pipelines (registers, shared
