@@ -144,6 +144,9 @@ const bool PACK_RAYS = COUNT_RAYS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
 
 // The ray into the last vertex is traced in full only where its line meets a
 // light (FLAG_LAST_RAY_TO_LIGHTS), unless the kernel records that vertex's target.
+// Read in trace_path alone: glslang evaluates this `&&` of specialization
+// constants as code where it is first read, and a read from a second function
+// would make invalid SPIR-V (see COUNT_RAYS).
 const bool LAST_RAY_TO_LIGHTS =
     (FLAGS & FLAG_LAST_RAY_TO_LIGHTS) != 0u && !(RECORDING && RECORD_VERTICES >= MAX_BOUNCES);
 
