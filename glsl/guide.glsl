@@ -128,6 +128,10 @@ vec3 guided_direction(uint row, float uc, vec2 u, out uint b) {
 // The guided density in bin b of a sampling row.
 float bin_pdf(uint row, uint b) { return uintBitsToFloat(sampler_table[row + b].y); }
 
+// src/guide/mod.rs `mixture_pdf`: the one-sample mixture's density, guided
+// sampling with probability g_frac, the BSDF otherwise.
+float mixture_pdf(float g_frac, float pdf_bsdf, float pdf_guided) { return (1.0 - g_frac) * pdf_bsdf + g_frac * pdf_guided; }
+
 float guided_pdf(uint row, vec3 dir) { return bin_pdf(row, bin_index(dir)); }
 
 // The guided fraction of the sampling row whose first bin is `row`: 0 where

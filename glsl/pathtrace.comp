@@ -276,7 +276,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                         // (src/cpu/mod.rs `trace_path`, `mixture_sample`).
                         float pdf_mix = pdf_bsdf;
 #if GUIDED
-                        if (g_frac > 0.0) pdf_mix = (1.0 - g_frac) * pdf_mix + g_frac * guided_pdf(row, ls.wi);
+                        if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_pdf(row, ls.wi));
 #endif
                         float w = mis_weight(ls.pdf, pdf_mix, power);
                         radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
@@ -337,7 +337,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             float pdf_bsdf;
             vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
             float pdf_guided = bin_pdf(row, wi_bin);
-            pdf = (1.0 - g_frac) * pdf_bsdf + g_frac * pdf_guided;
+            pdf = mixture_pdf(g_frac, pdf_bsdf, pdf_guided);
             ok = pdf > 0.0 && max_component(f) > 0.0;
             weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
             // share * g (1 - g) is g_frac (1 - g).

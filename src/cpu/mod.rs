@@ -205,7 +205,7 @@ pub fn trace_path(
             let wi_local = frame.to_local(wi);
             let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
             let pg = guide::bin_pdf(sampler, bin);
-            let pdf = (1.0 - g_frac) * pb + g_frac * pg;
+            let pdf = guide::mixture_pdf(g_frac, pb, pg);
             (pdf > 0.0 && f.max_element() > 0.0).then(|| {
                 let weight = f * (wi_local.z.abs() / pdf);
                 let factor = if learn_fraction {
@@ -234,7 +234,7 @@ pub fn trace_path(
                         // MIS against the mixture's density where the vertex mixes
                         // (see `mixture_sample`).
                         let pdf = if g_frac > 0.0 {
-                            (1.0 - g_frac) * pb + g_frac * guide::bin_pdf(sampler, bin_of(ls.wi))
+                            guide::mixture_pdf(g_frac, pb, guide::bin_pdf(sampler, bin_of(ls.wi)))
                         } else {
                             pb
                         };

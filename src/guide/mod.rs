@@ -904,6 +904,14 @@ impl FractionState {
     }
 }
 
+/// The density of the one-sample mixture at a vertex that mixes: guided sampling
+/// with probability `g_frac`, the BSDF otherwise. It weights the path and the MIS
+/// with light sampling alike (`crate::cpu` `trace_path`); `glsl/guide.glsl`
+/// `mixture_pdf` is the same arithmetic.
+pub fn mixture_pdf(g_frac: f32, p_bsdf: f32, p_guided: f32) -> f32 {
+    (1.0 - g_frac) * p_bsdf + g_frac * p_guided
+}
+
 /// The gradient factor of a direction sampled at a vertex that mixes:
 /// `share * g (1 - g) (p_guided - p_bsdf) / q` times the mean of its weight `f
 /// |cos| / q`, for the row's fraction `g` and the lobe's share, whose product
