@@ -126,12 +126,14 @@ void record(uint key, float target, float counted, float factor) {
 
 // Whether the frame counters are kept (FLAG_COUNTERS: paths without radiance;
 // FLAG_COUNT_RAYS: rays too): without them the kernel counts nothing, and their
-// code is compiled out. Counting rays inside the path loop cost door's guided
-// frame 5 % on the H200 (BENCHMARKS.md), so `render --stats` counts paths alone.
+// code is compiled out. Counting rays inside the path loop cost up to 5 % of a
+// frame on the H200 (seed-exp2 unguided, BENCHMARKS.md), so `render --stats`
+// counts paths alone.
 const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
-// The host sets FLAG_COUNT_RAYS only beside FLAG_COUNTERS. (Written as
-// COUNTERS && ..., a specialization constant of two, Mesa 22.3's lavapipe
-// failed to translate the kernel.)
+// The host sets FLAG_COUNT_RAYS only beside FLAG_COUNTERS, and the bit is tested
+// alone: glslang evaluates `&&` of specialization constants as code in the first
+// function that reads it, and COUNT_RAYS is read in trace_path and in main; written
+// as COUNTERS && ..., the module was invalid SPIR-V and lavapipe rejected it.
 const bool COUNT_RAYS = (FLAGS & FLAG_COUNT_RAYS) != 0u;
 // Where trace_path counts its rays: with the depth in one register where the
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects

@@ -310,8 +310,9 @@ pub enum Counters {
     /// after its paths end. `render --stats` counts these.
     ZeroPaths,
     /// Also the rays traced and the lane utilization (`FLAG_COUNT_RAYS`), counted
-    /// inside the path loop, which costs door's guided frame about 5 % on the
-    /// H200 (BENCHMARKS.md). `rlpt bench` counts these unless `--counters off`.
+    /// inside the path loop, which cost up to 5 % of a frame on the H200 (seed-exp2
+    /// unguided; BENCHMARKS.md). `rlpt bench` counts these unless `--counters off`
+    /// or `paths`.
     All,
 }
 
