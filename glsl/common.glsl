@@ -62,6 +62,10 @@
 // kernel has none of their code (src/prepared.rs `Counters`).
 #define FLAG_COUNTERS 32
 #define FLAG_COUNT_RAYS 64
+// Q-learning targets count the emission a ray meets with its MIS weight and add
+// the light sample's estimate at the vertex it meets, where NEE is on
+// (src/guide/mod.rs `QTargets::Mis`); without the bit, the emission in full.
+#define FLAG_MIS_TARGETS 128
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
 #define ABLATE_RECORD 1

@@ -144,6 +144,10 @@ const bool PACK_RAYS = COUNT_RAYS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
 #define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else if (COUNT_RAYS) segments += 1u
 
+// Q-learning targets that count the emission met as the image weighs it and
+// add the light sample at the vertex met (src/guide/mod.rs `QTargets::Mis`).
+const bool MIS_TARGETS = (FLAGS & FLAG_MIS_TARGETS) != 0u;
+
 // The ray into the last vertex is traced in full only where its line meets a
 // light (FLAG_LAST_RAY_TO_LIGHTS), unless the kernel records that vertex's target.
 // Read in trace_path alone: glslang evaluates this `&&` of specialization
@@ -244,9 +248,10 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #if GUIDED
             if (learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY) {
                 end_key = prev_key;
-                end_target = mean3(le);
-                // The gradient weighs the emission as the image does.
-                prev_factor *= w_le;
+                // The gradient weighs the emission as the image does, and with
+                // MIS_TARGETS the target too.
+                end_target = MIS_TARGETS ? mean3(le) * w_le : mean3(le);
+                if (!MIS_TARGETS) prev_factor *= w_le;
             }
 #endif
             break;
@@ -261,6 +266,12 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 
         float u_sel = rng_next(rng);
         vec2 u_light = rng_next_2d(rng);
+#if GUIDED
+        // The light sample's estimate here, without the path's throughput: the
+        // part of the target of the ray that arrived here that light sampling
+        // found (MIS_TARGETS).
+        float nee_here = 0.0;
+#endif
         if (nee && !last && !bsdf_is_delta(bsdf)) {
             LightSample ls;
             if (sample_light(hit.p, u_sel, u_light, ls)) {
@@ -282,6 +293,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #endif
                         float w = mis_weight(ls.pdf, pdf_mix, power);
                         radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
+#if GUIDED
+                        if (MIS_TARGETS && learn) nee_here = mean3(f * abs(wi_local.z) * ls.le * (w / ls.pdf));
+#endif
                     }
                 }
             }
@@ -348,7 +362,14 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         if (wants_target) {
             // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
             float reflected = ok ? mean3(weight) * q_table[qrow + wi_bin] : 0.0;
-            record(prev_key, mean3(le) + reflected, mean3(le) * w_le + reflected, prev_factor);
+            // With MIS_TARGETS the target is the light as the image counts it from
+            // here on, and the fraction's gradient weighs the same.
+            if (MIS_TARGETS) {
+                float t = mean3(le) * w_le + nee_here + reflected;
+                record(prev_key, t, t, prev_factor);
+            } else {
+                record(prev_key, mean3(le) + reflected, mean3(le) * w_le + reflected, prev_factor);
+            }
         }
 #endif
         if (last || !ok) break;

@@ -101,6 +101,9 @@ pub struct BenchSetup {
     /// The exponent of Q's learning rate (`guide::batch_rate`); None without guiding.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub learning_rate_exponent: Option<f32>,
+    /// What Q-learning targets counted (`guide::QTargets`); None without guiding or NEE.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub q_targets: Option<String>,
     pub nee: bool,
     pub warmup_frames: u32,
 }
@@ -160,7 +163,7 @@ impl BenchReport {
     pub fn table(&self) -> String {
         let s = &self.setup;
         let mut out = format!(
-            "{} on {} ({}), {}x{}, guiding {}{}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
+            "{} on {} ({}), {}x{}, guiding {}{}{}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
             s.scene,
             s.device,
             s.driver,
@@ -172,6 +175,7 @@ impl BenchReport {
                 (Some(f), None) => format!(" (fraction {f})"),
                 _ => String::new(),
             },
+            s.q_targets.as_ref().map_or(String::new(), |t| format!(", {t} targets")),
             if s.nee { "on" } else { "off" },
             self.frames.len(),
             s.warmup_frames,

@@ -64,6 +64,13 @@ enum GuidingArg {
     Sphere,
 }
 
+/// `--q-targets`: see `rlpt::guide::QTargets`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum QTargetsArg {
+    Mis,
+    Full,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum DeviceKind {
     Gpu,
@@ -144,6 +151,13 @@ struct Settings {
     /// at equal time on the shipped scenes, see BENCHMARKS.md) [default: 1].
     #[arg(long, value_name = "W", value_parser = parse_rate_exponent, allow_negative_numbers = true)]
     learning_rate_exponent: Option<f32>,
+    /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
+    /// counts the emission met with the MIS weight the image gives it and adds the light
+    /// sample at the vertex met, so that guided directions seek what light sampling
+    /// misses; `full` is Dahm & Keller's target, the emission met in full. Without NEE
+    /// the two are the same [default: mis].
+    #[arg(long, value_enum)]
+    q_targets: Option<QTargetsArg>,
 }
 
 impl Settings {
@@ -173,6 +187,10 @@ impl Settings {
         }
         opts.guided_vertices = self.guided_vertices;
         opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
+        opts.q_targets = match self.q_targets.unwrap_or(QTargetsArg::Mis) {
+            QTargetsArg::Mis => rlpt::guide::QTargets::Mis,
+            QTargetsArg::Full => rlpt::guide::QTargets::Full,
+        };
         opts
     }
 
@@ -197,6 +215,7 @@ impl Settings {
                 ("--guided-fraction", self.guided_fraction.is_some()),
                 ("--guided-vertices", self.guided_vertices.is_some()),
                 ("--learning-rate-exponent", self.learning_rate_exponent.is_some()),
+                ("--q-targets", self.q_targets.is_some()),
             ];
             for (flag, _) in given.iter().filter(|(_, g)| *g) {
                 notes.push(format!("{flag} is a setting of learned guiding; ignored with --guiding off"));
@@ -204,6 +223,11 @@ impl Settings {
         }
         if self.mis.is_some() && self.nee == OnOff::Off {
             notes.push("--mis weighs light sampling against BSDF sampling; ignored with --nee off".into());
+        }
+        if self.q_targets.is_some() && self.nee == OnOff::Off && self.guiding != GuidingArg::Off {
+            notes.push(
+                "--q-targets weighs the light met against light sampling; the same either way with --nee off".into(),
+            );
         }
         if self.gpu.is_some() && self.device == DeviceKind::Cpu {
             notes.push("--gpu picks a Vulkan device; ignored with --device cpu".into());
@@ -540,13 +564,14 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let mut stats = RenderStats {
         label: format!(
-            "{} guiding={}{}{} nee={}",
+            "{} guiding={}{}{}{} nee={}",
             file_name(&args.scene),
             opts.guiding.name(),
             opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
             opts.learning_rate_exponent_if_guided()
                 .filter(|&w| w != rlpt::guide::DEFAULT_RATE_EXPONENT)
                 .map_or(String::new(), |w| format!(" rate=1/i^{w}")),
+            opts.q_targets_if_guided().filter(|&t| t != "mis").map_or(String::new(), |t| format!(" targets={t}")),
             opts.nee
         ),
         scene: args.scene.display().to_string(),
@@ -556,6 +581,7 @@ fn render(args: RenderArgs) -> Result<()> {
         guiding: opts.guiding.name().into(),
         guided_fraction: opts.guided_fraction_name(),
         learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
         frames: Vec::new(),
     };
@@ -855,6 +881,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         guiding: opts.guiding.name().to_string(),
         guided_fraction: opts.guided_fraction_name(),
         learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
         warmup_frames: args.warmup,
     };

@@ -289,6 +289,9 @@ pub struct RenderOptions {
     pub guide_floor: f32,
     /// Exponent of Q's learning rate (see `guide::batch_rate`), in (1/2, 1].
     pub learning_rate_exponent: f32,
+    /// What Q-learning targets count of the light their rays meet where NEE is on
+    /// ([`guide::QTargets`]; `FLAG_MIS_TARGETS`).
+    pub q_targets: guide::QTargets,
     /// Guided sampling at the first this many vertices (at least 1) of each path
     /// (depth 0 is the camera ray's hit); deeper vertices sample the BSDF alone.
     /// None: every vertex with Russian roulette (`russian_roulette_depth`);
@@ -335,6 +338,7 @@ impl RenderOptions {
             learn_fraction: true,
             guide_floor: 0.5,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
+            q_targets: guide::QTargets::Mis,
             guided_vertices: None,
             counters: Counters::Off,
         }
@@ -343,6 +347,12 @@ impl RenderOptions {
     /// The exponent of Q's learning rate, as reports give it: None without guiding.
     pub fn learning_rate_exponent_if_guided(&self) -> Option<f32> {
         (self.guiding != GuidingMode::Off).then_some(self.learning_rate_exponent)
+    }
+
+    /// What Q-learning targets count, as reports name it (`mis` or `full`): None
+    /// without guiding, and without NEE, where the two are the same.
+    pub fn q_targets_if_guided(&self) -> Option<&'static str> {
+        (self.guiding != GuidingMode::Off && self.nee).then_some(self.q_targets.name())
     }
 
     /// The guided fraction as reports name it: `learned`, the fixed number, or
@@ -605,6 +615,9 @@ impl PreparedScene {
         }
         if opts.learn_fraction && opts.guiding != GuidingMode::Off {
             flags |= shared::FLAG_LEARN_FRACTION;
+        }
+        if opts.q_targets == guide::QTargets::Mis && opts.guiding != GuidingMode::Off {
+            flags |= shared::FLAG_MIS_TARGETS;
         }
         if last_ray_to_lights(scene.environment, &lights, roulette) {
             flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;

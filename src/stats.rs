@@ -31,6 +31,10 @@ pub struct RenderStats {
     /// guiding (and in files written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub learning_rate_exponent: Option<f32>,
+    /// What Q-learning targets counted (`guide::QTargets`): "mis" or "full"; None
+    /// without guiding or NEE (and in files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_targets: Option<String>,
     /// Whether next-event estimation was on.
     pub nee: bool,
     /// One entry per accumulated frame, in order.

@@ -136,7 +136,8 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     assert_eq!(frames[0]["frame"], 2);
     assert_eq!(report["guided_fraction"], "learned", "the default guided fraction is learned per cell");
     assert_eq!(report["learning_rate_exponent"], 1.0, "the default exponent of Q's learning rate");
-    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1)"), "{stdout}");
+    assert_eq!(report["q_targets"], "mis", "Q-learning targets weighed by MIS by default");
+    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1), mis targets"), "{stdout}");
     for f in frames {
         let sum = f["pathtrace_ms"].as_f64().unwrap()
             + f["learn_fold_ms"].as_f64().unwrap()
@@ -379,10 +380,14 @@ fn options_that_change_nothing_are_named() {
     let (ok, err) = with(&["--guided-fraction", "0.3", "--learning-rate-exponent", "0.8"]);
     assert!(ok && err.contains("note: --guided-fraction is a setting of learned guiding"), "{err}");
     assert!(err.contains("note: --learning-rate-exponent is a setting of learned guiding"), "{err}");
+    let (ok, err) = with(&["--q-targets", "full"]);
+    assert!(ok && err.contains("note: --q-targets is a setting of learned guiding"), "{err}");
+    let (ok, err) = with(&["--q-targets", "full", "--guiding", "octant", "--nee", "off"]);
+    assert!(ok && err.contains("note: --q-targets weighs the light met against light sampling"), "{err}");
     let (ok, err) = with(&["--mis", "balance", "--nee", "off", "--gpu", "7"]);
     assert!(ok && err.contains("note: --mis") && err.contains("note: --gpu"), "{err}");
     // Given where they apply, or not given: no note.
-    let (ok, err) = with(&["--bins", "4x4", "--guiding", "sphere", "--mis", "balance"]);
+    let (ok, err) = with(&["--bins", "4x4", "--guiding", "sphere", "--mis", "balance", "--q-targets", "full"]);
     assert!(ok && !err.contains("note:"), "{err}");
 }
 

@@ -120,6 +120,9 @@ pub fn trace_path(
     // 0 where its vertex did not mix or the path does not learn fractions.
     let mut prev_factor = 0.0f32;
     let learn_fraction = record && guide.is_some_and(|g| g.cfg.learn_fraction);
+    // Targets that count the emission met as the image weighs it and the light
+    // sample at the vertex met (`guide::QTargets::Mis`).
+    let mis_targets = p.flags & shared::FLAG_MIS_TARGETS != 0;
     let bins_per_cell = guide.map_or(1, |g| g.cfg.bins.count());
     let mut depth = 0u32;
     let mut segments = 0u32;
@@ -144,7 +147,8 @@ pub fn trace_path(
         let wo = -d;
         let le = emitted(scene, hit.material, hit.n, wo);
         // The emission as the image counts it here (MIS-weighted against light
-        // sampling), which is what the fraction's gradient weighs.
+        // sampling), which is what the fraction's gradient weighs, and with
+        // `mis_targets` the target too.
         let mut le_counted = 0.0f32;
         if le.max_element() > 0.0 {
             let w = if !nee || prev_delta || hit.light == shared::NO_LIGHT {
@@ -175,7 +179,8 @@ pub fn trace_path(
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                record_to(&mut **learn, prev_key, guide::mean3(le), le_counted, prev_factor, bins_per_cell);
+                let target = if mis_targets { le_counted } else { guide::mean3(le) };
+                record_to(&mut **learn, prev_key, target, le_counted, prev_factor, bins_per_cell);
             }
             break;
         }
@@ -220,6 +225,10 @@ pub fn trace_path(
 
         let u_sel = rng.next_f32();
         let u_light = rng.next_2d();
+        // The light sample's estimate here, without the path's throughput: the
+        // part of the target of the ray that arrived here that light sampling
+        // found (`mis_targets`).
+        let mut nee_here = 0.0f32;
         if nee && !last && !bsdf.is_delta() {
             if let Some(ls) = sample_light(scene, hit.p, u_sel, u_light) {
                 let wi_local = frame.to_local(ls.wi);
@@ -240,6 +249,9 @@ pub fn trace_path(
                         };
                         let w = mis_weight(ls.pdf, pdf, power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
+                        if mis_targets {
+                            nee_here = guide::mean3(f * wi_local.z.abs() * ls.le * (w / ls.pdf));
+                        }
                     }
                 }
             }
@@ -283,14 +295,15 @@ pub fn trace_path(
                 Some((_, weight, _, _, bin, _)) => guide::mean3(weight) * g.q[(cell_key + bin) as usize],
                 None => 0.0,
             };
-            record_to(
-                &mut **learn,
-                prev_key,
-                guide::mean3(le) + reflected,
-                le_counted + reflected,
-                prev_factor,
-                bins_per_cell,
-            );
+            // With `mis_targets` the target is the light as the image counts it
+            // from here on, and the fraction's gradient weighs the same.
+            let (target, counted) = if mis_targets {
+                let t = le_counted + nee_here + reflected;
+                (t, t)
+            } else {
+                (guide::mean3(le) + reflected, le_counted + reflected)
+            };
+            record_to(&mut **learn, prev_key, target, counted, prev_factor, bins_per_cell);
         }
         if last {
             break;

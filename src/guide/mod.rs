@@ -22,7 +22,11 @@
 //!   that integral (over each bin, not only at its centre), so the estimates
 //!   converge to the same values while each update costs O(1) instead of one BSDF
 //!   evaluation per bin. Delta vertices pass through the bin of the direction they
-//!   chose. Targets are summed per entry and folded in after the frames
+//!   chose. With NEE, by default, `Le(y -> x)` counts with the MIS weight the image
+//!   gives it and the light sample's estimate at y joins the target
+//!   ([`QTargets::Mis`]): Q learns the light that BSDF and guided directions are
+//!   there to find, and the same values as Dahm & Keller's but in the directions
+//!   of the lights themselves. Targets are summed per entry and folded in after the frames
 //!   [`RecordSchedule::learns_after`] names ([`QTable::learn`]), in batches. Without
 //!   Russian roulette only the rays that leave guided vertices (below) record
 //!   targets ([`record_vertices`]), and after the first frames only the paths of
@@ -67,6 +71,45 @@ pub enum GuidingMode {
     /// Finer bins over the sphere (by default 8 x 16 = 128, or 12 x 24 = 288 in
     /// scenes with Russian roulette: [`default_bins`]).
     Sphere,
+}
+
+/// What a Q-learning target counts of the light its ray meets, where light
+/// sampling (NEE) is on. Without NEE the two are the same, bit for bit.
+///
+/// Q(x, a) is learned for the guided mixture, which with NEE shares the direct
+/// light with light sampling by MIS. `Full` is Dahm & Keller's target: the
+/// emission Le(y) the ray meets counted in full, plus the reflected light
+/// estimated from Q at y. `Mis` (the default) counts Le(y) with the MIS weight the
+/// image gives it, and adds the light sample's estimate at y (without the path's
+/// throughput) to the reflected light. The MIS weights of the two techniques sum
+/// to one, so where y reflects, the light sample's estimate and the reflected
+/// part's share of direct light sum to what `Full`'s reflected part estimates
+/// alone: at convergence the two learn the same values but for the emission a
+/// ray meets directly, of which `Mis` keeps the share that BSDF and guided
+/// directions are weighted for. (`Mis` gets there sooner: the light sample's
+/// estimate needs no learning; `mis_targets_leave_the_lamp_to_light_sampling`.)
+/// Guided directions then go where light sampling does not already find the
+/// light, in the spirit of Karlík et al.'s MIS compensation ("MIS Compensation:
+/// Optimizing Sampling Techniques in Multiple Importance Sampling", SIGGRAPH Asia
+/// 2019), which takes from a sampler's density what its MIS partner covers. The
+/// image stays unbiased either way: the targets change what is learned, not how
+/// a sample is weighed. BENCHMARKS.md has the figures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QTargets {
+    /// The emission met counted with its MIS weight, the light sample at the
+    /// vertex met added: the light the mixture is there to find.
+    Mis,
+    /// Dahm & Keller's: the emission met counted in full.
+    Full,
+}
+
+impl QTargets {
+    pub fn name(self) -> &'static str {
+        match self {
+            QTargets::Mis => "mis",
+            QTargets::Full => "full",
+        }
+    }
 }
 
 impl GuidingMode {
