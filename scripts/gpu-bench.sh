@@ -2,7 +2,7 @@
 # The measurements behind BENCHMARKS.md, in one go on a GPU machine.
 #
 #   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...|learning-rate SCENE...|
-#                                     deep-guiding [SCENE...]|counters]
+#                                     deep-guiding [SCENE...]|counters|q-targets SCENE...]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
@@ -32,6 +32,11 @@
 # counters:   `rlpt bench` of the four scenes with --counters on, paths (the
 #             kernel `render --stats` runs) and off, guiding off and sphere: what
 #             the frame counters cost a frame (door guided after 1408 warm-up frames).
+# q-targets:  for each SCENE, a reference with its variance (as equal-time), then
+#             10 s each, NEE on, of unguided and of octant and sphere guiding with
+#             MIS-weighted and with full Q-learning targets (--q-targets mis|full,
+#             stats-S-G-T), against it; and the same settings' frame times
+#             (bench-q-S-G-T, after 640 warm-up frames, 1408 for door and smallpt).
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -142,8 +147,29 @@ counters)
         done
     done
     ;;
+q-targets)
+    for s in "$@"; do
+        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
+            --variance "$out/ref-$s.var.exr"
+        warmup=640
+        case "$s" in door | smallpt) warmup=1408 ;; esac
+        runs=("off mis" "sphere mis" "sphere full" "octant mis" "octant full")
+        for run in "${runs[@]}"; do
+            read -r g t <<<"$run"
+            name="$g-$t"
+            [ "$g" = off ] && name=off
+            args=(--guiding "$g")
+            [ "$g" = off ] || args+=(--q-targets "$t")
+            "$rlpt" render "scenes/$s.toml" -o "$out/$s-$name.exr" --spp 100000000 --time 10 "${args[@]}" \
+                --reference "$out/ref-$s.exr" --reference-variance "$out/ref-$s.var.exr" \
+                --stats "$out/stats-$s-$name.json"
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup "$warmup" "${args[@]}" \
+                --json "$out/bench-q-$s-$name.json" | tee "$out/bench-q-$s-$name.txt"
+        done
+    done
+    ;;
 *)
-    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding or counters" >&2
+    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding, counters or q-targets" >&2
     exit 2
     ;;
 esac
