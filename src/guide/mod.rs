@@ -344,7 +344,8 @@ pub struct GuideConfig {
     /// Whether each cell learns its own fraction ([`FractionState`]).
     pub learn_fraction: bool,
     /// Exploration floor: bins are sampled in proportion to `(Q + floor * mean Q of
-    /// the cell) f |cos|`, so directions not yet learned keep some guided probability.
+    /// the cell) f |cos|`, so directions not yet learned keep some guided probability
+    /// ([`DEFAULT_FLOOR`] by default).
     pub floor: f32,
     /// The exponent omega of Q's learning rate 1 / i^omega ([`batch_rate`]), in
     /// (1/2, 1]; 1, the default, is the running mean.
@@ -974,6 +975,16 @@ pub fn fraction_gradient_factor(g_frac: f32, g: f32, p_guided: f32, p_bsdf: f32,
 /// 8 % fewer samples fitted in 10 s (relMSE 0.99 of the running mean's at 10 s
 /// with sphere and NEE, 1.09 without; seed-exp1 within 2 %; BENCHMARKS.md).
 pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
+
+/// The exploration floor by default ([`GuideConfig::floor`]). It was 0.5 until
+/// Q learned MIS-weighted targets ([`QTargets::Mis`]); with them 0.25 had less
+/// error at equal time on all five shipped scenes with NEE (NVIDIA H100, 10 s,
+/// sphere, relMSE less the reference's variance over unguided's: door 0.238 ->
+/// 0.225, seed-exp1 0.743 -> 0.699, seed-exp2 0.886 -> 0.855, seed-exp3 0.866 ->
+/// 0.844, smallpt 0.481 -> 0.468; BENCHMARKS.md). With full targets a smaller
+/// floor had lost on door (0.2: 0.555 against 0.546), since Q aimed at lamps that
+/// light sampling finds.
+pub const DEFAULT_FLOOR: f32 = 0.25;
 
 /// Whether `w` is an exponent of Q's learning rate 1 / i^w that converges to the
 /// learned values: (1/2, 1] (Even-Dar & Mansour 2003). Below 1/2 [`batch_rate`]
