@@ -364,12 +364,8 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             float reflected = ok ? mean3(weight) * q_table[qrow + wi_bin] : 0.0;
             // With MIS_TARGETS the target is the light as the image counts it from
             // here on, and the fraction's gradient weighs the same.
-            if (MIS_TARGETS) {
-                float t = mean3(le) * w_le + nee_here + reflected;
-                record(prev_key, t, t, prev_factor);
-            } else {
-                record(prev_key, mean3(le) + reflected, mean3(le) * w_le + reflected, prev_factor);
-            }
+            float target = (MIS_TARGETS ? mean3(le) * w_le + nee_here : mean3(le)) + reflected;
+            record(prev_key, target, MIS_TARGETS ? target : mean3(le) * w_le + reflected, prev_factor);
         }
 #endif
         if (last || !ok) break;

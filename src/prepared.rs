@@ -336,7 +336,7 @@ impl RenderOptions {
             bins: None,
             guided_fraction: 0.5,
             learn_fraction: true,
-            guide_floor: crate::guide::DEFAULT_FLOOR,
+            guide_floor: guide::DEFAULT_FLOOR,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             q_targets: guide::QTargets::Mis,
             guided_vertices: None,

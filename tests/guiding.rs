@@ -273,7 +273,22 @@ fn cpu_table(scene: &Scene, o: &RenderOptions) -> QTable {
 fn cpu_paths(scene: &Scene, o: &RenderOptions, limit: u32, table: &QTable) -> Vec<([u32; 3], u32, u32)> {
     let mut o = o.clone();
     o.guided_vertices = Some(limit);
-    let prepared = PreparedScene::new(scene, &o).expect("valid options");
+    trace_recording_paths(scene, &o, table, || CountTargets(0))
+        .into_iter()
+        .map(|(radiance, segments, count)| (radiance, segments, count.0))
+        .collect()
+}
+
+/// The paths of every pixel of `o` (16 each) traced one by one on the CPU
+/// through `table`, with the same random numbers on every call, each recording
+/// into a recorder of its own from `recorder`: (radiance bits, rays, recorder).
+fn trace_recording_paths<R: Recorder>(
+    scene: &Scene,
+    o: &RenderOptions,
+    table: &QTable,
+    mut recorder: impl FnMut() -> R,
+) -> Vec<([u32; 3], u32, R)> {
+    let prepared = PreparedScene::new(scene, o).expect("valid options");
     let cfg = prepared.guide.expect("guided");
     let g = Guide::new(&cfg, table);
     let mut out = Vec::new();
@@ -281,9 +296,9 @@ fn cpu_paths(scene: &Scene, o: &RenderOptions, limit: u32, table: &QTable) -> Ve
         for sample in 0..16 {
             let mut rng = Rng::new(o.seed, pixel, 4, sample);
             let (ro, rd) = camera_ray(&prepared.params, pixel % o.width, pixel / o.width, rng.next_2d());
-            let mut count = CountTargets(0);
-            let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut count));
-            out.push((l.to_array().map(f32::to_bits), segments, count.0));
+            let mut r = recorder();
+            let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut r));
+            out.push((l.to_array().map(f32::to_bits), segments, r));
         }
     }
     out
@@ -1084,23 +1099,13 @@ fn exp1_tables(targets: QTargets, frames: &[u32]) -> (PreparedScene, Vec<QTable>
     (prepared, tables)
 }
 
-/// What the paths of every pixel of `o` (16 each) record through `table`, traced
-/// one by one on the CPU with the same random numbers: (key, target bits) per
-/// target, (cell | 1 << 31, bits) per fraction gradient, and each path's radiance.
+/// What the paths of every pixel of `o` (16 each) record through `table`
+/// ([`trace_recording_paths`]): (key, target bits) per target, (cell | 1 << 31,
+/// bits) per fraction gradient, in path order, and each path's radiance.
 fn recorded(scene: &Scene, o: &RenderOptions, table: &QTable) -> (Vec<(u32, u32)>, Vec<[u32; 3]>) {
-    let prepared = PreparedScene::new(scene, o).expect("valid options");
-    let cfg = prepared.guide.expect("guided");
-    let g = Guide::new(&cfg, table);
-    let (mut log, mut radiance) = (LogTargets(Vec::new()), Vec::new());
-    for pixel in 0..o.width * o.height {
-        for sample in 0..16 {
-            let mut rng = Rng::new(o.seed, pixel, 4, sample);
-            let (ro, rd) = camera_ray(&prepared.params, pixel % o.width, pixel / o.width, rng.next_2d());
-            let (l, _) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut log));
-            radiance.push(l.to_array().map(f32::to_bits));
-        }
-    }
-    (log.0, radiance)
+    let paths = trace_recording_paths(scene, o, table, || LogTargets(Vec::new()));
+    let radiance = paths.iter().map(|(l, _, _)| *l).collect();
+    (paths.into_iter().flat_map(|(_, _, log)| log.0).collect(), radiance)
 }
 
 /// Logs what paths record (see `recorded`).

@@ -121,8 +121,8 @@ pub fn trace_path(
     let mut prev_factor = 0.0f32;
     let learn_fraction = record && guide.is_some_and(|g| g.cfg.learn_fraction);
     // Targets that count the emission met as the image weighs it and the light
-    // sample at the vertex met (`guide::QTargets::Mis`).
-    let mis_targets = p.flags & shared::FLAG_MIS_TARGETS != 0;
+    // sample at the vertex met (`guide::QTargets::Mis`), where the path records.
+    let mis_targets = record && p.flags & shared::FLAG_MIS_TARGETS != 0;
     let bins_per_cell = guide.map_or(1, |g| g.cfg.bins.count());
     let mut depth = 0u32;
     let mut segments = 0u32;
@@ -159,6 +159,8 @@ pub fn trace_path(
             radiance += beta * le * w;
             le_counted = guide::mean3(le) * w;
         }
+        // What the target of the ray that arrived here counts of that emission.
+        let le_target = if mis_targets { le_counted } else { guide::mean3(le) };
         let bsdf = material_bsdf(scene, hit.material);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.kind == MaterialKind::Dielectric || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
@@ -179,8 +181,7 @@ pub fn trace_path(
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                let target = if mis_targets { le_counted } else { guide::mean3(le) };
-                record_to(&mut **learn, prev_key, target, le_counted, prev_factor, bins_per_cell);
+                record_to(&mut **learn, prev_key, le_target, le_counted, prev_factor, bins_per_cell);
             }
             break;
         }
@@ -296,13 +297,10 @@ pub fn trace_path(
                 None => 0.0,
             };
             // With `mis_targets` the target is the light as the image counts it
-            // from here on, and the fraction's gradient weighs the same.
-            let (target, counted) = if mis_targets {
-                let t = le_counted + nee_here + reflected;
-                (t, t)
-            } else {
-                (guide::mean3(le) + reflected, le_counted + reflected)
-            };
+            // from here on, and the fraction's gradient weighs the same (`nee_here`
+            // is 0 without it).
+            let target = le_target + nee_here + reflected;
+            let counted = if mis_targets { target } else { le_counted + reflected };
             record_to(&mut **learn, prev_key, target, counted, prev_factor, bins_per_cell);
         }
         if last {
