@@ -2,7 +2,7 @@
 # The measurements behind BENCHMARKS.md, in one go on a GPU machine.
 #
 #   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...|learning-rate SCENE...|
-#                                     deep-guiding [SCENE...]|counters|q-targets SCENE...]
+#                                     deep-guiding [SCENE...]|counters|q-targets SCENE...|floor SCENE...]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
@@ -37,6 +37,11 @@
 #             MIS-weighted and with full Q-learning targets (--q-targets mis|full,
 #             stats-S-G-T), against it; and the same settings' frame times
 #             (bench-q-S-G-T, after 640 warm-up frames, 1408 for door and smallpt).
+# floor:      for each SCENE, a reference with its variance (as equal-time), then
+#             10 s each, NEE on, of unguided and of sphere guiding at every
+#             exploration floor in $FLOORS (default "0.25 0.15 0.1 0.05") for each
+#             bin layout in $BINS (default "default", the scene's; e.g. "default
+#             16x32"), stats-S-B-fF, against it.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -168,8 +173,26 @@ q-targets)
         done
     done
     ;;
+floor)
+    for s in "$@"; do
+        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
+            --variance "$out/ref-$s.var.exr"
+        check=(--reference "$out/ref-$s.exr" --reference-variance "$out/ref-$s.var.exr")
+        "$rlpt" render "scenes/$s.toml" -o "$out/$s-off.exr" --spp 100000000 --time 10 --guiding off \
+            "${check[@]}" --stats "$out/stats-$s-off.json"
+        for b in ${BINS:-default}; do
+            bins=()
+            [ "$b" = default ] || bins=(--bins "$b")
+            for f in ${FLOORS:-0.25 0.15 0.1 0.05}; do
+                "$rlpt" render "scenes/$s.toml" -o "$out/$s-$b-f$f.exr" --spp 100000000 --time 10 \
+                    --guiding sphere "${bins[@]}" --exploration-floor "$f" "${check[@]}" \
+                    --stats "$out/stats-$s-$b-f$f.json"
+            done
+        done
+    done
+    ;;
 *)
-    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding, counters or q-targets" >&2
+    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding, counters, q-targets or floor" >&2
     exit 2
     ;;
 esac

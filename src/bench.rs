@@ -101,6 +101,9 @@ pub struct BenchSetup {
     /// The exponent of Q's learning rate (`guide::batch_rate`); None without guiding.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub learning_rate_exponent: Option<f32>,
+    /// The exploration floor of guided sampling (`guide::GuideConfig::floor`); None without guiding.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exploration_floor: Option<f32>,
     /// What Q-learning targets counted (`guide::QTargets`); None without guiding or NEE.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub q_targets: Option<String>,
@@ -170,9 +173,10 @@ impl BenchReport {
             s.width,
             s.height,
             s.guiding,
-            match (&s.guided_fraction, s.learning_rate_exponent) {
-                (Some(f), Some(w)) => format!(" (fraction {f}, rate exponent {w})"),
-                (Some(f), None) => format!(" (fraction {f})"),
+            match (&s.guided_fraction, s.learning_rate_exponent, s.exploration_floor) {
+                (Some(f), Some(w), Some(e)) => format!(" (fraction {f}, rate exponent {w}, floor {e})"),
+                (Some(f), Some(w), None) => format!(" (fraction {f}, rate exponent {w})"),
+                (Some(f), None, _) => format!(" (fraction {f})"),
                 _ => String::new(),
             },
             s.q_targets.as_ref().map_or(String::new(), |t| format!(", {t} targets")),

@@ -151,6 +151,12 @@ struct Settings {
     /// at equal time on the shipped scenes, see BENCHMARKS.md) [default: 1].
     #[arg(long, value_name = "W", value_parser = parse_rate_exponent, allow_negative_numbers = true)]
     learning_rate_exponent: Option<f32>,
+    /// Exploration floor F of guided sampling: a bin is drawn in proportion to its Q plus
+    /// F times its cell's mean Q (both weighted by the cosine), so that bins whose light
+    /// was not found yet keep a share F / (1 + F) of the guided draws; 0 draws by Q alone
+    /// (BSDF sampling still reaches every direction) [default: 0.25].
+    #[arg(long, value_name = "F", value_parser = parse_floor, allow_negative_numbers = true)]
+    exploration_floor: Option<f32>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
     /// counts the emission met with the MIS weight the image gives it and adds the light
     /// sample at the vertex met, so that guided directions seek what light sampling
@@ -187,6 +193,7 @@ impl Settings {
         }
         opts.guided_vertices = self.guided_vertices;
         opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
+        opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
         opts.q_targets = match self.q_targets.unwrap_or(QTargetsArg::Mis) {
             QTargetsArg::Mis => rlpt::guide::QTargets::Mis,
             QTargetsArg::Full => rlpt::guide::QTargets::Full,
@@ -215,6 +222,7 @@ impl Settings {
                 ("--guided-fraction", self.guided_fraction.is_some()),
                 ("--guided-vertices", self.guided_vertices.is_some()),
                 ("--learning-rate-exponent", self.learning_rate_exponent.is_some()),
+                ("--exploration-floor", self.exploration_floor.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
             ];
             for (flag, _) in given.iter().filter(|(_, g)| *g) {
@@ -400,6 +408,12 @@ fn parse_rate_exponent(s: &str) -> Result<f32, String> {
     Ok(v)
 }
 
+fn parse_floor(s: &str) -> Result<f32, String> {
+    let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+    rlpt::guide::check_floor(v).map_err(|e| format!("`{s}`: expected {e}"))?;
+    Ok(v)
+}
+
 fn main() {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         // The Vulkan loader complains on stderr without it.
@@ -564,13 +578,16 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let mut stats = RenderStats {
         label: format!(
-            "{} guiding={}{}{}{} nee={}",
+            "{} guiding={}{}{}{}{} nee={}",
             file_name(&args.scene),
             opts.guiding.name(),
             opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
             opts.learning_rate_exponent_if_guided()
                 .filter(|&w| w != rlpt::guide::DEFAULT_RATE_EXPONENT)
                 .map_or(String::new(), |w| format!(" rate=1/i^{w}")),
+            opts.exploration_floor_if_guided()
+                .filter(|&f| f != rlpt::guide::DEFAULT_FLOOR)
+                .map_or(String::new(), |f| format!(" floor={f}")),
             opts.q_targets_if_guided().filter(|&t| t != "mis").map_or(String::new(), |t| format!(" targets={t}")),
             opts.nee
         ),
@@ -581,6 +598,7 @@ fn render(args: RenderArgs) -> Result<()> {
         guiding: opts.guiding.name().into(),
         guided_fraction: opts.guided_fraction_name(),
         learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        exploration_floor: opts.exploration_floor_if_guided(),
         q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
         frames: Vec::new(),
@@ -881,6 +899,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         guiding: opts.guiding.name().to_string(),
         guided_fraction: opts.guided_fraction_name(),
         learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        exploration_floor: opts.exploration_floor_if_guided(),
         q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
         warmup_frames: args.warmup,

@@ -349,6 +349,12 @@ impl RenderOptions {
         (self.guiding != GuidingMode::Off).then_some(self.learning_rate_exponent)
     }
 
+    /// The exploration floor of guided sampling (`guide::GuideConfig::floor`), as
+    /// reports record it: None without guiding.
+    pub fn exploration_floor_if_guided(&self) -> Option<f32> {
+        (self.guiding != GuidingMode::Off).then_some(self.guide_floor)
+    }
+
     /// What Q-learning targets count, as reports name it (`mis` or `full`): None
     /// without guiding, and without NEE, where the two are the same.
     pub fn q_targets_if_guided(&self) -> Option<&'static str> {
@@ -393,8 +399,8 @@ impl RenderOptions {
         if let Err(e) = check_guided_fraction(self.guided_fraction) {
             return err("guided_fraction", self.guided_fraction.to_string(), e);
         }
-        if !(self.guide_floor.is_finite() && self.guide_floor >= 0.0) {
-            return err("guide_floor", self.guide_floor.to_string(), "a finite number >= 0".into());
+        if let Err(e) = guide::check_floor(self.guide_floor) {
+            return err("guide_floor", self.guide_floor.to_string(), e);
         }
         if let Err(e) = guide::check_rate_exponent(self.learning_rate_exponent) {
             return err("learning_rate_exponent", self.learning_rate_exponent.to_string(), e);
@@ -888,6 +894,7 @@ mod tests {
             (RenderOptions { guided_fraction: -0.25, learn_fraction: true, ..good.clone() }, "guided_fraction"),
             (RenderOptions { guide_floor: -1.0, ..good.clone() }, "guide_floor"),
             (RenderOptions { guide_floor: f32::INFINITY, ..good.clone() }, "guide_floor"),
+            (RenderOptions { guide_floor: 1e5, ..good.clone() }, "guide_floor"),
             (RenderOptions { learning_rate_exponent: 0.5, ..good.clone() }, "learning_rate_exponent"),
             (RenderOptions { learning_rate_exponent: 1.01, ..good.clone() }, "learning_rate_exponent"),
             (RenderOptions { learning_rate_exponent: f32::NAN, ..good.clone() }, "learning_rate_exponent"),

@@ -31,6 +31,10 @@ pub struct RenderStats {
     /// guiding (and in files written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub learning_rate_exponent: Option<f32>,
+    /// The exploration floor of guided sampling (`guide::GuideConfig::floor`); None
+    /// without guiding (and in files written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exploration_floor: Option<f32>,
     /// What Q-learning targets counted (`guide::QTargets`): "mis" or "full"; None
     /// without guiding or NEE (and in files written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]

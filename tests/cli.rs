@@ -137,7 +137,8 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     assert_eq!(report["guided_fraction"], "learned", "the default guided fraction is learned per cell");
     assert_eq!(report["learning_rate_exponent"], 1.0, "the default exponent of Q's learning rate");
     assert_eq!(report["q_targets"], "mis", "Q-learning targets weighed by MIS by default");
-    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1), mis targets"), "{stdout}");
+    assert_eq!(report["exploration_floor"], 0.25, "the default exploration floor");
+    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1, floor 0.25), mis targets"), "{stdout}");
     for f in frames {
         let sum = f["pathtrace_ms"].as_f64().unwrap()
             + f["learn_fold_ms"].as_f64().unwrap()
@@ -312,6 +313,46 @@ fn learning_rate_exponent_is_above_one_half_and_at_most_one() {
 }
 
 #[test]
+fn exploration_floor_is_a_number_from_zero_to_the_limit() {
+    refuses(
+        "--exploration-floor",
+        &[
+            ("-0.1", "[0, 10000]"),
+            ("nan", "[0, 10000]"),
+            ("inf", "[0, 10000]"),
+            ("1e5", "[0, 10000]"),
+            ("wide", "not a number"),
+        ],
+    );
+}
+
+#[test]
+fn render_stats_record_the_guiding_settings_given() {
+    let (o, stats) = (tmp("settings.png"), tmp("settings.json"));
+    let (o, stats) = (o.to_str().unwrap(), stats.to_str().unwrap());
+    let base = ["render", "scenes/door.toml", "--width", "16", "--height", "8", "--spp", "128", "--device", "cpu"];
+    let read = |extra: &[&str]| {
+        let args: Vec<&str> = base.iter().chain(["-o", o, "--stats", stats].iter()).chain(extra).copied().collect();
+        let (ok, err) = run(&args);
+        assert!(ok, "{err}");
+        serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(stats).unwrap()).unwrap()
+    };
+    let s = read(&["--guiding", "sphere", "--exploration-floor", "0.1", "--q-targets", "full"]);
+    assert_eq!(s["exploration_floor"].as_f64(), Some(0.1), "{s}");
+    assert_eq!(s["q_targets"], "full", "{s}");
+    assert_eq!(s["learning_rate_exponent"], 1.0, "{s}");
+    let label = s["label"].as_str().unwrap();
+    assert!(label.contains(" floor=0.1") && label.contains(" targets=full"), "{label}");
+    // The defaults are recorded, and the label names only what differs from them.
+    let s = read(&["--guiding", "octant"]);
+    assert_eq!((s["exploration_floor"].as_f64(), &s["q_targets"]), (Some(0.25), &"mis".into()), "{s}");
+    assert!(!s["label"].as_str().unwrap().contains("floor="), "{s}");
+    // Without guiding there is nothing to record.
+    let s = read(&[]);
+    assert!(s.get("exploration_floor").is_none() && s.get("q_targets").is_none(), "{s}");
+}
+
+#[test]
 fn bins_are_rows_by_columns_within_the_limit() {
     // 65536 x 65536 overflows 32 bits to 0: it once passed the check that way, and
     // panicked in debug builds.
@@ -377,9 +418,10 @@ fn options_that_change_nothing_are_named() {
         ok && err.contains("note: --bins sets the bins of --guiding sphere; ignored with --guiding octant"),
         "{err}"
     );
-    let (ok, err) = with(&["--guided-fraction", "0.3", "--learning-rate-exponent", "0.8"]);
+    let (ok, err) = with(&["--guided-fraction", "0.3", "--learning-rate-exponent", "0.8", "--exploration-floor", "0"]);
     assert!(ok && err.contains("note: --guided-fraction is a setting of learned guiding"), "{err}");
     assert!(err.contains("note: --learning-rate-exponent is a setting of learned guiding"), "{err}");
+    assert!(err.contains("note: --exploration-floor is a setting of learned guiding"), "{err}");
     let (ok, err) = with(&["--q-targets", "full"]);
     assert!(ok && err.contains("note: --q-targets is a setting of learned guiding"), "{err}");
     let (ok, err) = with(&["--q-targets", "full", "--guiding", "octant", "--nee", "off"]);

@@ -42,6 +42,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
         guiding: "sphere".to_string(),
         guided_fraction: Some("learned".to_string()),
         learning_rate_exponent: Some(0.75),
+        exploration_floor: Some(0.25),
         q_targets: Some("mis".to_string()),
         nee: true,
         frames,

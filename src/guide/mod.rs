@@ -986,6 +986,23 @@ pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
 /// light sampling finds.
 pub const DEFAULT_FLOOR: f32 = 0.25;
 
+/// The largest exploration floor taken ([`check_floor`]): a bin's weight is then
+/// all but its cell's mean, guided sampling all but the cosine's, and a larger
+/// floor would only bring the weights nearer to overflow.
+pub const MAX_FLOOR: f32 = 10_000.0;
+
+/// Whether `f` is an exploration floor ([`GuideConfig::floor`]): in [0,
+/// [`MAX_FLOOR`]]. 0 draws bins by Q alone; the mixture's BSDF sampling still
+/// reaches every direction the BSDF reflects into. The message says what was
+/// expected (shared with the command line's parser).
+pub fn check_floor(f: f32) -> Result<(), String> {
+    if (0.0..=MAX_FLOOR).contains(&f) {
+        Ok(())
+    } else {
+        Err(format!("a number in [0, {MAX_FLOOR}]: each bin's share of its cell's mean Q in the guided weights"))
+    }
+}
+
 /// Whether `w` is an exponent of Q's learning rate 1 / i^w that converges to the
 /// learned values: (1/2, 1] (Even-Dar & Mansour 2003). Below 1/2 [`batch_rate`]
 /// still runs, but the weighted mean no longer settles. The message says what was
