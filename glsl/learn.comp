@@ -15,7 +15,11 @@
 #include "common.glsl"
 #include "sampling.glsl"
 
-layout(local_size_x = LEARN_GROUP) in;
+// src/render/mod.rs `GpuRenderer::new`: the fold runs LEARN_FOLD_GROUP invocations
+// per group with no shared array; the rebuild as many rows per group as fit.
+layout(local_size_x_id = SPEC_LEARN_GROUP) in;
+layout(constant_id = SPEC_LEARN_GROUP) const uint GROUP = LEARN_GROUP;
+layout(constant_id = SPEC_LEARN_STAGE_WORDS) const uint STAGE_WORDS = 1u;
 layout(std430, set = 0, binding = 0) buffer QTable { float q_table[]; };
 layout(std430, set = 0, binding = 1) buffer Visits { uint visits[]; };
 layout(std430, set = 0, binding = 2) buffer FrameSums { float frame_sums[]; };
@@ -89,23 +93,19 @@ float bin_cosine(uint b, uint class_) {
     return s > 1e-6 ? s : 0.0;
 }
 
-// A row is built where loads cost little: in shared memory when it has at most
-// SHARED_BINS bins (the sphere default has 128), in the table itself otherwise;
-// Vose's loop is sequential, and its chains of dependent loads from L2 made the
-// pass 7x slower. Bin b of invocation i's row sits at b * LEARN_GROUP + i, so that
-// the invocations of a group, in step through the loops over every bin, read
-// neighbouring words (each row contiguous, they all hit one bank: the rebuild
-// took 0.19 ms on the H200 that way, 0.17 this way).
-#define SHARED_BINS 128
-shared uvec2 staged[LEARN_GROUP * SHARED_BINS];
-uint row_start;   // first bin of the row in sampler_table
-uint stage_start; // the row's first bin in staged (its bins LEARN_GROUP apart)
-bool in_shared;
+// A row is built in shared memory, where loads cost little: Vose's loop is
+// sequential, and its chains of dependent loads from L2 made the pass 7x slower
+// where rows were built in the table itself (8x16 bins, H200), as rows of more than
+// 128 bins were until the group's rows were sized to fit (20x40 bins: 2.36 ms
+// per rebuild on the H100 in the table; BENCHMARKS.md). Bin b of invocation i's
+// row sits at b * GROUP + i, so that the invocations of a group, in step through
+// the loops over every bin, read neighbouring words (each row contiguous, they
+// all hit one bank: the rebuild took 0.19 ms on the H200 that way, 0.17 this way).
+shared uvec2 staged[STAGE_WORDS];
+uint stage_start; // the row's first bin in staged (its bins GROUP apart)
 
-uvec2 get_bin(uint b) { return in_shared ? staged[stage_start + b * LEARN_GROUP] : sampler_table[row_start + b]; }
-void set_bin(uint b, uvec2 v) {
-    if (in_shared) staged[stage_start + b * LEARN_GROUP] = v; else sampler_table[row_start + b] = v;
-}
+uvec2 get_bin(uint b) { return staged[stage_start + b * GROUP]; }
+void set_bin(uint b, uvec2 v) { staged[stage_start + b * GROUP] = v; }
 float weight_at(uint b) { return uintBitsToFloat(get_bin(b).y); }
 void set_weight(uint b, float w) { set_bin(b, uvec2(get_bin(b).x, floatBitsToUint(w))); }
 void set_column(uint b, uint c) { set_bin(b, uvec2(c, get_bin(b).y)); }
@@ -155,36 +155,34 @@ void build_alias_row(uint n, float total) {
     for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * (1.0 / (4.0 * PI)));
 }
 
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (push.phase == 0u) {
-        if (push.learn_fraction != 0u && i < push.cells) {
-            uint k = push.entries + i;
-            uint c = frame_counts[k];
-            if (c != 0u) {
-                fraction_states[i] = fraction_step(fraction_states[i], frame_sums[k] / float(c));
-                frame_sums[k] = 0.0;
-                frame_counts[k] = 0u;
-            }
+// Phase 0 for entry i: fold its targets into Q; for i < cells where cells learn
+// their fractions, one Adam step on cell i's fraction too.
+void fold(uint i) {
+    if (push.learn_fraction != 0u && i < push.cells) {
+        uint k = push.entries + i;
+        uint c = frame_counts[k];
+        if (c != 0u) {
+            fraction_states[i] = fraction_step(fraction_states[i], frame_sums[k] / float(c));
+            frame_sums[k] = 0.0;
+            frame_counts[k] = 0u;
         }
-        if (i >= push.entries) return;
-        uint c = frame_counts[i];
-        if (c == 0u) return;
-        float w = batch_rate(float(visits[i]), float(c));
-        q_table[i] += w * (frame_sums[i] / float(c) - q_table[i]);
-        visits[i] += c;
-        frame_sums[i] = 0.0;
-        frame_counts[i] = 0u;
-        return;
     }
+    if (i >= push.entries) return;
+    uint c = frame_counts[i];
+    if (c == 0u) return;
+    float w = batch_rate(float(visits[i]), float(c));
+    q_table[i] += w * (frame_sums[i] / float(c) - q_table[i]);
+    visits[i] += c;
+    frame_sums[i] = 0.0;
+    frame_counts[i] = 0u;
+}
+
+// Phase 1 for sampling row i, of cell i / NORMAL_CLASSES: rebuild it.
+void build_row(uint i) {
     uint cell = i / NORMAL_CLASSES;
     uint class_ = i % NORMAL_CLASSES;
     uint qrow = cell * push.bins;
-    if (qrow >= push.entries) return;
     uint row = i * push.bins;
-    row_start = row;
-    stage_start = gl_LocalInvocationID.x;
-    in_shared = push.bins <= SHARED_BINS;
     // Each bin's Q and cosine, Q read from the table once, wait in its column
     // and density slots; then the weights (Q + floor * Qbar) cos take the density
     // slot and the column is marked unset while the table is built.
@@ -212,7 +210,19 @@ void main() {
     }
     row_fractions[i] = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
     build_alias_row(push.bins, total);
-    if (in_shared) {
-        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = staged[stage_start + b * LEARN_GROUP];
+    for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = get_bin(b);
+}
+
+// Dispatches are capped at LEARN_MAX_GROUPS, which every device takes, so an
+// invocation steps through the work a whole dispatch apart.
+void main() {
+    uint stride = gl_NumWorkGroups.x * GROUP;
+    stage_start = gl_LocalInvocationID.x;
+    if (push.phase == 0u) {
+        uint n = max(push.entries, push.learn_fraction != 0u ? push.cells : 0u);
+        for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) fold(i);
+    } else {
+        uint n = push.cells * NORMAL_CLASSES;
+        for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) build_row(i);
     }
 }

@@ -551,8 +551,60 @@ fn alias_rows_of_extreme_weights_sample_what_they_say() {
 #[test]
 fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
     let ctx = gpu();
-    for bins in [Bins::SPHERE_DEFAULT, Bins { rows: 12, cols: 24 }] {
+    // 16 rows per workgroup of the rebuild, then 8, 4 (src/render/mod.rs
+    // `rows_per_group`), and the largest table.
+    for bins in
+        [Bins::SPHERE_DEFAULT, Bins { rows: 12, cols: 24 }, Bins { rows: 20, cols: 40 }, Bins { rows: 32, cols: 32 }]
+    {
         glsl_learning_matches_rust(&ctx, bins);
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A table larger than one dispatch of learn.comp's fold covers (LEARN_MAX_GROUPS
+/// groups, src/render/mod.rs `learn_groups`): the invocations step through the
+/// rest, and the entries past the first dispatch's reach learn too (the rows'
+/// rebuild steps the same way; its reach, a million rows, is past what a test
+/// can allocate).
+#[test]
+fn learning_reaches_past_one_dispatch() {
+    let ctx = gpu();
+    let scene = scene("door.toml");
+    // 1056 cells of 32x32 bins: 1081344 entries, past the fold's 65535 groups of
+    // 16 (1048560 invocations).
+    let mut o = options(&scene, 32, 16, 128);
+    (o.guiding, o.bins) = (GuidingMode::Sphere, Some(Bins { rows: 32, cols: 32 }));
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
+    let cfg = prepared.guide.unwrap();
+    let reach = (rlpt::shared::LEARN_MAX_GROUPS * rlpt::shared::LEARN_FOLD_GROUP) as usize;
+    assert!(cfg.entries() > reach, "{} entries", cfg.entries());
+    let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
+    r.render_frames(2).unwrap();
+    let t = r.table().unwrap().unwrap();
+    // Only the fold counts visits.
+    let (first, rest) = t.visits.split_at(reach);
+    assert!(first.iter().any(|&v| v > 0), "entries within one dispatch learned");
+    assert!(rest.iter().any(|&v| v > 0), "entries past one dispatch learned");
+    assert_rows_built_from_table(&t, &cfg, "a table past one dispatch");
+    assert_no_validation_messages(&ctx);
+}
+
+/// A table whose sampling rows no storage buffer can hold (6 GB: past the 32-bit
+/// range of every device) is refused with what to change, not left to the driver.
+#[test]
+fn a_table_past_the_devices_buffer_range_is_refused_by_name() {
+    let ctx = gpu();
+    let mut scene = scene("door.toml");
+    scene.guiding.resolution = Some([64, 64, 32]);
+    let mut o = options(&scene, 8, 8, 64);
+    (o.guiding, o.bins) = (GuidingMode::Sphere, Some(Bins { rows: 32, cols: 32 }));
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
+    let Err(e) = GpuRenderer::new(&ctx, &prepared) else { panic!("a 6 GB table was taken") };
+    let e = e.to_string();
+    for part in
+        ["sampling rows (131072 cells x 1024 bins x 6 orientations)", "maxStorageBufferRange", "[guiding] resolution"]
+    {
+        assert!(e.contains(part), "{part}: {e}");
     }
     assert_no_validation_messages(&ctx);
 }

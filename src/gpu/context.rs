@@ -29,6 +29,11 @@ pub enum GpuError {
     NoValidationLayer,
     #[error("the GPU ran out of memory while allocating {what}: try a smaller image")]
     OutOfMemory { what: String },
+    #[error(
+        "{what} would take {} MB, more than the {} MB this device's shaders can address in one buffer \
+         (maxStorageBufferRange): {hint}", bytes.div_ceil(1 << 20), limit / (1 << 20)
+    )]
+    BufferTooLarge { what: String, bytes: u64, limit: u64, hint: &'static str },
     #[error("cannot show a window through Vulkan: {0}")]
     NoPresentation(String),
     #[error("the GPU device was lost (a driver crash or a kernel that ran too long): {0}")]
@@ -71,6 +76,11 @@ pub struct DeviceInfo {
     pub subgroup_partitioned: bool,
     pub timestamp_period_ns: f32,
     pub timestamps: bool,
+    /// `maxComputeSharedMemorySize`: bytes of shared memory a workgroup may use
+    /// (at least 16384 on every Vulkan device).
+    pub max_compute_shared_memory: u32,
+    /// `maxStorageBufferRange`: the largest storage buffer a shader can address.
+    pub max_storage_buffer_range: u32,
     /// `VK_KHR_pipeline_executable_properties`: the driver reports each pipeline's
     /// register and memory use (`rlpt bench`).
     pub pipeline_statistics: bool,
@@ -333,6 +343,8 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         subgroup_partitioned: ops.contains(vk::SubgroupFeatureFlags::PARTITIONED_NV),
         timestamp_period_ns: props.limits.timestamp_period,
         timestamps,
+        max_compute_shared_memory: props.limits.max_compute_shared_memory_size,
+        max_storage_buffer_range: props.limits.max_storage_buffer_range,
         pipeline_statistics,
         missing,
         physical,

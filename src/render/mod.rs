@@ -62,7 +62,12 @@ pub struct PassTimes {
 
 /// The guiding buffers and the pass that learns from them.
 struct Learning {
-    pipeline: Pipeline,
+    /// `learn.comp` as phase 0 runs it (the fold), LEARN_GROUP invocations per group.
+    fold: Pipeline,
+    /// `learn.comp` as phase 1 runs it (the rows' rebuild), `rows_per_group`
+    /// invocations per group, each staging its row in shared memory.
+    build: Pipeline,
+    rows_per_group: u32,
     q: Buffer,
     visits: Buffer,
     /// Targets summed per entry since the table last learned, then the fraction
@@ -83,6 +88,39 @@ struct Learning {
 /// Words in learn.comp's push constants (`Learning::push`).
 const LEARN_PUSH_WORDS: usize = 10;
 
+/// Shared memory the rows' rebuild gives a workgroup at most, in bytes, where the
+/// device allows it: more per group would leave fewer groups resident.
+const LEARN_STAGE_BYTES: u32 = 32 * 1024;
+
+/// An error naming `what` where `bytes` are more than one storage buffer the
+/// device's shaders can address.
+fn fits_one_buffer(ctx: &Context, what: &str, bytes: u64, hint: &'static str) -> Result<(), GpuError> {
+    let limit = ctx.info.max_storage_buffer_range as u64;
+    if bytes > limit {
+        return Err(GpuError::BufferTooLarge { what: what.into(), bytes, limit, hint });
+    }
+    Ok(())
+}
+
+/// Groups of `group` invocations for `n` items of learn.comp's work, at most
+/// LEARN_MAX_GROUPS (the shader steps through the rest): 65535 is the most that
+/// every device takes, and door's table of 32x32 bins (1081344 entries) needed
+/// 67584 groups of 16 for its fold, which lavapipe's validation refused.
+fn learn_groups(n: u32, group: u32) -> u32 {
+    n.div_ceil(group).clamp(1, shared::LEARN_MAX_GROUPS)
+}
+
+/// Rows of `bins` bins that a workgroup of the rows' rebuild stages in shared
+/// memory (8 bytes a bin, `AliasBin`): the largest power of two up to
+/// LEARN_GROUP that fits within [`LEARN_STAGE_BYTES`] and the device's limit,
+/// at least 1 (a row of `Bins::MAX_COUNT` bins takes 8 KB, and every Vulkan
+/// device gives a group 16 KB). 16 rows of the 8x16 default, 8 of 12x24, 4 of 20x40.
+fn rows_per_group(bins: u32, max_shared: u32) -> u32 {
+    let row = bins * std::mem::size_of::<AliasBin>() as u32;
+    let fit = (LEARN_STAGE_BYTES.min(max_shared) / row).clamp(1, shared::LEARN_GROUP);
+    1 << fit.ilog2()
+}
+
 impl Learning {
     /// Entries of the table (`GuideConfig::entries`).
     fn entries(&self) -> u32 {
@@ -92,18 +130,16 @@ impl Learning {
     /// Phase 0 of learn.comp: fold the targets recorded since the last fold into the table.
     fn cmd_fold(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(0);
-        self.pipeline.cmd_dispatch(
-            cmd,
-            [self.entries().div_ceil(shared::LEARN_GROUP), 1, 1],
-            bytemuck::bytes_of(&push),
-        );
+        let groups = learn_groups(self.entries(), shared::LEARN_FOLD_GROUP);
+        self.fold.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
     /// Phase 1 of learn.comp: rebuild the sampling row of each cell and normal class.
     fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(1);
         let rows = self.cfg.sampling_rows() as u32;
-        self.pipeline.cmd_dispatch(cmd, [rows.div_ceil(shared::LEARN_GROUP), 1, 1], bytemuck::bytes_of(&push));
+        let groups = learn_groups(rows, self.rows_per_group);
+        self.build.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
     /// The table learns: the fold, then the rows' rebuild, each after a barrier;
@@ -257,6 +293,7 @@ impl GpuRenderer {
         ];
         let scene_constants = Buffer::with_data(ctx, "scene constants", bytes(&scene.scene_constants()), true)?;
         let accum_size = (p.width as u64) * (p.height as u64) * std::mem::size_of::<AccumPixel>() as u64;
+        fits_one_buffer(ctx, "the accumulation buffer", accum_size, "render a smaller image")?;
         let accum = Buffer::new(ctx, "accumulation", accum_size, BufferUsage::Storage)?;
         let readback = Buffer::new(ctx, "accumulation readback", accum_size, BufferUsage::Readback)?;
         let counters = Buffer::new(ctx, "frame counters", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Storage)?;
@@ -271,14 +308,35 @@ impl GpuRenderer {
                 let size = 4 * entries as u64;
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
-                let l = Learning {
-                    pipeline: Pipeline::new(
+                // The sampling rows are the largest of the table's buffers.
+                let sampler_size = (entries * shared::NORMAL_CLASSES) as u64 * std::mem::size_of::<AliasBin>() as u64;
+                fits_one_buffer(
+                    ctx,
+                    &format!(
+                        "the guiding table's sampling rows ({} cells x {} bins x {} orientations)",
+                        cells,
+                        cfg.bins.count(),
+                        shared::NORMAL_CLASSES
+                    ),
+                    sampler_size,
+                    "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
+                )?;
+                let rows_per_group = rows_per_group(cfg.bins.count(), ctx.info.max_compute_shared_memory);
+                let bindings: Vec<(u32, Binding)> = (0..7).map(|i| (i, Binding::Storage)).collect();
+                let learn = |name: &str, group: u32, stage_words: u32| {
+                    Pipeline::new_specialized(
                         ctx,
-                        "learn",
+                        name,
                         shader("learn"),
-                        &[Binding::Storage; 7],
+                        &bindings,
                         4 * LEARN_PUSH_WORDS as u32,
-                    )?,
+                        &[group, stage_words],
+                    )
+                };
+                let l = Learning {
+                    fold: learn("learn_fold", shared::LEARN_FOLD_GROUP, 1)?,
+                    build: learn("learn_rows", rows_per_group, rows_per_group * cfg.bins.count())?,
+                    rows_per_group,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
                     sums: Buffer::new(ctx, "frame target sums", sums_size, BufferUsage::Storage)?,
@@ -290,16 +348,13 @@ impl GpuRenderer {
                         cells as u64 * std::mem::size_of::<crate::guide::FractionState>() as u64,
                         BufferUsage::Storage,
                     )?,
-                    sampler: Buffer::new(
-                        ctx,
-                        "sampling rows",
-                        (entries * shared::NORMAL_CLASSES) as u64 * std::mem::size_of::<AliasBin>() as u64,
-                        BufferUsage::Storage,
-                    )?,
+                    sampler: Buffer::new(ctx, "sampling rows", sampler_size, BufferUsage::Storage)?,
                     cfg: *cfg,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
-                l.pipeline.bind(&[&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states]);
+                let buffers = [&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states];
+                l.fold.bind(&buffers);
+                l.build.bind(&buffers);
                 Some(l)
             }
         };
@@ -589,7 +644,8 @@ impl GpuRenderer {
             out.push((r.name.clone(), r.statistics()?));
         }
         if let Some(l) = &self.learning {
-            out.push((l.pipeline.name.clone(), l.pipeline.statistics()?));
+            out.push((l.fold.name.clone(), l.fold.statistics()?));
+            out.push((l.build.name.clone(), l.build.statistics()?));
         }
         out.retain(|(_, s)| !s.is_empty());
         Ok(out)
@@ -729,6 +785,39 @@ fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::SPEC_QUAD_
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rows' rebuild stages as many rows per group as fit its share of shared
+    /// memory, a power of two up to LEARN_GROUP, and one row of the largest table
+    /// fits the least any Vulkan device gives a group.
+    #[test]
+    fn rebuild_groups_stage_what_fits() {
+        let bins = |r: u32, c: u32| r * c;
+        for (n, limit, want) in [
+            (8, 49152, 16),
+            (bins(8, 16), 49152, 16),
+            (bins(12, 24), 49152, 8),
+            (bins(16, 32), 49152, 8),
+            (bins(20, 40), 49152, 4),
+            (bins(32, 32), 49152, 4),
+            (bins(20, 40), 16384, 2),
+            (bins(32, 32), 16384, 2),
+            (bins(12, 24), 16384, 4),
+        ] {
+            let r = rows_per_group(n, limit);
+            assert_eq!(r, want, "{n} bins, {limit} bytes");
+            assert!(r * n * 8 <= LEARN_STAGE_BYTES.min(limit), "{n} bins fit");
+        }
+        assert_eq!(rows_per_group(crate::guide::Bins::MAX_COUNT as u32, 16384), 2);
+    }
+
+    /// learn.comp's dispatches stay within what every device takes.
+    #[test]
+    fn learn_dispatches_stay_within_the_group_limit() {
+        assert_eq!(learn_groups(1, 64), 1);
+        assert_eq!(learn_groups(64 * 1000 + 1, 64), 1001);
+        assert_eq!(learn_groups(1_081_344, 16), 65535);
+        assert_eq!(learn_groups(u32::MAX, 64), 65535);
+    }
 
     /// The guided kernels of door and seed-exp1 (diffuse walls and lamps) run 2
     /// pixels per workgroup, those of seed-exp2 and exp3 (a mirror, glass and
