@@ -162,19 +162,23 @@
 // every lane's path were as long as its subgroup's longest (src/render/mod.rs).
 #define COUNTER_SUBGROUP_SEGMENTS 3
 #define NUM_COUNTERS 5
-// learn.comp: invocations per workgroup of the fold (phase 0), and the most
-// rows a workgroup of the rows' rebuild (phase 1) stages in shared memory, one
-// per invocation (src/render/mod.rs `rows_per_group` picks how many fit).
+// learn.comp: invocations per workgroup of the fold (phase 0) and of the rows'
+// rebuild (phase 1), one row per invocation; the rebuild's groups stage their
+// rows in shared memory where at least LEARN_MIN_STAGED_ROWS fit
+// (src/render/mod.rs `rebuild_layout`), else build them in the table.
 #define LEARN_FOLD_GROUP 16
 #define LEARN_GROUP 16
+#define LEARN_MIN_STAGED_ROWS 8
 // learn.comp's dispatches: at most this many groups (every Vulkan device's
 // maxComputeWorkGroupCount[0] is at least this), each invocation stepping
 // through the work a dispatch apart.
 #define LEARN_MAX_GROUPS 65535
 // learn.comp's specialization constants (their constant_id): its invocations
-// per workgroup, and the words of its shared array (rows per group x bins).
+// per workgroup, the words of its shared array (rows per group x bins), and
+// whether the rebuild stages its rows there (else it builds them in the table).
 #define SPEC_LEARN_GROUP 0
 #define SPEC_LEARN_STAGE_WORDS 1
+#define SPEC_LEARN_STAGED 2
 // Guiding: sampling distributions per cell, one per class of surface orientation
 // (src/guide/mod.rs `normal_class`).
 #define NORMAL_CLASSES 6

@@ -16,10 +16,12 @@
 #include "sampling.glsl"
 
 // src/render/mod.rs `GpuRenderer::new`: the fold runs LEARN_FOLD_GROUP invocations
-// per group with no shared array; the rebuild as many rows per group as fit.
+// per group with no shared array; the rebuild as many rows per group as it
+// stages in shared memory, or LEARN_GROUP where it builds them in the table.
 layout(local_size_x_id = SPEC_LEARN_GROUP) in;
 layout(constant_id = SPEC_LEARN_GROUP) const uint GROUP = LEARN_GROUP;
 layout(constant_id = SPEC_LEARN_STAGE_WORDS) const uint STAGE_WORDS = 1u;
+layout(constant_id = SPEC_LEARN_STAGED) const bool STAGED = false;
 layout(std430, set = 0, binding = 0) buffer QTable { float q_table[]; };
 layout(std430, set = 0, binding = 1) buffer Visits { uint visits[]; };
 layout(std430, set = 0, binding = 2) buffer FrameSums { float frame_sums[]; };
@@ -93,19 +95,26 @@ float bin_cosine(uint b, uint class_) {
     return s > 1e-6 ? s : 0.0;
 }
 
-// A row is built in shared memory, where loads cost little: Vose's loop is
-// sequential, and its chains of dependent loads from L2 made the pass 7x slower
-// where rows were built in the table itself (8x16 bins, H200), as rows of more than
-// 128 bins were until the group's rows were sized to fit (20x40 bins: 2.36 ms
-// per rebuild on the H100 in the table; BENCHMARKS.md). Bin b of invocation i's
-// row sits at b * GROUP + i, so that the invocations of a group, in step through
-// the loops over every bin, read neighbouring words (each row contiguous, they
-// all hit one bank: the rebuild took 0.19 ms on the H200 that way, 0.17 this way).
+// A row is built where loads cost little. Vose's loop is sequential, and its
+// chains of dependent loads from L2 made the pass 7x slower where 8x16 rows were
+// built in the table itself (H200). Where 8 rows fit a group's 32 KB (up to 512
+// bins, STAGED) the group stages its rows in shared memory; larger rows are built
+// in the table, where the L1 cache holds them: staged 4 to a group, door's 20x40
+// rows took 3.89 ms to rebuild against 2.35 in the table (H100), since a 6.4 KB
+// row per invocation left too few rows in flight per multiprocessor, and 12x24
+// rows 0.48 ms against 0.66 (src/render/mod.rs `rebuild_layout`; BENCHMARKS.md).
+// Bin b of invocation i's row sits at b * GROUP + i in `staged`, so that the
+// invocations of a group, in step through the loops over every bin, read
+// neighbouring words (each row contiguous, they all hit one bank: the rebuild
+// took 0.19 ms on the H200 that way, 0.17 this way).
 shared uvec2 staged[STAGE_WORDS];
+uint row_start;   // the row's first bin in sampler_table
 uint stage_start; // the row's first bin in staged (its bins GROUP apart)
 
-uvec2 get_bin(uint b) { return staged[stage_start + b * GROUP]; }
-void set_bin(uint b, uvec2 v) { staged[stage_start + b * GROUP] = v; }
+uvec2 get_bin(uint b) { return STAGED ? staged[stage_start + b * GROUP] : sampler_table[row_start + b]; }
+void set_bin(uint b, uvec2 v) {
+    if (STAGED) staged[stage_start + b * GROUP] = v; else sampler_table[row_start + b] = v;
+}
 float weight_at(uint b) { return uintBitsToFloat(get_bin(b).y); }
 void set_weight(uint b, float w) { set_bin(b, uvec2(get_bin(b).x, floatBitsToUint(w))); }
 void set_column(uint b, uint c) { set_bin(b, uvec2(c, get_bin(b).y)); }
@@ -183,6 +192,7 @@ void build_row(uint i) {
     uint class_ = i % NORMAL_CLASSES;
     uint qrow = cell * push.bins;
     uint row = i * push.bins;
+    row_start = row;
     // Each bin's Q and cosine, Q read from the table once, wait in its column
     // and density slots; then the weights (Q + floor * Qbar) cos take the density
     // slot and the column is marked unset while the table is built.
@@ -210,7 +220,9 @@ void build_row(uint i) {
     }
     row_fractions[i] = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
     build_alias_row(push.bins, total);
-    for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = get_bin(b);
+    if (STAGED) {
+        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = get_bin(b);
+    }
 }
 
 // Dispatches are capped at LEARN_MAX_GROUPS, which every device takes, so an

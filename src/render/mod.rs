@@ -65,7 +65,7 @@ struct Learning {
     /// `learn.comp` as phase 0 runs it (the fold), LEARN_GROUP invocations per group.
     fold: Pipeline,
     /// `learn.comp` as phase 1 runs it (the rows' rebuild), `rows_per_group`
-    /// invocations per group, each staging its row in shared memory.
+    /// invocations per group, each building one row ([`rebuild_layout`]).
     build: Pipeline,
     rows_per_group: u32,
     q: Buffer,
@@ -110,15 +110,24 @@ fn learn_groups(n: u32, group: u32) -> u32 {
     n.div_ceil(group).clamp(1, shared::LEARN_MAX_GROUPS)
 }
 
-/// Rows of `bins` bins that a workgroup of the rows' rebuild stages in shared
-/// memory (8 bytes a bin, `AliasBin`): the largest power of two up to
-/// LEARN_GROUP that fits within [`LEARN_STAGE_BYTES`] and the device's limit,
-/// at least 1 (a row of `Bins::MAX_COUNT` bins takes 8 KB, and every Vulkan
-/// device gives a group 16 KB). 16 rows of the 8x16 default, 8 of 12x24, 4 of 20x40.
-fn rows_per_group(bins: u32, max_shared: u32) -> u32 {
+/// How learn.comp's rows' rebuild runs for rows of `bins` bins: (rows per group,
+/// words of its shared array, whether it stages the rows there). Staged where at
+/// least LEARN_MIN_STAGED_ROWS rows (8 bytes a bin, `AliasBin`) fit in
+/// [`LEARN_STAGE_BYTES`] and the device's limit, as many as fit up to LEARN_GROUP
+/// (a power of two): 16 rows of the 8x16 default without roulette, 8 of 12x24
+/// and 16x32. Larger rows, the 20x40 default with roulette among them, are built
+/// in the table by groups of LEARN_GROUP: staged 4 to a group, door's 20x40 rows
+/// took 3.89 ms to rebuild against 2.35 in the table (H100), too few rows in
+/// flight; 12x24 rows staged 8 to a group took 0.48 ms against 0.66.
+fn rebuild_layout(bins: u32, max_shared: u32) -> (u32, u32, bool) {
     let row = bins * std::mem::size_of::<AliasBin>() as u32;
-    let fit = (LEARN_STAGE_BYTES.min(max_shared) / row).clamp(1, shared::LEARN_GROUP);
-    1 << fit.ilog2()
+    let fit = (LEARN_STAGE_BYTES.min(max_shared) / row).min(shared::LEARN_GROUP);
+    if fit >= shared::LEARN_MIN_STAGED_ROWS {
+        let rows = 1 << fit.ilog2();
+        (rows, rows * bins, true)
+    } else {
+        (shared::LEARN_GROUP, 1, false)
+    }
 }
 
 impl Learning {
@@ -321,21 +330,22 @@ impl GpuRenderer {
                     sampler_size,
                     "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
                 )?;
-                let rows_per_group = rows_per_group(cfg.bins.count(), ctx.info.max_compute_shared_memory);
+                let (rows_per_group, stage_words, staged) =
+                    rebuild_layout(cfg.bins.count(), ctx.info.max_compute_shared_memory);
                 let bindings: Vec<(u32, Binding)> = (0..7).map(|i| (i, Binding::Storage)).collect();
-                let learn = |name: &str, group: u32, stage_words: u32| {
+                let learn = |name: &str, group: u32, stage_words: u32, staged: bool| {
                     Pipeline::new_specialized(
                         ctx,
                         name,
                         shader("learn"),
                         &bindings,
                         4 * LEARN_PUSH_WORDS as u32,
-                        &[group, stage_words],
+                        &[group, stage_words, staged as u32],
                     )
                 };
                 let l = Learning {
-                    fold: learn("learn_fold", shared::LEARN_FOLD_GROUP, 1)?,
-                    build: learn("learn_rows", rows_per_group, rows_per_group * cfg.bins.count())?,
+                    fold: learn("learn_fold", shared::LEARN_FOLD_GROUP, 1, false)?,
+                    build: learn("learn_rows", rows_per_group, stage_words, staged)?,
                     rows_per_group,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
@@ -787,27 +797,26 @@ mod tests {
     use super::*;
 
     /// The rows' rebuild stages as many rows per group as fit its share of shared
-    /// memory, a power of two up to LEARN_GROUP, and one row of the largest table
-    /// fits the least any Vulkan device gives a group.
+    /// memory, a power of two up to LEARN_GROUP, where at least
+    /// LEARN_MIN_STAGED_ROWS fit; larger rows are built in the table.
     #[test]
     fn rebuild_groups_stage_what_fits() {
         let bins = |r: u32, c: u32| r * c;
+        let unstaged = (shared::LEARN_GROUP, 1, false);
         for (n, limit, want) in [
-            (8, 49152, 16),
-            (bins(8, 16), 49152, 16),
-            (bins(12, 24), 49152, 8),
-            (bins(16, 32), 49152, 8),
-            (bins(20, 40), 49152, 4),
-            (bins(32, 32), 49152, 4),
-            (bins(20, 40), 16384, 2),
-            (bins(32, 32), 16384, 2),
-            (bins(12, 24), 16384, 4),
+            (8, 49152, (16, 16 * 8, true)),
+            (bins(8, 16), 49152, (16, 16 * 128, true)),
+            (bins(12, 24), 49152, (8, 8 * 288, true)),
+            (bins(16, 32), 49152, (8, 8 * 512, true)),
+            (bins(20, 40), 49152, unstaged),
+            (bins(32, 32), 49152, unstaged),
+            (bins(8, 16), 16384, (16, 16 * 128, true)),
+            (bins(12, 24), 16384, unstaged),
         ] {
-            let r = rows_per_group(n, limit);
-            assert_eq!(r, want, "{n} bins, {limit} bytes");
-            assert!(r * n * 8 <= LEARN_STAGE_BYTES.min(limit), "{n} bins fit");
+            let got = rebuild_layout(n, limit);
+            assert_eq!(got, want, "{n} bins, {limit} bytes");
+            assert!(!got.2 || got.1 * 8 <= LEARN_STAGE_BYTES.min(limit), "{n} bins fit");
         }
-        assert_eq!(rows_per_group(crate::guide::Bins::MAX_COUNT as u32, 16384), 2);
     }
 
     /// learn.comp's dispatches stay within what every device takes.
