@@ -8,8 +8,8 @@
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
 #             frames of 64 spp at the scene's size after 640 warm-up frames, past
 #             the last change of the recording stride (guide::RecordSchedule) on
-#             every scene here but door, whose default table with roulette (12x24
-#             bins) changes stride last at frame 1376 and is measured after 1408
+#             every scene here but door, whose default table with roulette (20x40
+#             bins) changes stride last at frame 3840 and is measured after 3872
 #             (bench-S-G); and, guided, after 8 (bench-early-S-G), where more rows
 #             record.
 # equal-time: for each SCENE, a reference (unguided, NEE on, 40 s of GPU time)
@@ -28,15 +28,15 @@
 #             unguided; sphere guiding at the defaults (with roulette every vertex
 #             guided, 12x24 bins); the former defaults (the first 2 vertices, 8x16
 #             bins); every vertex at 8x16 and at 16x32 bins; and their frame times
-#             (bench after 1408 warm-up frames, past door's last change of stride).
+#             (bench after 3872 warm-up frames, past door's last change of stride).
 # counters:   `rlpt bench` of the four scenes with --counters on, paths (the
 #             kernel `render --stats` runs) and off, guiding off and sphere: what
-#             the frame counters cost a frame (door guided after 1408 warm-up frames).
+#             the frame counters cost a frame (door guided after 3872 warm-up frames).
 # q-targets:  for each SCENE, a reference with its variance (as equal-time), then
 #             10 s each, NEE on, of unguided and of octant and sphere guiding with
 #             MIS-weighted and with full Q-learning targets (--q-targets mis|full,
 #             stats-S-G-T), against it; and the same settings' frame times
-#             (bench-q-S-G-T, after 640 warm-up frames, 1408 for door and smallpt).
+#             (bench-q-S-G-T, after 640 warm-up frames, 1408 for smallpt, 3872 for door).
 # floor:      for each SCENE, a reference with its variance (as equal-time), then
 #             10 s each, NEE on, of unguided and of sphere guiding at every
 #             exploration floor in $FLOORS (default "0.25 0.15 0.1 0.05") for each
@@ -53,7 +53,7 @@ timing)
     "$rlpt" devices >"$out/devices.txt"
     for s in seed-exp1 seed-exp2 seed-exp3 door; do
         warmup=640
-        [ "$s" = door ] && warmup=1408
+        [ "$s" = door ] && warmup=3872
         for g in off octant sphere; do
             "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup "$warmup" --guiding "$g" --nee on \
                 --json "$out/bench-$s-$g.json" | tee "$out/bench-$s-$g.txt"
@@ -131,7 +131,7 @@ deep-guiding)
             shift
             "$rlpt" render "scenes/$s.toml" -o "$out/out.exr" --spp 100000000 --time 10 --reference "$out/ref-$s.exr" \
                 --reference-variance "$out/ref-$s.var.exr" --stats "$out/deep-$s-$name.json" "$@"
-            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 1408 --json "$out/bench-deep-$s-$name.json" "$@" \
+            "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup 3872 --json "$out/bench-deep-$s-$name.json" "$@" \
                 | tee "$out/bench-deep-$s-$name.txt"
         }
         run off --guiding off
@@ -144,7 +144,7 @@ counters)
     for s in seed-exp1 seed-exp2 seed-exp3 door; do
         for g in off sphere; do
             warmup=640
-            [ "$s" = door ] && [ "$g" = sphere ] && warmup=1408
+            [ "$s" = door ] && [ "$g" = sphere ] && warmup=3872
             for c in on paths off; do
                 "$rlpt" bench "scenes/$s.toml" --frames 32 --warmup "$warmup" --guiding "$g" --counters "$c" \
                     --json "$out/bench-counters-$c-$s-$g.json" | tee "$out/bench-counters-$c-$s-$g.txt"
@@ -157,7 +157,7 @@ q-targets)
         "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
             --variance "$out/ref-$s.var.exr"
         warmup=640
-        case "$s" in door | smallpt) warmup=1408 ;; esac
+        case "$s" in door) warmup=3872 ;; smallpt) warmup=1408 ;; esac
         runs=("off mis" "sphere mis" "sphere full" "octant mis" "octant full")
         for run in "${runs[@]}"; do
             read -r g t <<<"$run"

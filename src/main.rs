@@ -129,7 +129,7 @@ struct Settings {
     #[arg(long, value_enum, default_value_t = GuidingArg::Off)]
     guiding: GuidingArg,
     /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in
-    /// phi) [default: 12x24 in scenes with Russian roulette, where every vertex records
+    /// phi) [default: 20x40 in scenes with Russian roulette, where every vertex records
     /// targets; 8x16 without].
     #[arg(long, value_parser = parse_bins)]
     bins: Option<Bins>,
@@ -154,7 +154,7 @@ struct Settings {
     /// Exploration floor F of guided sampling: a bin is drawn in proportion to its Q plus
     /// F times its cell's mean Q (both weighted by the cosine), so that bins whose light
     /// was not found yet keep a share F / (1 + F) of the guided draws; 0 draws by Q alone
-    /// (BSDF sampling still reaches every direction) [default: 0.25].
+    /// (BSDF sampling still reaches every direction) [default: 0.1].
     #[arg(long, value_name = "F", value_parser = parse_floor, allow_negative_numbers = true)]
     exploration_floor: Option<f32>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`

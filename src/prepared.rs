@@ -276,7 +276,7 @@ pub struct RenderOptions {
     /// Learned guiding: off, octant (2x4 bins) or sphere (`bins`).
     pub guiding: GuidingMode,
     /// Bins of `GuidingMode::Sphere`. None: the default for the scene,
-    /// [`crate::guide::default_bins`] (12x24 with Russian roulette, 8x16 without),
+    /// [`crate::guide::default_bins`] (20x40 with Russian roulette, 8x16 without),
     /// which [`PreparedScene::new`] resolves; the prepared scene's
     /// `guide.bins` holds the bins used.
     pub bins: Option<Bins>,
@@ -961,16 +961,16 @@ mod tests {
         }
     }
 
-    /// `--guiding sphere` without bins takes 12x24 in scenes with Russian roulette
+    /// `--guiding sphere` without bins takes 20x40 in scenes with Russian roulette
     /// and 8x16 without; bins given win; octant stays 2x4, and no guiding has none.
     #[test]
     fn sphere_bins_default_to_the_scenes_roulette() {
-        assert_eq!(guide::default_bins(true), Bins { rows: 12, cols: 24 });
+        assert_eq!(guide::default_bins(true), Bins { rows: 20, cols: 40 });
         assert_eq!(guide::default_bins(false), Bins { rows: 8, cols: 16 });
         let given = Bins { rows: 16, cols: 32 };
         for (name, default) in [
-            ("door", Bins { rows: 12, cols: 24 }),
-            ("smallpt", Bins { rows: 12, cols: 24 }),
+            ("door", Bins { rows: 20, cols: 40 }),
+            ("smallpt", Bins { rows: 20, cols: 40 }),
             ("seed-exp1", Bins { rows: 8, cols: 16 }),
         ] {
             let s = scene(name);

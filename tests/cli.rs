@@ -137,8 +137,8 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
     assert_eq!(report["guided_fraction"], "learned", "the default guided fraction is learned per cell");
     assert_eq!(report["learning_rate_exponent"], 1.0, "the default exponent of Q's learning rate");
     assert_eq!(report["q_targets"], "mis", "Q-learning targets weighed by MIS by default");
-    assert_eq!(report["exploration_floor"], 0.25, "the default exploration floor");
-    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1, floor 0.25), mis targets"), "{stdout}");
+    assert_eq!(report["exploration_floor"].as_f64(), Some(0.1), "the default exploration floor");
+    assert!(stdout.contains("guiding sphere (fraction learned, rate exponent 1, floor 0.1), mis targets"), "{stdout}");
     for f in frames {
         let sum = f["pathtrace_ms"].as_f64().unwrap()
             + f["learn_fold_ms"].as_f64().unwrap()
@@ -337,15 +337,15 @@ fn render_stats_record_the_guiding_settings_given() {
         assert!(ok, "{err}");
         serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(stats).unwrap()).unwrap()
     };
-    let s = read(&["--guiding", "sphere", "--exploration-floor", "0.1", "--q-targets", "full"]);
-    assert_eq!(s["exploration_floor"].as_f64(), Some(0.1), "{s}");
+    let s = read(&["--guiding", "sphere", "--exploration-floor", "0.3", "--q-targets", "full"]);
+    assert_eq!(s["exploration_floor"].as_f64(), Some(0.3), "{s}");
     assert_eq!(s["q_targets"], "full", "{s}");
     assert_eq!(s["learning_rate_exponent"], 1.0, "{s}");
     let label = s["label"].as_str().unwrap();
-    assert!(label.contains(" floor=0.1") && label.contains(" targets=full"), "{label}");
+    assert!(label.contains(" floor=0.3") && label.contains(" targets=full"), "{label}");
     // The defaults are recorded, and the label names only what differs from them.
     let s = read(&["--guiding", "octant"]);
-    assert_eq!((s["exploration_floor"].as_f64(), &s["q_targets"]), (Some(0.25), &"mis".into()), "{s}");
+    assert_eq!((s["exploration_floor"].as_f64(), &s["q_targets"]), (Some(0.1), &"mis".into()), "{s}");
     assert!(!s["label"].as_str().unwrap().contains("floor="), "{s}");
     // Without guiding there is nothing to record.
     let s = read(&[]);

@@ -5,7 +5,7 @@
 //! - **States** are the cells of a voxel [`Grid`] over the scene.
 //! - **Actions** are [`Bins`] of directions over the whole sphere, equal in solid
 //!   angle: rows uniform in cos(theta), columns uniform in phi (world space); by
-//!   default 8x16, or 12x24 in scenes with Russian roulette ([`default_bins`]).
+//!   default 8x16, or 20x40 in scenes with Russian roulette ([`default_bins`]).
 //! - **Q(cell, bin)** estimates the radiance arriving at the cell from the bin's
 //!   directions (mean over RGB).
 //! - **Learning**: when a path leaves x through bin a, reaches y and continues from
@@ -135,7 +135,7 @@ impl Bins {
     /// `--guiding sphere`'s bins in scenes without Russian roulette ([`default_bins`]).
     pub const SPHERE_DEFAULT: Bins = Bins { rows: 8, cols: 16 };
     /// `--guiding sphere`'s bins in scenes with Russian roulette ([`default_bins`]).
-    pub const SPHERE_ROULETTE_DEFAULT: Bins = Bins { rows: 12, cols: 24 };
+    pub const SPHERE_ROULETTE_DEFAULT: Bins = Bins { rows: 20, cols: 40 };
 
     pub fn count(&self) -> u32 {
         self.rows * self.cols
@@ -494,7 +494,7 @@ pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
 }
 
 /// The bins of `--guiding sphere` where the options name none
-/// (`RenderOptions::bins` None): [`Bins::SPHERE_ROULETTE_DEFAULT`] (12x24) in a
+/// (`RenderOptions::bins` None): [`Bins::SPHERE_ROULETTE_DEFAULT`] (20x40) in a
 /// scene with Russian roulette (`russian_roulette_depth`), [`Bins::SPHERE_DEFAULT`]
 /// (8x16) without.
 ///
@@ -502,11 +502,18 @@ pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
 /// entry of the table sees several times the targets per frame and a finer table
 /// learns in time (every vertex guided, relMSE at 10 s over unguided's: door.toml
 /// 0.30 at 12x24 against 0.35 at 8x16, smallpt.toml 0.47 against 0.56; see
-/// [`guided_vertices`]). 16x32 did a little better still at 10 s on the H200
-/// (0.28 and 0.44) but learns too slowly for small images: on the test suite's
-/// door at 48x32 after 32 warm-up frames its guided variance per sample was 0.43
-/// to 0.62 of unguided's over six seeds, against 0.28 to 0.33 at 12x24 and 0.21
-/// to 0.26 at 8x16 (`learning_reduces_variance_on_door`). Where only the first two
+/// [`guided_vertices`]). With MIS-weighted targets and the floor at 0.1 finer
+/// bins paid more (NVIDIA H100, 10 s, ratios at 1 s / 10 s, BENCHMARKS.md): door
+/// 0.265 / 0.220 at 12x24, 0.277 / 0.208 at 16x32, 0.268 / 0.201 at 20x40
+/// (0.269 / 0.198 with another seed), 0.286 / 0.207 at 24x48 and 0.311 / 0.223 at
+/// 28x56; smallpt 0.537 / 0.477, 0.531 / 0.443, 0.545 / 0.432 and 0.559 / 0.425
+/// (12x24 to 24x48). Past 20x40 door's frames grew faster than its error fell.
+/// Small images learn finer tables more slowly: at 16x32, before MIS targets, the
+/// test suite's door at 48x32 after 32 warm-up frames had a guided variance per
+/// sample of 0.43 to 0.62 of unguided's over six seeds, against 0.28 to 0.33 at
+/// 12x24 (`learning_reduces_variance_on_door`); on the CPU renderer at 96x64
+/// (32 warm-up frames, then 2048 spp, two seeds, floor 0.1) 20x40 had 0.89 of
+/// 12x24's variance per sample, at 48x32 1.10. Where only the first two
 /// vertices are guided (the default without roulette, with NEE), finer bins gained
 /// nothing on door (CPU renderer, per sample: 0.31 of unguided's at 16x32 against
 /// 0.30 at 8x16) and lost on seed-exp1 at equal time (2 s runs on the H200, relMSE
@@ -981,10 +988,16 @@ pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
 /// error at equal time on all five shipped scenes with NEE (NVIDIA H100, 10 s,
 /// sphere, relMSE less the reference's variance over unguided's: door 0.238 ->
 /// 0.225, seed-exp1 0.743 -> 0.699, seed-exp2 0.886 -> 0.855, seed-exp3 0.866 ->
-/// 0.844, smallpt 0.481 -> 0.468; BENCHMARKS.md). With full targets a smaller
-/// floor had lost on door (0.2: 0.555 against 0.546), since Q aimed at lamps that
-/// light sampling finds.
-pub const DEFAULT_FLOOR: f32 = 0.25;
+/// 0.844, smallpt 0.481 -> 0.468; BENCHMARKS.md), and 0.1 less again on four of
+/// them (`--exploration-floor`, same method, ratios at 1 s / 10 s, 0.25 -> 0.1:
+/// door at 12x24 bins 0.270 / 0.226 -> 0.265 / 0.220, seed-exp1 0.711 / 0.699 ->
+/// 0.686 / 0.669, seed-exp2 0.938 / 0.855 -> 0.920 / 0.842, seed-exp3 0.915 /
+/// 0.844 -> 0.894 / 0.830, door at 20x40 0.274 / 0.207 -> 0.268 / 0.201); smallpt
+/// lost a little at 10 s (12x24: 0.545 / 0.468 -> 0.537 / 0.477; 16x32 0.529 /
+/// 0.438 -> 0.531 / 0.443). 0.05 was as good as 0.1 and no better. With full
+/// targets a smaller floor had lost on door (0.2: 0.555 against 0.546), since Q
+/// aimed at lamps that light sampling finds.
+pub const DEFAULT_FLOOR: f32 = 0.1;
 
 /// The largest exploration floor taken ([`check_floor`]): a bin's weight is then
 /// all but its cell's mean, guided sampling all but the cosine's, and a larger
