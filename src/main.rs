@@ -508,15 +508,12 @@ fn render(args: RenderArgs) -> Result<()> {
     opts.counters = if args.stats.is_some() { Counters::ZeroPaths } else { Counters::Off };
     let reference = match &args.reference {
         Some(path) => {
-            let (r, format) =
-                Image::load_format(path).with_context(|| format!("reading the reference {}", path.display()))?;
-            if format != rlpt::image::Format::Exr {
-                bail!(
-                    "reference {} is {}: relMSE is measured against a linear EXR (render one with -o REF.exr)",
-                    path.display(),
-                    format.describe()
-                );
-            }
+            let r = load_exr(
+                path,
+                "the reference",
+                "reference",
+                "relMSE is measured against a linear EXR (render one with -o REF.exr)",
+            )?;
             if (r.width, r.height) != (opts.width, opts.height) {
                 bail!(
                     "reference {} is {}x{} but the render is {}x{}: render the reference at the same size",
@@ -733,17 +730,24 @@ fn file_name(p: &Path) -> String {
     p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
 }
 
+/// The image at `path`, which must be an EXR: `what` names it where reading
+/// fails, `label` where it is another format, and `why` says why it must be one.
+fn load_exr(path: &Path, what: &str, label: &str, why: &str) -> Result<Image> {
+    let (image, format) = Image::load_format(path).with_context(|| format!("reading {what} {}", path.display()))?;
+    if format != rlpt::image::Format::Exr {
+        bail!("{label} {} is {}: {why}", path.display(), format.describe());
+    }
+    Ok(image)
+}
+
 /// The reference with its variance read from `path` (`render --variance`), checked.
 fn with_reference_variance(reference: metrics::Reference, path: &Path) -> Result<metrics::Reference> {
-    let (v, format) =
-        Image::load_format(path).with_context(|| format!("reading the reference's variance {}", path.display()))?;
-    if format != rlpt::image::Format::Exr {
-        bail!(
-            "--reference-variance {} is {}: a variance is a linear EXR (`rlpt render --variance VAR.exr`)",
-            path.display(),
-            format.describe()
-        );
-    }
+    let v = load_exr(
+        path,
+        "the reference's variance",
+        "--reference-variance",
+        "a variance is a linear EXR (`rlpt render --variance VAR.exr`)",
+    )?;
     reference.with_variance(v).map_err(|m| anyhow::anyhow!("--reference-variance {}: {m}", path.display()))
 }
 
