@@ -91,6 +91,9 @@
 // Learned guiding (pathtrace.comp): the guided fraction of each sampling row,
 // 0 where the row is unlearned (src/guide/mod.rs `QTable::fractions`).
 #define BINDING_FRACTIONS 12
+// Learned guiding: per sampling row, 1 once a recording path's guided vertex
+// has read it (src/guide/mod.rs `QTable::rows_read`); learn.comp rebuilds those alone.
+#define BINDING_ROWS_READ 13
 #define CONST_SPHERES 64
 #define CONST_QUADS 64
 // Specialization constants of pathtrace.comp (their constant_id): what a render

@@ -19,6 +19,7 @@ layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uin
 layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uvec2 sampler_table[]; };
 // Per sampling row: its guided fraction, 0 where it is unlearned; src/guide/mod.rs `QTable::fractions`.
 layout(std430, set = 0, binding = BINDING_FRACTIONS) readonly buffer Fractions { float row_fractions[]; };
+layout(std430, set = 0, binding = BINDING_ROWS_READ) buffer RowsRead { uint rows_read[]; };
 
 #ifdef RLPT_SPECIALIZED
 // The table's shape as specialization constants: bin and cell arithmetic by

@@ -5,7 +5,8 @@
 // the last fold into the table, Q <- Q + w (S / c - Q) with w = batch_rate(n, c)
 // (learning rate 1 / i^omega for the i-th target; the running mean at omega = 1),
 // and clears the sums;
-// phase 1, one invocation per (cell, normal class): rebuilds that sampling row,
+// phase 1, one invocation per (cell, normal class): rebuilds that sampling row
+// where a recording path has read it (`QTable::rows_read`),
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
 // Where cells learn their guided fractions (push.learn_fraction), phase 0's
@@ -32,6 +33,8 @@ layout(std430, set = 0, binding = 4) buffer Sampler { uvec2 sampler_table[]; };
 layout(std430, set = 0, binding = 5) buffer Fractions { float row_fractions[]; };
 // Per cell: theta, Adam's m and v, steps (`FractionState`).
 layout(std430, set = 0, binding = 6) buffer FractionStates { vec4 fraction_states[]; };
+// Per sampling row: 1 once a recording path read it (`QTable::rows_read`).
+layout(std430, set = 0, binding = 7) readonly buffer RowsRead { uint rows_read[]; };
 layout(push_constant) uniform Push {
     uint phase;
     uint entries;
@@ -187,8 +190,10 @@ void fold(uint i) {
     frame_counts[i] = 0u;
 }
 
-// Phase 1 for sampling row i, of cell i / NORMAL_CLASSES: rebuild it.
+// Phase 1 for sampling row i, of cell i / NORMAL_CLASSES: rebuild it, where a
+// recording path has read it (else it stays unlearned, its fraction 0).
 void build_row(uint i) {
+    if (rows_read[i] == 0u) return;
     uint cell = i / NORMAL_CLASSES;
     uint class_ = i % NORMAL_CLASSES;
     uint qrow = cell * push.bins;

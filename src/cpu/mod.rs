@@ -177,6 +177,10 @@ pub fn trace_path(
             let row = guide::sampler_row(cell, guide::normal_class(n), bins);
             sampler = &g.rows[row..row + bins as usize];
             row_fraction = g.fractions[row / bins as usize];
+            // A recording path marks the rows its guided vertices read (`QTable::rows_read`).
+            if let Some(learn) = learn.as_mut().filter(|_| depth < guided_vertices) {
+                learn.row_read(row / bins as usize);
+            }
         }
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
@@ -524,6 +528,7 @@ mod tests {
         fn fraction_gradient(&mut self, cell: u32, gradient: f32) {
             self.gradients.push((cell, gradient));
         }
+        fn row_read(&mut self, _: usize) {}
     }
 
     /// A finite target goes to its key and, where the vertex mixed, the gradient

@@ -827,6 +827,18 @@ pub struct QTable {
     pub fractions: Vec<f32>,
     /// Per cell, the state of its learned fraction.
     pub fraction_states: Vec<FractionState>,
+    /// Per sampling row, whether a guided vertex of a recording path has read it
+    /// (set for good): only those rows are rebuilt when the table learns, the
+    /// others stay [`UNLEARNED`] with fraction 0 (BSDF sampling alone). Most rows
+    /// are never read: a cell's six orientation classes exist for whichever
+    /// surfaces it holds, and on door.toml 820 of the 3108 rows with a learned
+    /// cell were read (CPU renderer, 240x160, 10 frames), so the rebuild, a
+    /// sequential loop per row, did four times the work it needed. A row that a
+    /// path which does not record reads first samples the BSDF alone until a
+    /// recording path reads it too, which every row's paths do in turn
+    /// ([`RecordSchedule`]). `glsl/pathtrace.comp` marks them, `glsl/learn.comp`
+    /// reads the marks.
+    pub rows_read: Vec<bool>,
 }
 
 /// What a path that records hands over: Q-learning targets, and where each
@@ -837,6 +849,9 @@ pub trait Recorder {
     /// A sample of the gradient of the KL divergence with respect to the logit
     /// of `cell`'s fraction ([`FractionState`]).
     fn fraction_gradient(&mut self, cell: u32, gradient: f32);
+    /// Sampling row `row` (its index, `cell * NORMAL_CLASSES + class`) was read by
+    /// a guided vertex ([`QTable::rows_read`]).
+    fn row_read(&mut self, row: usize);
 }
 
 /// Targets summed per entry, and fraction gradients per cell: a frame's, or
@@ -847,6 +862,8 @@ pub struct FrameSums {
     pub counts: Vec<u32>,
     pub gradients: Vec<f32>,
     pub gradient_counts: Vec<u32>,
+    /// Sampling rows read by guided vertices ([`QTable::rows_read`]).
+    pub rows_read: Vec<bool>,
 }
 
 impl Recorder for FrameSums {
@@ -858,6 +875,9 @@ impl Recorder for FrameSums {
         self.gradients[cell as usize] += gradient;
         self.gradient_counts[cell as usize] += 1;
     }
+    fn row_read(&mut self, row: usize) {
+        self.rows_read[row] = true;
+    }
 }
 
 impl FrameSums {
@@ -868,6 +888,7 @@ impl FrameSums {
             counts: vec![0; entries],
             gradients: vec![0.0; cells],
             gradient_counts: vec![0; cells],
+            rows_read: vec![false; cells * NORMAL_CLASSES as usize],
         }
     }
     /// Empty sums for a table of `cfg`'s shape.
@@ -885,6 +906,9 @@ impl FrameSums {
         add(&mut self.counts, &other.counts);
         add(&mut self.gradients, &other.gradients);
         add(&mut self.gradient_counts, &other.gradient_counts);
+        for (a, &b) in self.rows_read.iter_mut().zip(&other.rows_read) {
+            *a |= b;
+        }
     }
     pub fn merge(mut self, other: FrameSums) -> FrameSums {
         self.add_all(&other);
@@ -1071,6 +1095,7 @@ impl QTable {
             rows: vec![AliasBin { column: UNLEARNED, pdf: 0.0 }; entries * NORMAL_CLASSES as usize],
             fractions: vec![0.0; rows],
             fraction_states: vec![FractionState::default(); cfg.grid.cells() as usize],
+            rows_read: vec![false; rows],
         }
     }
 
@@ -1097,14 +1122,25 @@ impl QTable {
                 }
             }
         }
+        for (read, &now) in self.rows_read.iter_mut().zip(&targets.rows_read) {
+            *read |= now;
+        }
         let n = cfg.bins.count() as usize;
         let cosines = class_cosines(&cfg.bins);
         let classes = NORMAL_CLASSES as usize;
+        let mut built = vec![AliasBin::default(); n * classes];
         for (cell, (q, rows)) in self.q.chunks(n).zip(self.rows.chunks_mut(n * classes)).enumerate() {
-            build_sampling_rows(&cosines, q, cfg.floor, rows);
+            let read = &self.rows_read[cell * classes..(cell + 1) * classes];
+            if !read.iter().any(|&r| r) {
+                continue;
+            }
+            build_sampling_rows(&cosines, q, cfg.floor, &mut built);
             let g = if cfg.learn_fraction { self.fraction_states[cell].fraction(cfg.fraction) } else { cfg.fraction };
-            for (class, row) in rows.chunks(n).enumerate() {
-                self.fractions[cell * classes + class] = if learned(row) { g } else { 0.0 };
+            for (class, (row, new)) in rows.chunks_mut(n).zip(built.chunks(n)).enumerate() {
+                if read[class] {
+                    row.copy_from_slice(new);
+                    self.fractions[cell * classes + class] = if learned(row) { g } else { 0.0 };
+                }
             }
         }
     }

@@ -79,6 +79,8 @@ struct Learning {
     fractions: Buffer,
     /// Per cell, its fraction's learning state (`guide::FractionState`).
     fraction_states: Buffer,
+    /// Per sampling row, 1 once a recording path read it (`QTable::rows_read`).
+    rows_read: Buffer,
     /// The table's shape and learning settings.
     cfg: GuideConfig,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
@@ -332,7 +334,7 @@ impl GpuRenderer {
                 )?;
                 let (rows_per_group, stage_words, staged) =
                     rebuild_layout(cfg.bins.count(), ctx.info.max_compute_shared_memory);
-                let bindings: Vec<(u32, Binding)> = (0..7).map(|i| (i, Binding::Storage)).collect();
+                let bindings: Vec<(u32, Binding)> = (0..8).map(|i| (i, Binding::Storage)).collect();
                 let learn = |name: &str, group: u32, stage_words: u32, staged: bool| {
                     Pipeline::new_specialized(
                         ctx,
@@ -359,10 +361,12 @@ impl GpuRenderer {
                         BufferUsage::Storage,
                     )?,
                     sampler: Buffer::new(ctx, "sampling rows", sampler_size, BufferUsage::Storage)?,
+                    rows_read: Buffer::new(ctx, "rows read", 4 * rows, BufferUsage::Storage)?,
                     cfg: *cfg,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
-                let buffers = [&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states];
+                let buffers =
+                    [&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states, &l.rows_read];
                 l.fold.bind(&buffers);
                 l.build.bind(&buffers);
                 Some(l)
@@ -373,7 +377,7 @@ impl GpuRenderer {
             counters.cmd_clear(cmd);
             if let Some(l) = &learning {
                 // Fractions 0: every row unlearned.
-                for b in [&l.q, &l.visits, &l.sums, &l.counts, &l.fractions, &l.fraction_states] {
+                for b in [&l.q, &l.visits, &l.sums, &l.counts, &l.fractions, &l.fraction_states, &l.rows_read] {
                     b.cmd_clear(cmd);
                 }
                 // Every row starts with nothing learned (and BSDF sampling alone).
@@ -418,7 +422,7 @@ impl GpuRenderer {
         all.push(&self.counters);
         all.push(&self.scene_constants);
         if let Some(l) = &self.learning {
-            all.push(&l.fractions);
+            all.extend([&l.fractions, &l.rows_read]);
         }
         self.pipeline.bind(&all);
         if let Some(r) = &self.recording {
@@ -680,6 +684,7 @@ impl GpuRenderer {
         let rc = Buffer::new(&self.ctx, "sampling rows readback", l.sampler.size, BufferUsage::Readback)?;
         let rf = Buffer::new(&self.ctx, "fractions readback", l.fractions.size, BufferUsage::Readback)?;
         let rs = Buffer::new(&self.ctx, "fraction states readback", l.fraction_states.size, BufferUsage::Readback)?;
+        let rr = Buffer::new(&self.ctx, "rows read readback", l.rows_read.size, BufferUsage::Readback)?;
         self.ctx.run_commands("read Q table", |cmd| {
             self.ctx.barrier(cmd);
             l.q.cmd_copy_to(cmd, &rq);
@@ -687,7 +692,9 @@ impl GpuRenderer {
             l.sampler.cmd_copy_to(cmd, &rc);
             l.fractions.cmd_copy_to(cmd, &rf);
             l.fraction_states.cmd_copy_to(cmd, &rs);
+            l.rows_read.cmd_copy_to(cmd, &rr);
         })?;
+        let rows_read: Vec<u32> = bytemuck::pod_collect_to_vec(&rr.read()[..l.rows_read.size as usize]);
         let n = l.entries() as usize * 4;
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
@@ -695,6 +702,7 @@ impl GpuRenderer {
             rows: bytemuck::pod_collect_to_vec(&rc.read()[..l.sampler.size as usize]),
             fractions: bytemuck::pod_collect_to_vec(&rf.read()[..l.fractions.size as usize]),
             fraction_states: bytemuck::pod_collect_to_vec(&rs.read()[..l.fraction_states.size as usize]),
+            rows_read: rows_read.into_iter().map(|r| r != 0).collect(),
         }))
     }
 }
@@ -759,6 +767,7 @@ fn path_pipeline(
     bindings.push((shared::BINDING_SCENE_CONSTANTS, Binding::Uniform));
     if guided {
         bindings.push((shared::BINDING_FRACTIONS, Binding::Storage));
+        bindings.push((shared::BINDING_ROWS_READ, Binding::Storage));
     }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
