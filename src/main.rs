@@ -402,16 +402,19 @@ fn parse_fraction(s: &str) -> Result<FractionArg, String> {
     Ok(FractionArg::Fixed(v))
 }
 
-fn parse_rate_exponent(s: &str) -> Result<f32, String> {
+/// A number that `check` accepts; its message says what was expected.
+fn parse_checked(s: &str, check: fn(f32) -> Result<(), String>) -> Result<f32, String> {
     let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-    rlpt::guide::check_rate_exponent(v).map_err(|e| format!("`{s}`: expected {e}"))?;
+    check(v).map_err(|e| format!("`{s}`: expected {e}"))?;
     Ok(v)
 }
 
+fn parse_rate_exponent(s: &str) -> Result<f32, String> {
+    parse_checked(s, rlpt::guide::check_rate_exponent)
+}
+
 fn parse_floor(s: &str) -> Result<f32, String> {
-    let v: f32 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-    rlpt::guide::check_floor(v).map_err(|e| format!("`{s}`: expected {e}"))?;
-    Ok(v)
+    parse_checked(s, rlpt::guide::check_floor)
 }
 
 fn main() {
