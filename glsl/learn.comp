@@ -237,8 +237,8 @@ void main() {
     uint stride = gl_NumWorkGroups.x * GROUP;
     stage_start = gl_LocalInvocationID.x;
     if (push.phase == 0u) {
-        uint n = max(push.entries, push.learn_fraction != 0u ? push.cells : 0u);
-        for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) fold(i);
+        // Every cell is an entry's index too (cells <= entries).
+        for (uint i = gl_GlobalInvocationID.x; i < push.entries; i += stride) fold(i);
     } else {
         uint n = push.cells * NORMAL_CLASSES;
         for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) build_row(i);

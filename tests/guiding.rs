@@ -552,11 +552,10 @@ fn alias_rows_of_extreme_weights_sample_what_they_say() {
 #[test]
 fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
     let ctx = gpu();
-    // 16 rows per workgroup of the rebuild, then 8, 4 (src/render/mod.rs
-    // `rows_per_group`), and the largest table.
-    for bins in
-        [Bins::SPHERE_DEFAULT, Bins { rows: 12, cols: 24 }, Bins { rows: 20, cols: 40 }, Bins { rows: 32, cols: 32 }]
-    {
+    // Rows staged 16 and 8 to a workgroup of the rebuild, and built in the table
+    // (src/render/mod.rs `rebuild_layout`); the largest table, 32x32, in
+    // `learning_reaches_past_one_dispatch`.
+    for bins in [Bins::SPHERE_DEFAULT, Bins { rows: 12, cols: 24 }, Bins { rows: 20, cols: 40 }] {
         glsl_learning_matches_rust(&ctx, bins);
     }
     assert_no_validation_messages(&ctx);
@@ -570,23 +569,15 @@ fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
 #[test]
 fn learning_reaches_past_one_dispatch() {
     let ctx = gpu();
-    let scene = scene("door.toml");
-    // 1056 cells of 32x32 bins: 1081344 entries, past the fold's 65535 groups of
-    // 16 (1048560 invocations).
-    let mut o = options(&scene, 32, 16, 128);
-    (o.guiding, o.bins) = (GuidingMode::Sphere, Some(Bins { rows: 32, cols: 32 }));
-    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
-    let cfg = prepared.guide.unwrap();
+    // Door's 1056 cells of 32x32 bins: 1081344 entries, past the fold's 65535
+    // groups of 16 (1048560 invocations).
+    let t = glsl_learning_matches_rust(&ctx, Bins { rows: 32, cols: 32 });
     let reach = (rlpt::shared::LEARN_MAX_GROUPS * rlpt::shared::LEARN_FOLD_GROUP) as usize;
-    assert!(cfg.entries() > reach, "{} entries", cfg.entries());
-    let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
-    r.render_frames(2).unwrap();
-    let t = r.table().unwrap().unwrap();
+    assert!(t.q.len() > reach, "{} entries", t.q.len());
     // Only the fold counts visits.
     let (first, rest) = t.visits.split_at(reach);
     assert!(first.iter().any(|&v| v > 0), "entries within one dispatch learned");
     assert!(rest.iter().any(|&v| v > 0), "entries past one dispatch learned");
-    assert_rows_built_from_table(&t, &cfg, "a table past one dispatch");
     assert_no_validation_messages(&ctx);
 }
 
@@ -610,7 +601,10 @@ fn a_table_past_the_devices_buffer_range_is_refused_by_name() {
     assert_no_validation_messages(&ctx);
 }
 
-fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) {
+/// Door at 32x24 guided over `bins` for 3 frames on the GPU: its sampling rows
+/// are those Rust builds from its Q, and most orientation rows of the cells that
+/// learned are never read; the table.
+fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) -> QTable {
     let scene = scene("door.toml");
     let mut o = options(&scene, 32, 24, 64);
     o.guiding = GuidingMode::Sphere;
@@ -633,6 +627,7 @@ fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) {
         "{bins:?}: {read} rows read of {learned_cells} cells' {}",
         learned_cells * classes
     );
+    t
 }
 
 /// The sampling rows of `t` are those Rust builds from its Q values (to the

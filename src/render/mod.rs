@@ -62,7 +62,7 @@ pub struct PassTimes {
 
 /// The guiding buffers and the pass that learns from them.
 struct Learning {
-    /// `learn.comp` as phase 0 runs it (the fold), LEARN_GROUP invocations per group.
+    /// `learn.comp` as phase 0 runs it (the fold), LEARN_FOLD_GROUP invocations per group.
     fold: Pipeline,
     /// `learn.comp` as phase 1 runs it (the rows' rebuild), `rows_per_group`
     /// invocations per group, each building one row ([`rebuild_layout`]).
