@@ -26,7 +26,7 @@
 # deep-guiding: for each SCENE (default door and smallpt, the scenes with Russian
 #             roulette), a reference with its variance, then 10 s each, NEE on, of:
 #             unguided; sphere guiding at the defaults (with roulette every vertex
-#             guided, 12x24 bins); the former defaults (the first 2 vertices, 8x16
+#             guided, 20x40 bins since 79fb864, 12x24 before); the former defaults (the first 2 vertices, 8x16
 #             bins); every vertex at 8x16 and at 16x32 bins; and their frame times
 #             (bench after 3872 warm-up frames, past door's last change of stride).
 # counters:   `rlpt bench` of the four scenes with --counters on, paths (the
@@ -48,6 +48,12 @@ out=$2
 stage=${3:-timing}
 shift 3 || true
 mkdir -p "$out"
+# The reference of SCENE with its per-pixel variance: unguided, NEE on, 40 s of
+# GPU time, seed 7 ($out/ref-SCENE.exr and .var.exr).
+reference() {
+    "$rlpt" render "scenes/$1.toml" -o "$out/ref-$1.exr" --spp 100000000 --time 40 --seed 7 \
+        --variance "$out/ref-$1.var.exr"
+}
 case "$stage" in
 timing)
     "$rlpt" devices >"$out/devices.txt"
@@ -66,8 +72,7 @@ timing)
     ;;
 equal-time)
     for s in "$@"; do
-        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
-            --variance "$out/ref-$s.var.exr"
+        reference "$s"
         stats=()
         for nee in on off; do
             for g in off octant sphere; do
@@ -124,8 +129,7 @@ learning-rate)
 deep-guiding)
     [ $# -gt 0 ] || set -- door smallpt
     for s in "$@"; do
-        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
-            --variance "$out/ref-$s.var.exr"
+        reference "$s"
         run() { # NAME ARGS...
             local name=$1
             shift
@@ -154,8 +158,7 @@ counters)
     ;;
 q-targets)
     for s in "$@"; do
-        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
-            --variance "$out/ref-$s.var.exr"
+        reference "$s"
         warmup=640
         case "$s" in door) warmup=3872 ;; smallpt) warmup=1408 ;; esac
         runs=("off mis" "sphere mis" "sphere full" "octant mis" "octant full")
@@ -175,8 +178,7 @@ q-targets)
     ;;
 floor)
     for s in "$@"; do
-        "$rlpt" render "scenes/$s.toml" -o "$out/ref-$s.exr" --spp 100000000 --time 40 --seed 7 \
-            --variance "$out/ref-$s.var.exr"
+        reference "$s"
         check=(--reference "$out/ref-$s.exr" --reference-variance "$out/ref-$s.var.exr")
         "$rlpt" render "scenes/$s.toml" -o "$out/$s-off.exr" --spp 100000000 --time 10 --guiding off \
             "${check[@]}" --stats "$out/stats-$s-off.json"
