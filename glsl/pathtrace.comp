@@ -43,8 +43,12 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // frame: frames traced so far (decorrelates the random numbers);
 // accum_frames: frames in the accumulation buffer (restarts keep learning going);
 // ablate: ABLATE_* bits, parts of guiding left out (profiling only, else 0);
-// rows: the pixel rows this dispatch traces (ROWS_* | phase << 8 | stride << 16).
-layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; uint rows; } push;
+// rows: the pixel rows this dispatch traces (ROWS_* | phase << 8 | stride << 16);
+// learned_frames: frames left out of the image whose radiance the pixels' sum.w
+// keeps for learned roulette's estimate (guide::GuideConfig::learning_frames):
+// where accum_frames is 0, the frames the buffer still holds, which the first
+// accumulation replaces.
+layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; } push;
 
 // src/render/mod.rs `pixel_row`: the pixel row of workgroup row `g`.
 uint pixel_row(uint g) {
@@ -56,10 +60,21 @@ uint pixel_row(uint g) {
     return g;
 }
 
-// src/film.rs `accumulate`.
+// src/film.rs `accumulate`. The first frame of an accumulation writes over what
+// the buffer holds; after the learning frames, it keeps their mean3 sum in sum.w
+// (src/film.rs `restart_after_learning`).
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
     uint n = push.accum_frames;
+    if (n == 0u) {
+        float learned = 0.0;
+#ifdef RLPT_GUIDING
+        if (push.learned_frames > 0u) learned = mean3(accum[pixel].sum.xyz);
+#endif
+        accum[pixel].sum = vec4(sum, learned);
+        accum[pixel].m2_frame_mean = vec4(0.0);
+        return;
+    }
     vec3 mean_old = n == 0u ? vec3(0.0) : accum[pixel].sum.xyz / (per_frame * float(n));
     vec3 m = sum / per_frame;
     vec3 delta = m - mean_old;
@@ -424,9 +439,13 @@ void main() {
         camera_ray(px, py, u, o, d);
         float estimate = 0.0;
 #if GUIDED
-        // src/cpu/mod.rs `roulette_estimate`.
-        if (push.accum_frames > 0u && push.frame >= uint(LEARNED_RR_FRAMES))
-            estimate = mean3(accum[pixel].sum.xyz) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames));
+        // src/cpu/mod.rs `roulette_estimate`: the image's frames and the learning
+        // frames' (sum.w); where accum_frames is 0, the buffer still holds the latter.
+        if (push.accum_frames + push.learned_frames > 0u && push.frame >= uint(LEARNED_RR_FRAMES)) {
+            vec4 s = accum[pixel].sum;
+            float learned = push.accum_frames > 0u ? s.w : 0.0;
+            estimate = (mean3(s.xyz) + learned) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames + push.learned_frames));
+        }
 #endif
         radiance = trace_path(o, d, estimate, rng, segments);
         if (!(max_component(radiance) > 0.0)) zero = 1u;

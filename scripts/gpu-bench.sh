@@ -2,7 +2,8 @@
 # The measurements behind BENCHMARKS.md, in one go on a GPU machine.
 #
 #   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...|learning-rate SCENE...|
-#                                     deep-guiding [SCENE...]|counters|q-targets SCENE...|floor SCENE...]
+#                                     deep-guiding [SCENE...]|counters|q-targets SCENE...|floor SCENE...|
+#                                     learning-frames SCENE...]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
@@ -42,6 +43,10 @@
 #             exploration floor in $FLOORS (default "0.25 0.15 0.1 0.05") for each
 #             bin layout in $BINS (default "default", the scene's; e.g. "default
 #             16x32"), stats-S-B-fF, against it.
+# learning-frames: for each SCENE, a reference with its variance (as equal-time),
+#             then 10 s each, NEE on, of unguided and of sphere guiding with the
+#             image started after each count of learning frames in $LEARNING
+#             (default "0 4 8"; 4 is the default with roulette), stats-S-lN.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -193,8 +198,23 @@ floor)
         done
     done
     ;;
+learning-frames)
+    # Equal time with the image started after 0, 4 (the default with roulette) or
+    # 8 learning frames ($LEARNING to choose), against unguided.
+    for s in "$@"; do
+        reference "$s"
+        check=(--reference "$out/ref-$s.exr" --reference-variance "$out/ref-$s.var.exr")
+        "$rlpt" render "scenes/$s.toml" -o "$out/$s-off.exr" --spp 100000000 --time 10 --guiding off \
+            "${check[@]}" --stats "$out/stats-$s-off.json"
+        for n in ${LEARNING:-0 4 8}; do
+            "$rlpt" render "scenes/$s.toml" -o "$out/$s-l$n.exr" --spp 100000000 --time 10 \
+                --guiding sphere --learning-frames "$n" "${check[@]}" --stats "$out/stats-$s-l$n.json"
+        done
+    done
+    ;;
 *)
-    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding, counters, q-targets or floor" >&2
+    echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding, counters, q-targets," \
+        "floor or learning-frames" >&2
     exit 2
     ;;
 esac

@@ -3,6 +3,7 @@
 use crate::image::Image;
 use crate::prepared::AccumPixel;
 use crate::shared;
+use glam::Vec3;
 
 /// Per-pixel sums over all frames rendered so far.
 #[derive(Clone, Debug)]
@@ -17,8 +18,19 @@ pub struct Film {
 /// Adds one frame's 64-sample sum to a pixel that already holds `frames` frames
 /// (Welford's update of the frame means' squared deviations); the GLSL twin is
 /// `accumulate` in `glsl/pathtrace.comp`.
-pub fn accumulate(acc: &mut AccumPixel, frames: u32, sum: [f32; 3]) {
+///
+/// The first frame of an accumulation (`frames` 0) writes over what the pixel
+/// holds. Where that is the learning frames' radiance (`learned_frames` > 0,
+/// `GuideConfig::learning_frames`), their mean3 sum stays in `sum[3]`, the
+/// learning frames' share of learned roulette's estimate
+/// (`crate::cpu::roulette_estimate`); the image is `sum[..3]` alone.
+pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3]) {
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
+    if frames == 0 {
+        let learned = if learned_frames > 0 { crate::guide::mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
+        *acc = AccumPixel { sum: [sum[0], sum[1], sum[2], learned], m2_frame_mean: [0.0; 4] };
+        return;
+    }
     for c in 0..3 {
         let mean_old = if frames == 0 { 0.0 } else { acc.sum[c] / (per_frame * frames as f32) };
         let m = sum[c] / per_frame;

@@ -157,6 +157,13 @@ struct Settings {
     /// (BSDF sampling still reaches every direction) [default: 0.1].
     #[arg(long, value_name = "F", value_parser = parse_floor, allow_negative_numbers = true)]
     exploration_floor: Option<f32>,
+    /// Frames at the start of a guided render that teach the table and are then left out
+    /// of the image, which starts after them (learned roulette's estimate still counts
+    /// them). `--spp` counts the image's samples; `--time` counts the learning frames'
+    /// time too [default: 4 in scenes with Russian roulette, the frames before learned
+    /// roulette starts; 0 without].
+    #[arg(long, value_name = "N", value_parser = parse_learning_frames, allow_negative_numbers = true)]
+    learning_frames: Option<u32>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
     /// counts the emission met with the MIS weight the image gives it and adds the light
     /// sample at the vertex met, so that guided directions seek what light sampling
@@ -194,6 +201,7 @@ impl Settings {
         opts.guided_vertices = self.guided_vertices;
         opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
         opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
+        opts.learning_frames = self.learning_frames;
         opts.q_targets = match self.q_targets.unwrap_or(QTargetsArg::Mis) {
             QTargetsArg::Mis => rlpt::guide::QTargets::Mis,
             QTargetsArg::Full => rlpt::guide::QTargets::Full,
@@ -223,6 +231,7 @@ impl Settings {
                 ("--guided-vertices", self.guided_vertices.is_some()),
                 ("--learning-rate-exponent", self.learning_rate_exponent.is_some()),
                 ("--exploration-floor", self.exploration_floor.is_some()),
+                ("--learning-frames", self.learning_frames.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
             ];
             for (flag, _) in given.iter().filter(|(_, g)| *g) {
@@ -417,6 +426,12 @@ fn parse_floor(s: &str) -> Result<f32, String> {
     parse_checked(s, rlpt::guide::check_floor)
 }
 
+fn parse_learning_frames(s: &str) -> Result<u32, String> {
+    let v: u32 = s.parse().map_err(|_| format!("`{s}` is not a whole number of frames"))?;
+    rlpt::guide::check_learning_frames(v).map_err(|e| format!("`{s}`: expected {e}"))?;
+    Ok(v)
+}
+
 fn main() {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         // The Vulkan loader complains on stderr without it.
@@ -556,8 +571,11 @@ fn render(args: RenderArgs) -> Result<()> {
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
     warn_memory(&opts, args.settings.device);
+    // The learning frames come first, and the image's frames after them.
+    let learning_frames = prepared.learning_frames();
+    let traced_frames = frames + learning_frames;
 
-    let bar = ProgressBar::with_draw_target(Some(frames as u64), ProgressDrawTarget::hidden());
+    let bar = ProgressBar::with_draw_target(Some(traced_frames as u64), ProgressDrawTarget::hidden());
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} frames ({eta} left)")
             .expect("valid template")
@@ -601,12 +619,14 @@ fn render(args: RenderArgs) -> Result<()> {
         exploration_floor: opts.exploration_floor_if_guided(),
         q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
+        learning_frames: opts.learning_frames_if_guided(),
         frames: Vec::new(),
     };
     let mut gpu_ms_total = 0.0;
     let paths_per_frame = (opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64) as f64;
     let mut film = None;
-    for f in 0..frames {
+    let mut traced = 0;
+    for f in 0..traced_frames {
         let frame_start = Instant::now();
         let (gpu_ms, zero_paths) = match &mut renderer {
             Renderer::Cpu(r) => {
@@ -622,7 +642,8 @@ fn render(args: RenderArgs) -> Result<()> {
         let mark = time_mark(gpu_ms_total, gpu_ms_total + frame_ms);
         gpu_ms_total += frame_ms;
         let out_of_time = args.time.is_some_and(|limit| gpu_ms_total >= limit * 1e3);
-        let last = f + 1 == frames || out_of_time;
+        let last = f + 1 == traced_frames || out_of_time;
+        traced = f + 1;
         let errors = match &reference {
             Some(r) if last || mark || measure_at(f + 1) => {
                 let current = renderer.film()?;
@@ -636,7 +657,7 @@ fn render(args: RenderArgs) -> Result<()> {
         };
         stats.frames.push(FrameStats {
             frame: f + 1,
-            spp: (f + 1) * shared::SAMPLES_PER_FRAME,
+            spp: renderer.frames() * shared::SAMPLES_PER_FRAME,
             gpu_ms,
             elapsed_ms: gpu_ms_total,
             rel_mse: errors.map(|e| e.rel_mse),
@@ -649,7 +670,7 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         bar.set_position(f as u64 + 1);
         if out_of_time {
-            spp = (f + 1) * shared::SAMPLES_PER_FRAME;
+            spp = renderer.frames() * shared::SAMPLES_PER_FRAME;
             break;
         }
     }
@@ -682,15 +703,19 @@ fn render(args: RenderArgs) -> Result<()> {
     if let Some(path) = &args.stats {
         stats.save(path)?;
     }
-    let samples = opts.width as f64 * opts.height as f64 * spp as f64;
+    // Samples traced, the learning frames' included.
+    let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME) as f64;
     let gpu = match &renderer {
         Renderer::Gpu(r) if r.context().info.timestamps => {
-            format!(
-                ", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame",
-                gpu_ms_total / (spp / shared::SAMPLES_PER_FRAME) as f64
-            )
+            format!(", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame", gpu_ms_total / traced as f64)
         }
         _ => String::new(),
+    };
+    // Whether the image started after the learning frames.
+    let learned = if learning_frames > 0 && traced > learning_frames {
+        format!(" after {learning_frames} learning frames")
+    } else {
+        String::new()
     };
     let last_frame = stats.frames.last();
     let rel = last_frame.and_then(|f| f.rel_mse).map(|e| format!(", relMSE {e:.3e}")).unwrap_or_default();
@@ -699,7 +724,7 @@ fn render(args: RenderArgs) -> Result<()> {
         None => rel,
     };
     println!(
-        "{}: {}x{}, {} spp, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
+        "{}: {}x{}, {} spp{learned}, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
         opts.width,
         opts.height,
@@ -721,6 +746,14 @@ enum Renderer {
 }
 
 impl Renderer {
+    /// Frames in the image (the learning frames left out once it starts).
+    fn frames(&self) -> u32 {
+        match self {
+            Renderer::Cpu(r) => r.film().frames,
+            Renderer::Gpu(r) => r.frames(),
+        }
+    }
+
     fn film(&self) -> Result<Film> {
         Ok(match self {
             Renderer::Cpu(r) => r.film().clone(),
@@ -831,6 +864,12 @@ fn bench(args: BenchArgs) -> Result<()> {
     if args.counters != CountersArg::On && args.settings.device == DeviceKind::Cpu {
         eprintln!(
             "note: --counters off and paths compile the GPU kernel's counters out; the CPU renderer counts always"
+        );
+    }
+    if args.settings.learning_frames.is_some() && args.settings.guiding != GuidingArg::Off {
+        eprintln!(
+            "note: --learning-frames sets the frames an image leaves out; rlpt bench writes no image, and its \
+             frames take the same time either way"
         );
     }
     let scene = Scene::load(&args.scene)?;

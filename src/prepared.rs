@@ -289,6 +289,9 @@ pub struct RenderOptions {
     pub guide_floor: f32,
     /// Exponent of Q's learning rate (see `guide::batch_rate`), in (1/2, 1].
     pub learning_rate_exponent: f32,
+    /// Frames that teach the table before the image starts (see
+    /// `GuideConfig::learning_frames`). None: [`guide::default_learning_frames`].
+    pub learning_frames: Option<u32>,
     /// What Q-learning targets count of the light their rays meet where NEE is on
     /// ([`guide::QTargets`]; `FLAG_MIS_TARGETS`).
     pub q_targets: guide::QTargets,
@@ -338,6 +341,7 @@ impl RenderOptions {
             learn_fraction: true,
             guide_floor: guide::DEFAULT_FLOOR,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
+            learning_frames: None,
             q_targets: guide::QTargets::Mis,
             guided_vertices: None,
             counters: Counters::Off,
@@ -353,6 +357,14 @@ impl RenderOptions {
     /// reports record it: None without guiding.
     pub fn exploration_floor_if_guided(&self) -> Option<f32> {
         (self.guiding != GuidingMode::Off).then_some(self.guide_floor)
+    }
+
+    /// The learning frames a render of these options takes (`GuideConfig::learning_frames`;
+    /// the default follows `russian_roulette_depth`): None without guiding.
+    pub fn learning_frames_if_guided(&self) -> Option<u32> {
+        (self.guiding != GuidingMode::Off).then(|| {
+            self.learning_frames.unwrap_or(guide::default_learning_frames(self.russian_roulette_depth.is_some()))
+        })
     }
 
     /// What Q-learning targets count, as reports name it (`mis` or `full`): None
@@ -405,6 +417,11 @@ impl RenderOptions {
         if let Err(e) = guide::check_rate_exponent(self.learning_rate_exponent) {
             return err("learning_rate_exponent", self.learning_rate_exponent.to_string(), e);
         }
+        if let Some(n) = self.learning_frames {
+            if let Err(e) = guide::check_learning_frames(n) {
+                return err("learning_frames", n.to_string(), e);
+            }
+        }
         if self.guided_vertices == Some(0) {
             return err(
                 "guided_vertices",
@@ -446,6 +463,11 @@ pub fn geometry_index(id: u32) -> usize {
 }
 
 impl PreparedScene {
+    /// Frames that teach the table before the image starts (`GuideConfig::learning_frames`; 0 without guiding).
+    pub fn learning_frames(&self) -> u32 {
+        self.guide.as_ref().map_or(0, |g| g.learning_frames)
+    }
+
     /// The uniform buffer of `glsl/geometry.glsl` (`SceneConstantsBlock`): the
     /// first `CONST_SPHERES` spheres (center_radius, anchor_radius, axis) and the first
     /// `CONST_QUADS` quads (normal, origin, dual_u, dual_v), the data their hit
@@ -685,6 +707,7 @@ impl PreparedScene {
                 learn_fraction: opts.learn_fraction,
                 floor: opts.guide_floor,
                 rate_exponent: opts.learning_rate_exponent,
+                learning_frames: opts.learning_frames.unwrap_or(guide::default_learning_frames(roulette)),
             };
             let p = &mut prepared.params;
             p.guide_bins = bins.count();

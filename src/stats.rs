@@ -41,16 +41,23 @@ pub struct RenderStats {
     pub q_targets: Option<String>,
     /// Whether next-event estimation was on.
     pub nee: bool,
-    /// One entry per accumulated frame, in order.
+    /// Frames that taught the table before the image started
+    /// (`guide::GuideConfig::learning_frames`); None without guiding (and in files
+    /// written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learning_frames: Option<u32>,
+    /// One entry per frame traced, in order.
     pub frames: Vec<FrameStats>,
 }
 
-/// The state of a render after one more frame was accumulated.
+/// The state of a render after one more frame was traced.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct FrameStats {
-    /// 1-based count of frames accumulated.
+    /// 1-based count of frames traced, learning frames included.
     pub frame: u32,
-    /// Samples per pixel so far.
+    /// Samples per pixel of the image so far: until the learning frames end,
+    /// theirs; after them, those of the frames since (the image the render
+    /// would write if it stopped here).
     pub spp: u32,
     /// GPU time of this frame (path tracing + learning), from timestamps;
     /// `None` on the CPU renderer.

@@ -327,6 +327,51 @@ fn exploration_floor_is_a_number_from_zero_to_the_limit() {
 }
 
 #[test]
+fn learning_frames_are_a_whole_number_up_to_the_limit() {
+    refuses(
+        "--learning-frames",
+        &[
+            ("65537", "0 to 65536 frames"),
+            ("-1", "not a whole number"),
+            ("2.5", "not a whole number"),
+            ("many", "not a whole number"),
+        ],
+    );
+}
+
+/// The image starts after the learning frames: door has Russian roulette, so 4 by
+/// default; `--spp` counts the image's samples, and the stats give each frame the
+/// samples of the image it would write.
+#[test]
+fn the_image_starts_after_the_learning_frames() {
+    let (o, stats) = (tmp("learning.png"), tmp("learning.json"));
+    let (o, stats) = (o.to_str().unwrap(), stats.to_str().unwrap());
+    let read = |scene: &str, extra: &[&str]| {
+        let base = ["render", scene, "--width", "16", "--height", "8", "--spp", "128", "--device", "cpu"];
+        let args: Vec<&str> = base.iter().chain(["-o", o, "--stats", stats].iter()).chain(extra).copied().collect();
+        let out = rlpt().args(&args).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let s = serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(stats).unwrap()).unwrap();
+        let spp: Vec<u64> = s["frames"].as_array().unwrap().iter().map(|f| f["spp"].as_u64().unwrap()).collect();
+        (s["learning_frames"].as_u64(), spp, String::from_utf8_lossy(&out.stdout).into_owned())
+    };
+    let door = "scenes/door.toml";
+    let (n, spp, out) = read(door, &["--guiding", "sphere"]);
+    assert_eq!((n, spp.as_slice()), (Some(4), [64, 128, 192, 256, 64, 128].as_slice()), "{out}");
+    assert!(out.contains("128 spp after 4 learning frames"), "{out}");
+    let (n, spp, _) = read(door, &["--guiding", "octant", "--learning-frames", "1"]);
+    assert_eq!((n, spp.as_slice()), (Some(1), [64, 64, 128].as_slice()));
+    let (n, spp, out) = read(door, &["--guiding", "sphere", "--learning-frames", "0"]);
+    assert_eq!((n, spp.as_slice()), (Some(0), [64, 128].as_slice()));
+    assert!(out.contains("128 spp, guiding sphere"), "{out}");
+    // Without roulette (seed-exp1) no frame is left out by default; without guiding none at all.
+    let (n, spp, _) = read("scenes/seed-exp1.toml", &["--guiding", "sphere"]);
+    assert_eq!((n, spp.as_slice()), (Some(0), [64, 128].as_slice()));
+    let (n, spp, _) = read(door, &[]);
+    assert_eq!((n, spp.as_slice()), (None, [64, 128].as_slice()));
+}
+
+#[test]
 fn render_stats_record_the_guiding_settings_given() {
     let (o, stats) = (tmp("settings.png"), tmp("settings.json"));
     let (o, stats) = (o.to_str().unwrap(), stats.to_str().unwrap());
@@ -418,8 +463,18 @@ fn options_that_change_nothing_are_named() {
         ok && err.contains("note: --bins sets the bins of --guiding sphere; ignored with --guiding octant"),
         "{err}"
     );
-    let (ok, err) = with(&["--guided-fraction", "0.3", "--learning-rate-exponent", "0.8", "--exploration-floor", "0"]);
+    let (ok, err) = with(&[
+        "--guided-fraction",
+        "0.3",
+        "--learning-rate-exponent",
+        "0.8",
+        "--exploration-floor",
+        "0",
+        "--learning-frames",
+        "2",
+    ]);
     assert!(ok && err.contains("note: --guided-fraction is a setting of learned guiding"), "{err}");
+    assert!(err.contains("note: --learning-frames is a setting of learned guiding"), "{err}");
     assert!(err.contains("note: --learning-rate-exponent is a setting of learned guiding"), "{err}");
     assert!(err.contains("note: --exploration-floor is a setting of learned guiding"), "{err}");
     let (ok, err) = with(&["--q-targets", "full"]);

@@ -1005,6 +1005,90 @@ fn learning_reduces_variance_on_door() {
     assert_no_validation_messages(&ctx);
 }
 
+/// mean3 of a pixel's sum, as `guide::mean3` computes it.
+fn mean3(sum: &[f32]) -> f32 {
+    rlpt::guide::mean3(Vec3::from_slice(&sum[..3]))
+}
+
+/// The frame after the learning frames starts the image (CPU renderer): the film
+/// then holds that frame alone, whose samples are those of a render without
+/// learning frames (learned roulette's estimate counts the same frames), and
+/// each pixel keeps the learning frames' mean3 sum beside it.
+#[test]
+fn the_cpu_image_starts_after_the_learning_frames() {
+    let scene = scene("door.toml");
+    let mut o = guided(&options(&scene, 24, 16, 64), GuidingMode::Sphere);
+    o.seed = 3;
+    let learning = rlpt::guide::default_learning_frames(true);
+    assert_eq!(learning, 4, "door has roulette");
+    let render = |learning_frames: u32, frames: u32| {
+        let mut o = o.clone();
+        o.learning_frames = Some(learning_frames);
+        let mut r = CpuRenderer::new(&PreparedScene::new(&scene, &o).unwrap());
+        let mut films = Vec::new();
+        for _ in 0..frames {
+            r.render_frame();
+            films.push(r.film().clone());
+        }
+        films
+    };
+    let with = render(learning, learning + 2);
+    let without = render(0, learning + 2);
+    let l = learning as usize;
+    // Until the image starts, the two renders are the same.
+    assert_eq!(with[l - 1].pixels, without[l - 1].pixels);
+    assert_eq!((with[l - 1].frames, with[l].frames, with[l + 1].frames), (learning, 1, 2));
+    let mut lit = 0;
+    for (i, p) in with[l].pixels.iter().enumerate() {
+        let (before, after) = (&without[l - 1].pixels[i], &without[l].pixels[i]);
+        assert_eq!(p.sum[3], mean3(&before.sum), "pixel {i} keeps the learning frames' mean3 sum");
+        assert_eq!(p.m2_frame_mean, [0.0; 4], "pixel {i}: one frame has no spread");
+        for c in 0..3 {
+            // The same frame: the render without learning frames added it to their sums.
+            let frame = after.sum[c] - before.sum[c];
+            assert!((p.sum[c] - frame).abs() <= 1e-5 * after.sum[c].abs().max(1.0), "pixel {i}: {p:?} {frame}");
+        }
+        lit += (p.sum[0] > 0.0) as u32;
+    }
+    assert!(lit > 50, "only {lit} pixels lit");
+    // The next frame adds to it, and the learning frames' sum stays.
+    assert!(with[l + 1].pixels.iter().zip(&with[l].pixels).all(|(b, a)| b.sum[3] == a.sum[3]));
+}
+
+/// The same on the GPU, where the kernel's first accumulation writes over the
+/// learning frames and keeps their mean3 sum in `sum.w`.
+#[test]
+fn the_gpu_image_starts_after_the_learning_frames() {
+    let ctx = gpu();
+    let scene = scene("door.toml");
+    let o = guided(&options(&scene, 24, 16, 64), GuidingMode::Sphere);
+    let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &o).unwrap()).unwrap();
+    let learning = rlpt::guide::default_learning_frames(true);
+    r.render_frames(learning).unwrap();
+    let before = r.film().unwrap();
+    assert_eq!((r.frames(), before.frames), (learning, learning));
+    r.render_frames(1).unwrap();
+    let first = r.film().unwrap();
+    assert_eq!(first.frames, 1);
+    let mut changed = 0;
+    for (i, (p, b)) in first.pixels.iter().zip(&before.pixels).enumerate() {
+        let kept = mean3(&b.sum);
+        assert!((p.sum[3] - kept).abs() <= 1e-6 * kept.abs(), "pixel {i}: {} kept, {kept} learned", p.sum[3]);
+        assert_eq!(p.m2_frame_mean, [0.0; 4], "pixel {i}: one frame has no spread");
+        changed += (p.sum[..3] != b.sum[..3]) as u32;
+    }
+    assert!(changed > 50, "only {changed} pixels have a new sum");
+    r.render_frames(2).unwrap();
+    let later = r.film().unwrap();
+    assert_eq!(later.frames, 3);
+    assert!(later.pixels.iter().zip(&first.pixels).all(|(b, a)| b.sum[3] == a.sum[3]));
+    // Restarting the accumulation (the viewer, when the camera moves) drops the learning frames' sum.
+    r.reset_accumulation().unwrap();
+    r.render_frames(1).unwrap();
+    assert!(r.film().unwrap().pixels.iter().all(|p| p.sum[3] == 0.0));
+    assert_no_validation_messages(&ctx);
+}
+
 /// The mean guided fraction of the learned rows of `t`, and how many there are.
 fn mean_fraction(t: &QTable) -> (f64, usize) {
     let learned: Vec<f64> = t.fractions.iter().filter(|&&f| f > 0.0).map(|&f| f as f64).collect();

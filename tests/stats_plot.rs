@@ -45,6 +45,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
         exploration_floor: Some(0.25),
         q_targets: Some("mis".to_string()),
         nee: true,
+        learning_frames: Some(4),
         frames,
     }
 }

@@ -9,7 +9,7 @@ use crate::math::geometry::{emitted, intersect, light_pdf, meets_light, occluded
 use crate::math::rng::Rng;
 use crate::math::sampling::mis_weight;
 use crate::math::{max_component, Frame, Vec3};
-use crate::prepared::{PreparedScene, RenderParams};
+use crate::prepared::{AccumPixel, PreparedScene, RenderParams};
 use crate::scene::MaterialKind;
 use crate::shared;
 use rayon::prelude::*;
@@ -73,17 +73,23 @@ pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
 }
 
 /// The pixel estimate learned Russian roulette compares with (the mean3 of the
-/// pixel's accumulated mean), or 0, meaning plain throughput roulette, where the
-/// accumulation is empty or the table has learned from fewer than
+/// pixel's mean radiance so far), or 0, meaning plain throughput roulette, where
+/// the pixel has no frames yet or the table has learned from fewer than
 /// `LEARNED_RR_FRAMES` frames (`frames_traced`, which a restart of the
 /// accumulation keeps): a roulette driven by the first frames' table puts, through
 /// its 1/q weights, fireflies into the image that the average keeps for a long
-/// time. `glsl/pathtrace.comp` is the same.
-pub fn roulette_estimate(accumulated_sum: Vec3, accum_frames: u32, frames_traced: u32) -> f32 {
-    if accum_frames == 0 || frames_traced < shared::LEARNED_RR_FRAMES {
+/// time. The frames so far are the accumulation's `accum_frames` and the
+/// `learned_frames` left out of the image before it (`GuideConfig::learning_frames`),
+/// whose mean3 sum the pixel keeps in `sum[3]` once the image has a frame
+/// (`crate::film::accumulate`); before that (`accum_frames` 0) the pixel still
+/// holds them as its sum. `glsl/pathtrace.comp` is the same.
+pub fn roulette_estimate(acc: &AccumPixel, accum_frames: u32, learned_frames: u32, frames_traced: u32) -> f32 {
+    let frames = accum_frames + learned_frames;
+    if frames == 0 || frames_traced < shared::LEARNED_RR_FRAMES {
         return 0.0;
     }
-    guide::mean3(accumulated_sum) / (shared::SAMPLES_PER_FRAME * accum_frames) as f32
+    let learned = if accum_frames > 0 { acc.sum[3] } else { 0.0 };
+    (guide::mean3(Vec3::from_slice(&acc.sum[..3])) + learned) / (shared::SAMPLES_PER_FRAME * frames) as f32
 }
 
 /// Traces one path from the camera ray (o, d) and returns the radiance it
@@ -387,6 +393,9 @@ pub struct CpuRenderer {
     film: Film,
     /// Frames traced so far (decorrelates random numbers; not reset with the film).
     frames_traced: u32,
+    /// The learning frames left out of the image once it starts (0 until then, and
+    /// after `reset_film`): learned roulette's estimate still counts them.
+    learned_frames: u32,
     pub last_counters: FrameCounters,
 }
 
@@ -403,6 +412,7 @@ impl CpuRenderer {
             learning,
             film: Film::new(w, h),
             frames_traced: 0,
+            learned_frames: 0,
             last_counters: FrameCounters::default(),
         }
     }
@@ -418,14 +428,21 @@ impl CpuRenderer {
     /// Starts a new accumulation; what guiding learned is kept.
     pub fn reset_film(&mut self) {
         self.film = Film::new(self.film.width, self.film.height);
+        self.learned_frames = 0;
     }
 
     /// Renders one frame of 64 samples per pixel; with guiding, the table learns
-    /// from its Q-learning targets after the frames the schedule names.
+    /// from its Q-learning targets after the frames the schedule names. The frame
+    /// after the learning frames (`GuideConfig::learning_frames`) starts the
+    /// image anew: the film then holds it alone (`crate::film::accumulate`).
     pub fn render_frame(&mut self) {
         let p = self.scene.params;
         let frame = self.frames_traced;
-        let accum_frames = self.film.frames;
+        if self.film.frames > 0 && frame == self.scene.learning_frames() {
+            self.learned_frames = self.film.frames;
+            self.film.frames = 0;
+        }
+        let (accum_frames, learned_frames) = (self.film.frames, self.learned_frames);
         let scene = &self.scene;
         let learning = self.learning.as_ref();
         let guide = scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide::new(cfg, &l.table));
@@ -445,7 +462,7 @@ impl CpuRenderer {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
                         let estimate = match guide {
-                            Some(_) => roulette_estimate(Vec3::from_slice(&acc.sum[..3]), accum_frames, frame),
+                            Some(_) => roulette_estimate(acc, accum_frames, learned_frames, frame),
                             None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
@@ -464,7 +481,7 @@ impl CpuRenderer {
                                 counters.zero_paths += 1;
                             }
                         }
-                        crate::film::accumulate(acc, accum_frames, sum.to_array());
+                        crate::film::accumulate(acc, accum_frames, learned_frames, sum.to_array());
                     }
                     (sums, counters)
                 },
@@ -549,14 +566,37 @@ mod tests {
     #[test]
     fn learned_roulette_waits_for_a_table_of_several_frames() {
         let n = shared::LEARNED_RR_FRAMES;
+        let pixel = |sum: Vec3, w: f32| AccumPixel { sum: [sum.x, sum.y, sum.z, w], m2_frame_mean: [0.0; 4] };
         let sum = Vec3::new(3.0, 6.0, 9.0) * (shared::SAMPLES_PER_FRAME * n) as f32;
         for traced in 0..n {
-            assert_eq!(roulette_estimate(sum, traced, traced), 0.0, "{traced} frames");
+            assert_eq!(roulette_estimate(&pixel(sum, 0.0), traced, 0, traced), 0.0, "{traced} frames");
         }
-        assert_eq!(roulette_estimate(sum, n, n), 6.0);
-        assert_eq!(roulette_estimate(sum, 2 * n, 2 * n), 3.0);
+        assert_eq!(roulette_estimate(&pixel(sum, 0.0), n, 0, n), 6.0);
+        assert_eq!(roulette_estimate(&pixel(sum, 0.0), 2 * n, 0, 2 * n), 3.0);
         // After a restart of the accumulation the table is still learned.
-        assert_eq!(roulette_estimate(sum / n as f32, 1, 3 * n), 6.0);
-        assert_eq!(roulette_estimate(Vec3::ZERO, 0, 3 * n), 0.0);
+        assert_eq!(roulette_estimate(&pixel(sum / n as f32, 0.0), 1, 0, 3 * n), 6.0);
+        assert_eq!(roulette_estimate(&pixel(Vec3::ZERO, 0.0), 0, 0, 3 * n), 0.0);
+    }
+
+    /// After the learning frames the estimate counts them: first as the sum the
+    /// pixel still holds, then as its `sum[3]` beside the image's frames.
+    #[test]
+    fn learned_roulette_counts_the_learning_frames() {
+        let n = shared::LEARNED_RR_FRAMES;
+        let per_frame = shared::SAMPLES_PER_FRAME as f32;
+        // n learning frames of mean3 6, held as the sum before the image's first frame.
+        let mut acc = AccumPixel {
+            sum: [3.0 * per_frame * n as f32, 6.0 * per_frame * n as f32, 9.0 * per_frame * n as f32, 0.0],
+            m2_frame_mean: [5.0; 4],
+        };
+        assert_eq!(roulette_estimate(&acc, 0, n, n), 6.0);
+        // The image's first frame, of mean3 2 (and 1, 2, 3 per channel), replaces them and keeps their share.
+        crate::film::accumulate(&mut acc, 0, n, [per_frame, 2.0 * per_frame, 3.0 * per_frame]);
+        assert_eq!(acc.sum, [per_frame, 2.0 * per_frame, 3.0 * per_frame, 6.0 * per_frame * n as f32]);
+        assert_eq!(acc.m2_frame_mean, [0.0; 4]);
+        assert_eq!(roulette_estimate(&acc, 1, n, n + 1), (2.0 + 6.0 * n as f32) / (n + 1) as f32);
+        // Without learning frames the first frame keeps nothing of what the pixel held.
+        crate::film::accumulate(&mut acc, 0, 0, [per_frame; 3]);
+        assert_eq!(acc.sum, [per_frame, per_frame, per_frame, 0.0]);
     }
 }

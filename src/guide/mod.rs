@@ -350,6 +350,10 @@ pub struct GuideConfig {
     /// The exponent omega of Q's learning rate 1 / i^omega ([`batch_rate`]), in
     /// (1/2, 1]; 1, the default, is the running mean.
     pub rate_exponent: f32,
+    /// Frames at the start of the render that teach the table and are then left
+    /// out of the image ([`default_learning_frames`]); their radiance stays the
+    /// pixels' estimate for learned roulette.
+    pub learning_frames: u32,
 }
 
 impl GuideConfig {
@@ -518,6 +522,48 @@ pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
 /// nothing on door (CPU renderer, per sample: 0.31 of unguided's at 16x32 against
 /// 0.30 at 8x16) and lost on seed-exp1 at equal time (2 s runs on the H200, relMSE
 /// over unguided's: 2.05 at 12x24 and 2.27 at 16x32 against 1.88 at 8x16).
+/// The learning frames of a guided render (`GuideConfig::learning_frames`) where
+/// none are asked for: with Russian roulette the frames before learned roulette
+/// starts (`LEARNED_RR_FRAMES`), none without.
+///
+/// Those first frames run plain throughput roulette over a table that has learned
+/// from a few frames at most, and each has most of unguided's variance, which the
+/// image's average then keeps: on door.toml (NVIDIA H100, commit `aace912`, the
+/// 10 s render of BENCHMARKS.md's "Guiding at equal time") frames 1 to 4 had
+/// 1.01, 0.78, 0.74 and 0.77 times an unguided frame's relMSE, frame 5 on 0.09
+/// (steady 0.085), and at 1 s those four frames were 18 % of the image's error;
+/// smallpt.toml alike (1.0 to 0.78, then 0.33 to 0.28). Without roulette the
+/// first frames gain gradually (seed-exp1: 1.01, 0.71, 0.62, 0.59, steady 0.55),
+/// and leaving them out would cost more samples than error. The image then
+/// averages the frames from the first learned-roulette frame on, which each
+/// estimate the pixel without bias; which frames are left out is fixed before
+/// the render, so the image stays unbiased. At equal time (NVIDIA H100,
+/// `scripts/gpu-bench.sh RLPT OUT learning-frames door smallpt`, relMSE less the
+/// reference's variance over unguided's at 1 s / 10 s), 0, 4 and 8 learning
+/// frames gave door 0.247 / 0.194, 0.212 / 0.191 and 0.216 / 0.191, smallpt
+/// 0.529 / 0.429, 0.502 / 0.427 and 0.531 / 0.429 (smallpt has 71 frames in its
+/// first second, and its fifth to eighth are as good as the later ones).
+pub fn default_learning_frames(roulette: bool) -> u32 {
+    if roulette {
+        crate::shared::LEARNED_RR_FRAMES
+    } else {
+        0
+    }
+}
+
+/// The most learning frames taken (`--learning-frames`; [`check_learning_frames`]).
+pub const MAX_LEARNING_FRAMES: u32 = 65_536;
+
+/// Whether `n` learning frames can be asked for: 0 to [`MAX_LEARNING_FRAMES`].
+/// The message says what was expected (shared with the command line's parser).
+pub fn check_learning_frames(n: u32) -> Result<(), String> {
+    if n <= MAX_LEARNING_FRAMES {
+        Ok(())
+    } else {
+        Err(format!("0 to {MAX_LEARNING_FRAMES} frames: those that teach the table before the image starts"))
+    }
+}
+
 pub fn default_bins(roulette: bool) -> Bins {
     if roulette {
         Bins::SPHERE_ROULETTE_DEFAULT

@@ -265,9 +265,31 @@ pub struct GpuRenderer {
     frames_traced: u32,
     /// Frames in the accumulation buffer.
     accum_frames: u32,
+    /// Frames that teach the table before the image starts (`GuideConfig::learning_frames`).
+    learning_frames: u32,
+    /// The learning frames left out of the image once it starts (0 until then, and
+    /// after `reset_accumulation`): learned roulette's estimate still counts them
+    /// (the kernel's `learned_frames`).
+    learned_frames: u32,
     /// `ABLATE_*` bits for `render_frame_profiled`: parts of guiding left out
     /// (profiling only: the image is then not what rlpt renders).
     pub ablate: u32,
+}
+
+/// pathtrace.comp's push constants (`Push`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct PathPush {
+    /// Frames traced before this one (decorrelates the random numbers).
+    frame: u32,
+    /// Frames in the accumulation before this one.
+    accum_frames: u32,
+    /// `ABLATE_*` bits (profiling only).
+    ablate: u32,
+    /// The pixel rows a dispatch traces (`RowDispatch::rows`).
+    rows: u32,
+    /// The learning frames left out of the image (`GpuRenderer::learned_frames`).
+    learned_frames: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -405,6 +427,8 @@ impl GpuRenderer {
             params: *p,
             frames_traced: 0,
             accum_frames: 0,
+            learning_frames: scene.learning_frames(),
+            learned_frames: 0,
             ablate: 0,
         };
         renderer.bind_path_pipelines();
@@ -430,16 +454,37 @@ impl GpuRenderer {
         }
     }
 
-    /// Records the dispatches of one frame (`frame_dispatches`); `push` is the
-    /// kernel's frame, accumulated frames and ablation bits.
-    fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: [u32; 3]) {
+    /// The kernel's push constants for the next frame (`rows` left 0, `cmd_trace`
+    /// sets it per dispatch), counting the frame as traced and accumulated. The
+    /// frame after the learning frames starts the image: the accumulation's
+    /// frames become the learned frames, and the kernel writes over them
+    /// (`accumulate`, `crate::film::accumulate`).
+    fn next_frame(&mut self) -> PathPush {
+        if self.accum_frames > 0 && self.frames_traced == self.learning_frames {
+            self.learned_frames = self.accum_frames;
+            self.accum_frames = 0;
+        }
+        let push = PathPush {
+            frame: self.frames_traced,
+            accum_frames: self.accum_frames,
+            ablate: self.ablate,
+            rows: 0,
+            learned_frames: self.learned_frames,
+        };
+        self.frames_traced += 1;
+        self.accum_frames += 1;
+        push
+    }
+
+    /// Records the dispatches of one frame (`frame_dispatches`).
+    fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: PathPush) {
         let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some(), self.params.scene_kinds));
-        for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push[0], self.height) {
+        for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push.frame, self.height) {
             let pipeline = match (&self.recording, d.recording) {
                 (Some(r), true) => r,
                 _ => &self.pipeline,
             };
-            let push = [push[0], push[1], push[2], d.rows];
+            let push = PathPush { rows: d.rows, ..push };
             pipeline.cmd_dispatch(cmd, [wide, d.groups_y, 1], bytemuck::bytes_of(&push));
         }
     }
@@ -526,6 +571,7 @@ impl GpuRenderer {
     pub fn reset_accumulation(&mut self) -> Result<(), GpuError> {
         self.ctx.run_commands("reset accumulation", |cmd| self.accum.cmd_clear(cmd))?;
         self.accum_frames = 0;
+        self.learned_frames = 0;
         Ok(())
     }
 
@@ -535,26 +581,27 @@ impl GpuRenderer {
     /// queries (zero where the queue has none).
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
         let timestamps = self.ctx.info.timestamps;
-        let (traced, accumulated) = (self.frames_traced, self.accum_frames);
+        let first = self.frames_traced;
+        let pushes: Vec<PathPush> = (0..count).map(|_| PathPush { ablate: 0, ..self.next_frame() }).collect();
         self.ctx.run_commands("pathtrace frames", |cmd| {
             self.counters.cmd_clear(cmd);
             self.ctx.barrier(cmd);
             if timestamps {
                 self.timer.cmd_reset(cmd);
             }
-            for f in 0..count {
+            for (f, &push) in (0..count).zip(&pushes) {
                 if f > 0 {
                     self.ctx.barrier(cmd);
                 }
                 if timestamps && f == 0 {
                     self.timer.cmd_stamp(cmd, 0);
                 }
-                self.cmd_trace(cmd, [traced + f, accumulated + f, 0]);
+                self.cmd_trace(cmd, push);
                 if let Some(l) = &self.learning {
                     if timestamps && f + 1 == count {
                         self.timer.cmd_stamp(cmd, 1);
                     }
-                    if l.schedule.learns_after(traced + f) {
+                    if l.schedule.learns_after(first + f) {
                         l.cmd_learn(&self.ctx, cmd, |_| {});
                     }
                 }
@@ -568,8 +615,6 @@ impl GpuRenderer {
             self.ctx.barrier(cmd);
             self.counters.cmd_copy_to(cmd, &self.counters_readback);
         })?;
-        self.frames_traced += count;
-        self.accum_frames += count;
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
         let mut t = FrameTimings { zero_paths, segments, subgroup_segments, ..Default::default() };
         if timestamps {
@@ -592,8 +637,8 @@ impl GpuRenderer {
                 missing: "timestamp queries on the compute queue, which GPU timing needs".into(),
             });
         }
-        let push = [self.frames_traced, self.accum_frames, self.ablate];
         let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.frames_traced));
+        let push = self.next_frame();
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);
@@ -608,8 +653,6 @@ impl GpuRenderer {
             self.ctx.barrier(cmd);
             self.counters.cmd_copy_to(cmd, &self.counters_readback);
         })?;
-        self.frames_traced += 1;
-        self.accum_frames += 1;
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
         let s = self.timer.read(if learns { 4 } else { 2 })?;
         let ms = |a: u64, b: u64| self.timer.ticks_to_ms(a, b);
@@ -775,7 +818,14 @@ fn path_pipeline(
     constants.extend_from_slice(geometry);
     debug_assert_eq!(constants.len(), shared::NUM_SPEC_CONSTANTS as usize);
     let name = if recording { format!("{kernel} (recording)") } else { kernel.to_string() };
-    Pipeline::new_specialized(ctx, &name, crate::gpu::shader(kernel), &bindings, 16, &constants)
+    Pipeline::new_specialized(
+        ctx,
+        &name,
+        crate::gpu::shader(kernel),
+        &bindings,
+        std::mem::size_of::<PathPush>() as u32,
+        &constants,
+    )
 }
 
 /// The values of pathtrace.comp's scalar specialization constants (`SPEC_*` of
