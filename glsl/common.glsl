@@ -213,7 +213,7 @@
 // of one pixel row in a stride, a different row each frame. The stride starts at
 // RECORD_ROW_STRIDE and doubles, up to RECORD_MAX_STRIDE, as the table fills.
 #define RECORD_ALL_FRAMES 8
-#define RECORD_ROW_STRIDE 4
+#define RECORD_ROW_STRIDE 8
 #define RECORD_MAX_STRIDE 32
 // Which pixel rows a dispatch of pathtrace.comp traces (push constant `rows`:
 // mode | phase << 8 | stride << 16; src/render/mod.rs `frame_dispatches`): all

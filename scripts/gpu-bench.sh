@@ -10,7 +10,8 @@
 #             frames of 64 spp at the scene's size after 640 warm-up frames, past
 #             the last change of the recording stride (guide::RecordSchedule) on
 #             every scene here but door, whose default table with roulette (20x40
-#             bins) changes stride last at frame 3840 and is measured after 3872
+#             bins) changes stride last at frame 2048 (3840 before recording
+#             started at stride 8) and is measured after 3872
 #             (bench-S-G); and, guided, after 8 (bench-early-S-G), where more rows
 #             record.
 # equal-time: for each SCENE, a reference (unguided, NEE on, 40 s of GPU time)
