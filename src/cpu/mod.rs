@@ -512,7 +512,9 @@ impl CpuRenderer {
 }
 
 /// Renders `frames` frames of 64 samples per pixel into a new film (no guiding
-/// state kept), calling `on_frame` after each.
+/// state kept), calling `on_frame` after each. The learning frames
+/// (`GuideConfig::learning_frames`) count among them: past them, the film holds
+/// the frames after them alone.
 pub fn render(scene: &PreparedScene, film: &mut Film, frames: u32, mut on_frame: impl FnMut(&Film)) {
     let mut r = CpuRenderer::new(scene);
     assert_eq!(
