@@ -62,7 +62,7 @@ uint pixel_row(uint g) {
 
 // src/film.rs `accumulate`. The first frame of an accumulation writes over what
 // the buffer holds; after the learning frames, it keeps their mean3 sum in sum.w
-// (src/film.rs `restart_after_learning`).
+// (src/cpu/mod.rs `roulette_estimate` reads it).
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
     uint n = push.accum_frames;
@@ -75,7 +75,7 @@ void accumulate(uint pixel, vec3 sum) {
         accum[pixel].m2_frame_mean = vec4(0.0);
         return;
     }
-    vec3 mean_old = n == 0u ? vec3(0.0) : accum[pixel].sum.xyz / (per_frame * float(n));
+    vec3 mean_old = accum[pixel].sum.xyz / (per_frame * float(n));
     vec3 m = sum / per_frame;
     vec3 delta = m - mean_old;
     vec3 mean_new = mean_old + delta / float(n + 1u);

@@ -32,7 +32,7 @@ pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [
         return;
     }
     for c in 0..3 {
-        let mean_old = if frames == 0 { 0.0 } else { acc.sum[c] / (per_frame * frames as f32) };
+        let mean_old = acc.sum[c] / (per_frame * frames as f32);
         let m = sum[c] / per_frame;
         let delta = m - mean_old;
         let mean_new = mean_old + delta / (frames + 1) as f32;

@@ -619,7 +619,7 @@ fn render(args: RenderArgs) -> Result<()> {
         exploration_floor: opts.exploration_floor_if_guided(),
         q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
-        learning_frames: opts.learning_frames_if_guided(),
+        learning_frames: prepared.guide.as_ref().map(|g| g.learning_frames),
         frames: Vec::new(),
     };
     let mut gpu_ms_total = 0.0;

@@ -359,14 +359,6 @@ impl RenderOptions {
         (self.guiding != GuidingMode::Off).then_some(self.guide_floor)
     }
 
-    /// The learning frames a render of these options takes (`GuideConfig::learning_frames`;
-    /// the default follows `russian_roulette_depth`): None without guiding.
-    pub fn learning_frames_if_guided(&self) -> Option<u32> {
-        (self.guiding != GuidingMode::Off).then(|| {
-            self.learning_frames.unwrap_or(guide::default_learning_frames(self.russian_roulette_depth.is_some()))
-        })
-    }
-
     /// What Q-learning targets count, as reports name it (`mis` or `full`): None
     /// without guiding, and without NEE, where the two are the same.
     pub fn q_targets_if_guided(&self) -> Option<&'static str> {

@@ -265,8 +265,6 @@ pub struct GpuRenderer {
     frames_traced: u32,
     /// Frames in the accumulation buffer.
     accum_frames: u32,
-    /// Frames that teach the table before the image starts (`GuideConfig::learning_frames`).
-    learning_frames: u32,
     /// The learning frames left out of the image once it starts (0 until then, and
     /// after `reset_accumulation`): learned roulette's estimate still counts them
     /// (the kernel's `learned_frames`).
@@ -427,7 +425,6 @@ impl GpuRenderer {
             params: *p,
             frames_traced: 0,
             accum_frames: 0,
-            learning_frames: scene.learning_frames(),
             learned_frames: 0,
             ablate: 0,
         };
@@ -460,7 +457,8 @@ impl GpuRenderer {
     /// frames become the learned frames, and the kernel writes over them
     /// (`accumulate`, `crate::film::accumulate`).
     fn next_frame(&mut self) -> PathPush {
-        if self.accum_frames > 0 && self.frames_traced == self.learning_frames {
+        let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        if self.accum_frames > 0 && self.frames_traced == learning_frames {
             self.learned_frames = self.accum_frames;
             self.accum_frames = 0;
         }
