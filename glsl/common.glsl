@@ -34,8 +34,10 @@
 #define LIGHT_SPHERE 0
 #define LIGHT_QUAD 1
 #define NO_LIGHT 4294967295
-// A face of the room (src/math/geometry.rs `Room`) that no quad covers.
+// A face of the room (src/math/geometry.rs `Room`) that no quad covers, and the
+// shadow test's "skip no primitive" (geometry.glsl `occluded`).
 #define NO_QUAD 4294967295
+#define NO_SPHERE 4294967295
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
 // bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light, and bit
 // (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough

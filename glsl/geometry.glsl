@@ -385,28 +385,31 @@ bool meets_light(vec3 o, vec3 d) {
     return false;
 }
 
-bool occluded(vec3 o, vec3 d, float t_max) {
+// src/math/geometry.rs `occluded`: whether anything but the sphere skip_sphere and
+// the quad skip_quad (the light a shadow ray ends on; NO_SPHERE / NO_QUAD for
+// none) blocks the segment; the quads that bound the scene are not tested.
+bool occluded(vec3 o, vec3 d, float t_max, uint skip_sphere, uint skip_quad) {
     vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \
-    if (i < spec_sphere_count() && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
+    if (i < spec_sphere_count() && i != skip_sphere && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_SPHERE)
     uint ns = const_sphere_count();
     [[dont_unroll]] for (uint i = spec_sphere_count(); i < ns; ++i) {
-        if (const_sphere_blocks(i, o, d, t_max)) return true;
+        if (i != skip_sphere && const_sphere_blocks(i, o, d, t_max)) return true;
     }
     for (uint i = ns; i < SCENE_SPHERES; ++i) {
-        if (sphere_blocks(spheres[i], o, d, t_max)) return true;
+        if (i != skip_sphere && sphere_blocks(spheres[i], o, d, t_max)) return true;
     }
     uint nqs = min(OCCLUDING_QUADS, uint(SPEC_QUADS));
 #define BLOCKS_SPEC_QUAD(i) \
-    if (i < nqs && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
+    if (i < nqs && i != skip_quad && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_QUAD)
     uint nq = min(OCCLUDING_QUADS, uint(CONST_QUADS));
     [[dont_unroll]] for (uint i = nqs; i < nq; ++i) {
-        if (const_quad(i, o, d, t_max) > 0.0) return true;
+        if (i != skip_quad && const_quad(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = nq; i < OCCLUDING_QUADS; ++i) {
-        if (intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
+        if (i != skip_quad && intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;
 }
@@ -424,15 +427,28 @@ float one_minus_cos_max(float sin2_max) {
     return sin2_max < 0.00068523 ? 0.5 * sin2_max : 1.0 - sqrt(max(0.0, 1.0 - sin2_max));
 }
 
+// src/math/geometry.rs `LightSample`: `end` is where the shadow ray ends, the
+// light point itself with the light's own primitive skipped, except for a
+// sphere sampled by area (which may hide its far side), see the Rust doc.
 struct LightSample {
     vec3 wi;
     float dist;
     vec3 p;
-    vec3 n;
-    float eps;
+    vec3 end;
+    uint skip_sphere;
+    uint skip_quad;
     vec3 le;
     float pdf;
 };
+
+// src/math/geometry.rs `shadow_ray`: the segment from the shading point (moved
+// off its surface) to the light sample's end, as origin, unit direction, length.
+void shadow_ray(vec3 p, vec3 n, float eps, LightSample ls, out vec3 origin, out vec3 dir, out float len) {
+    origin = offset_origin(p, n, eps, ls.wi);
+    vec3 seg = ls.end - origin;
+    len = length(seg);
+    dir = seg / len;
+}
 
 // Whether a light is a sphere (else a quad); known where the kernel is
 // specialized to a scene with lights of one kind, so the other's code goes.
@@ -456,8 +472,13 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     }
     Light light = lights[li];
     vec3 lp, ln;
-    float eps, pdf_solid;
+    float pdf_solid;
     uint mat;
+    // The shadow ray's end and what it skips: the point itself and the light's
+    // primitive, unless a sphere is sampled by area (area_eps > 0).
+    ls.skip_sphere = NO_SPHERE;
+    ls.skip_quad = NO_QUAD;
+    float area_eps = 0.0;
     if (is_sphere_light(light)) {
         Sphere s = spheres[light.index];
         vec3 c = s.center_radius.xyz;
@@ -485,6 +506,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             ln = -to_world(frame, vec3(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha));
             lp = c + r * ln;
             pdf_solid = 1.0 / (2.0 * PI * omc);
+            ls.skip_sphere = light.index;
         } else {
             ln = uniform_sphere(u);
             lp = c + r * ln;
@@ -493,8 +515,8 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             float cos_l = abs(dot(ln, d)) / sqrt(d2);
             if (cos_l <= 0.0) return false;
             pdf_solid = d2 / (4.0 * PI * r * r * cos_l);
+            area_eps = hit_epsilon(lp, sphere_scale(s.center_radius));
         }
-        eps = hit_epsilon(lp, sphere_scale(s.center_radius));
         mat = s.material;
     } else {
         Quad q = quads[light.index];
@@ -505,7 +527,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
         float cos_l = abs(dot(ln, d)) / sqrt(d2);
         if (cos_l <= 0.0) return false;
         pdf_solid = d2 / (q.origin.w * cos_l);
-        eps = hit_epsilon(lp, quad_scale(q));
+        ls.skip_quad = light.index;
         mat = q.material;
     }
     vec3 d = lp - p;
@@ -514,8 +536,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     ls.wi = d / dist;
     ls.dist = dist;
     ls.p = lp;
-    ls.n = ln;
-    ls.eps = eps;
+    ls.end = area_eps > 0.0 ? offset_origin(lp, ln, area_eps, -ls.wi) : lp;
     ls.le = emitted(mat, ln, -ls.wi);
     ls.pdf = pdf_solid * light.pmf;
     return ls.pdf > 0.0 && !isinf(ls.pdf);
@@ -533,9 +554,11 @@ float light_pdf(uint light_index, vec3 p, vec3 w) {
         if (dc2 > r * r * 1.0001) {
             pdf_solid = 1.0 / (2.0 * PI * one_minus_cos_max(r * r / dc2));
         } else {
+            // Sampled by area: the point w reaches first (src/math/geometry.rs).
             float b = -dot(f, w);
             float l2 = length(f + b * w);
-            float t = b + sqrt(max(0.0, (r - l2) * (r + l2)));
+            float root = sqrt(max(0.0, (r - l2) * (r + l2)));
+            float t = (dc2 > r * r && b - root > hit_epsilon(p, 0.0)) ? b - root : b + root;
             if (!(t > 0.0)) return 0.0;
             vec3 n = (p + t * w - cr.xyz) / r;
             pdf_solid = t * t / (4.0 * PI * r * r * abs(dot(n, w)));

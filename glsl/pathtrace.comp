@@ -301,12 +301,11 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                 float pdf_bsdf;
                 vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
                 if (max_component(ls.le) > 0.0 && max_component(f) > 0.0) {
-                    vec3 origin = offset_origin(hit.p, hit.n, hit.eps, ls.wi);
-                    vec3 target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
-                    vec3 seg = target - origin;
-                    float len = length(seg);
+                    vec3 origin, dir;
+                    float len;
+                    shadow_ray(hit.p, hit.n, hit.eps, ls, origin, dir, len);
                     COUNT_RAY();
-                    if (!occluded(origin, seg / len, len)) {
+                    if (!occluded(origin, dir, len, ls.skip_sphere, ls.skip_quad)) {
                         // MIS against the mixture's density where the vertex mixes
                         // (src/cpu/mod.rs `trace_path`, `mixture_sample`).
                         float pdf_mix = pdf_bsdf;

@@ -760,9 +760,9 @@ pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool
 ///
 /// A quad whose plane has every primitive of the scene in one closed half-space
 /// (walls, floor and ceiling of a room; a ground plane) cannot block a shadow
-/// ray: both ends of the segment lie on the scene's surfaces, moved off them to
-/// the side the segment leaves by, so in that half-space, and a half-space is
-/// convex, so the segment never crosses the plane. Only rounding could make it
+/// ray: both ends of the segment lie on the scene's surfaces (the origin moved
+/// off its surface to the side the segment leaves by), so in that half-space, and
+/// a half-space is convex, so the segment never crosses the plane. Only rounding could make it
 /// appear to, at points within the hit epsilon of the plane, which the offset
 /// exists to keep away. Such quads go last and shadow rays skip them; the others
 /// keep their order in front. Touching the plane counts as inside, and so does
@@ -772,9 +772,9 @@ pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool
 /// 6e-8 (door.toml), and a segment can then cross the plane only at an end that
 /// lies within that distance of it, inside the band where the answer is rounding.
 ///
-/// In a scene whose one light is a quad, every shadow ray ends on that quad,
-/// moved off it to the side the ray comes from: the segment meets the quad's
-/// plane nowhere, so the lamp goes last too.
+/// In a scene whose one light is a quad, every shadow ray ends on that quad, which
+/// the shadow test skips as the light a segment ends on
+/// (`math::geometry::LightSample::end`), so the lamp goes last too.
 pub fn occluding_order(scene: &Scene) -> (Vec<usize>, u32) {
     let d = |v: Vec3| v.as_dvec3();
     let bounds_scene = |q: &crate::scene::Quad| {

@@ -1,13 +1,14 @@
 //! Shadow rays skip the quads that bound the scene (`rlpt::prepared::occluding_order`).
 //! On every shipped scene, for shadow rays built as the renderers build them, the
-//! culled test must give the answer of the test against every primitive, except
-//! where a skipped quad blocks the segment at one of its ends, within twice that
-//! end's hit epsilon of the quad's plane (the offset of an end moves it by one):
-//! there the full test's answer is rounding, which the offset exists to avoid,
-//! and such points are measure zero.
+//! culled test must give the answer of the test against every primitive (but the
+//! light the segment ends on), except where a skipped quad blocks the segment at
+//! one of its ends: the origin within twice its hit epsilon of the quad's plane
+//! (its offset moves it by one), or the light point within a hit epsilon of it.
+//! There the full test's answer is rounding, and such points are measure zero.
 
 use rlpt::math::geometry::{
-    intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light, sphere_blocks,
+    hit_epsilon, intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light, shadow_ray,
+    sphere_blocks,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::sampling::uniform_sphere;
@@ -15,9 +16,12 @@ use rlpt::math::Vec3;
 use rlpt::prepared::{GpuQuad, GpuSphere, PreparedScene, RenderOptions};
 use rlpt::scene::Scene;
 
-fn occluded_by_all(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> bool {
-    scene.spheres.iter().any(|s| intersect_sphere(s, o, d, t_max).is_some())
-        || scene.quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
+/// The hit test against every primitive but the light the segment ends on.
+fn occluded_by_all(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip_sphere: u32, skip_quad: u32) -> bool {
+    let spheres = scene.spheres.iter().enumerate().filter(|&(i, _)| i as u32 != skip_sphere);
+    let quads = scene.quads.iter().enumerate().filter(|&(i, _)| i as u32 != skip_quad);
+    spheres.into_iter().any(|(_, s)| intersect_sphere(s, o, d, t_max).is_some())
+        || quads.into_iter().any(|(_, q)| intersect_quad(q, o, d, t_max).is_some())
 }
 
 fn plane_distance(q: &GpuQuad, p: Vec3) -> f32 {
@@ -50,13 +54,12 @@ fn shadow_rays_skip_only_quads_that_cannot_block_them() {
             for _ in 0..3 {
                 let Some(hit) = intersect(&prepared, o, d, f32::INFINITY) else { break };
                 if let Some(ls) = sample_light(&prepared, hit.p, rng.next_f32(), rng.next_2d()) {
-                    let origin = offset_origin(hit.p, hit.n, hit.eps, ls.wi);
-                    let target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
-                    let seg = target - origin;
-                    let len = seg.length();
-                    let dir = seg / len;
-                    let (culled, full) =
-                        (occluded(&prepared, origin, dir, len), occluded_by_all(&prepared, origin, dir, len));
+                    let (origin, dir, len) = shadow_ray(hit.p, hit.n, hit.eps, &ls);
+                    let target = ls.end;
+                    let (culled, full) = (
+                        occluded(&prepared, origin, dir, len, ls.skip_sphere, ls.skip_quad),
+                        occluded_by_all(&prepared, origin, dir, len, ls.skip_sphere, ls.skip_quad),
+                    );
                     rays += 1;
                     blocked += full as u32;
                     if culled != full {
@@ -74,7 +77,8 @@ fn shadow_rays_skip_only_quads_that_cannot_block_them() {
                         );
                         for q in skipped {
                             assert!(
-                                plane_distance(q, origin) <= 2.0 * hit.eps || plane_distance(q, target) <= 2.0 * ls.eps,
+                                plane_distance(q, origin) <= 2.0 * hit.eps
+                                    || plane_distance(q, target) <= hit_epsilon(target, 0.0),
                                 "{}: the skipped quad at {:?} blocks the segment {origin} -> {target}, \
                                  whose ends are far from its plane",
                                 path.display(),

@@ -5,7 +5,9 @@
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
-use crate::math::geometry::{emitted, intersect, light_pdf, meets_light, occluded, offset_origin, sample_light};
+use crate::math::geometry::{
+    emitted, intersect, light_pdf, meets_light, occluded, offset_origin, sample_light, shadow_ray,
+};
 use crate::math::rng::Rng;
 use crate::math::sampling::mis_weight;
 use crate::math::{max_component, Frame, Vec3};
@@ -245,12 +247,9 @@ pub fn trace_path(
                 let wi_local = frame.to_local(ls.wi);
                 let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
                 if ls.le.max_element() > 0.0 && f.max_element() > 0.0 {
-                    let origin = offset_origin(hit.p, hit.n, hit.eps, ls.wi);
-                    let target = offset_origin(ls.p, ls.n, ls.eps, -ls.wi);
-                    let seg = target - origin;
-                    let len = seg.length();
+                    let (origin, dir, len) = shadow_ray(hit.p, hit.n, hit.eps, &ls);
                     segments += 1;
-                    if !occluded(scene, origin, seg / len, len) {
+                    if !occluded(scene, origin, dir, len, ls.skip_sphere, ls.skip_quad) {
                         // MIS against the mixture's density where the vertex mixes
                         // (see `mixture_sample`).
                         let pdf = if g_frac > 0.0 {

@@ -348,12 +348,15 @@ pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<
 }
 
 /// True if anything blocks the segment from `o` along unit `d` up to `t_max`,
-/// both ends on the scene's surfaces (a shadow ray): the quads that bound the
-/// scene cannot, and are not tested (`crate::prepared::occluding_order`).
-pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> bool {
+/// both ends on the scene's surfaces (a shadow ray), leaving out the sphere
+/// `skip_sphere` and the quad `skip_quad` (the light the segment ends on, see
+/// [`LightSample::end`]; `shared::NO_SPHERE` / `NO_QUAD` for none). The quads that
+/// bound the scene cannot block, and are not tested (`crate::prepared::occluding_order`).
+/// `glsl/geometry.glsl` `occluded`.
+pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip_sphere: u32, skip_quad: u32) -> bool {
     let quads = &scene.quads[..scene.params.occluding_quads as usize];
-    scene.spheres.iter().any(|s| sphere_blocks(s, o, d, t_max))
-        || quads.iter().any(|q| intersect_quad(q, o, d, t_max).is_some())
+    scene.spheres.iter().enumerate().any(|(i, s)| i as u32 != skip_sphere && sphere_blocks(s, o, d, t_max))
+        || quads.iter().enumerate().any(|(i, q)| i as u32 != skip_quad && intersect_quad(q, o, d, t_max).is_some())
 }
 
 /// Whether the line of the ray from `o` along `d` meets a light at t > 0, by the
@@ -385,11 +388,33 @@ pub struct LightSample {
     pub dist: f32,
     pub p: Vec3,
     pub n: Vec3,
-    pub eps: f32,
+    /// Where the shadow ray ends. The light point itself, with the light's own
+    /// primitive left out of the test (`skip_sphere`, `skip_quad`), where the light
+    /// cannot hide its point from the shading point: a quad, and a sphere sampled
+    /// by its cone from outside (the point is on the near side). An end moved off
+    /// the light instead would let the shadow ray pass every surface that crosses
+    /// the light within that distance of the point: smallpt's ceiling cuts its lamp
+    /// just below the cap, and an end moved by the hit epsilon brightened the image
+    /// measurably (docs/correctness.md). A sphere sampled by area (from inside or next to it) may
+    /// pick its far side, which the sphere itself must block: there the end is
+    /// moved off the surface towards the shading point and the sphere is tested.
+    pub end: Vec3,
+    pub skip_sphere: u32,
+    pub skip_quad: u32,
     /// Emitted radiance towards the shading point (zero if it sees the back of a one-sided light).
     pub le: Vec3,
     /// Solid-angle density at the shading point, including the choice of the light.
     pub pdf: f32,
+}
+
+/// The shadow ray of a light sample from a shading point (`p`, geometric normal
+/// `n`, hit epsilon `eps`): origin, unit direction and length, for [`occluded`]
+/// with the sample's `skip_sphere` and `skip_quad`. `glsl/geometry.glsl` `shadow_ray`.
+pub fn shadow_ray(p: Vec3, n: Vec3, eps: f32, ls: &LightSample) -> (Vec3, Vec3, f32) {
+    let origin = offset_origin(p, n, eps, ls.wi);
+    let seg = ls.end - origin;
+    let len = seg.length();
+    (origin, seg / len, len)
 }
 
 /// Probability of the sphere-cone sampling scheme covering the light, as
@@ -430,7 +455,10 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
         }
     }
     let light = &scene.lights[li];
-    let (lp, ln, eps, mat, pdf_solid) = if light.kind == shared::LIGHT_SPHERE {
+    // The shadow ray's end and what it skips (see `LightSample::end`): the point
+    // itself and the light's primitive, unless a sphere is sampled by area.
+    let (mut skip_sphere, mut skip_quad, mut area_eps) = (shared::NO_SPHERE, shared::NO_QUAD, 0.0f32);
+    let (lp, ln, mat, pdf_solid) = if light.kind == shared::LIGHT_SPHERE {
         let s = &scene.spheres[light.index as usize];
         let c = xyz(s.center_radius);
         let r = s.center_radius[3];
@@ -457,7 +485,8 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
             let w = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
             let n = -frame.to_world(w);
             let lp = c + r * n;
-            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, 1.0 / (2.0 * PI * omc))
+            skip_sphere = light.index;
+            (lp, n, s.material, 1.0 / (2.0 * PI * omc))
         } else {
             // Inside (or on) the sphere: uniform by area.
             let n = super::sampling::uniform_sphere(u);
@@ -469,7 +498,8 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
                 return None;
             }
             let area = 4.0 * PI * r * r;
-            (lp, n, hit_epsilon(lp, sphere_scale(s.center_radius)), s.material, d2 / (area * cos_l))
+            area_eps = hit_epsilon(lp, sphere_scale(s.center_radius));
+            (lp, n, s.material, d2 / (area * cos_l))
         }
     } else {
         let q = &scene.quads[light.index as usize];
@@ -481,7 +511,8 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
         if cos_l <= 0.0 {
             return None;
         }
-        (lp, n, hit_epsilon(lp, quad_scale(q)), q.material, d2 / (q.origin[3] * cos_l))
+        skip_quad = light.index;
+        (lp, n, q.material, d2 / (q.origin[3] * cos_l))
     };
     let d = lp - p;
     let dist = d.length();
@@ -494,7 +525,8 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
     if !(pdf > 0.0 && pdf.is_finite()) {
         return None;
     }
-    Some(LightSample { wi, dist, p: lp, n: ln, eps, le, pdf })
+    let end = if area_eps > 0.0 { offset_origin(lp, ln, area_eps, -wi) } else { lp };
+    Some(LightSample { wi, dist, p: lp, n: ln, end, skip_sphere, skip_quad, le, pdf })
 }
 
 /// The density with which `sample_light`, called at `p`, picks the direction `w`
@@ -516,11 +548,14 @@ pub fn light_pdf(scene: &PreparedScene, light: u32, p: Vec3, w: Vec3) -> f32 {
             let sin2_max = r * r / dc2;
             1.0 / (2.0 * PI * one_minus_cos_max(sin2_max))
         } else {
-            // From inside (or on) the sphere: the far root, which is the one point w reaches.
+            // Sampled by area: the point w reaches first. From inside, or from a
+            // point on the sphere (a near root within its hit epsilon), the far
+            // root; from a point just outside, the near one.
             let b = -f.dot(w);
             let l2 = (f + b * w).length();
-            let disc = ((r - l2) * (r + l2)).max(0.0);
-            let t = b + disc.sqrt();
+            let root = ((r - l2) * (r + l2)).max(0.0).sqrt();
+            let near = b - root;
+            let t = if dc2 > r * r && near > hit_epsilon(p, 0.0) { near } else { b + root };
             if !(t > 0.0) {
                 return 0.0;
             }
