@@ -40,6 +40,18 @@ enum Command {
         /// the relMSE less the reference's own noise, the error against the true image.
         #[arg(long)]
         reference_variance: Option<PathBuf>,
+        /// The image's per-pixel variance (EXR, from `render --variance`). With the
+        /// reference's too, and two independent renders, also print whether their means
+        /// agree: over the whole image and 16 regions, per channel, as z-scores.
+        #[arg(long, requires = "reference_variance")]
+        image_variance: Option<PathBuf>,
+        /// Fail when a mean differs by more than Z standard deviations (needs both variances).
+        #[arg(long, value_name = "Z", requires = "image_variance")]
+        max_z: Option<f64>,
+        /// The relative difference the agreement does not resolve, added to each mean's
+        /// deviation (f32 rounding along a path; 0: the noise alone).
+        #[arg(long, value_name = "F", default_value_t = 1e-4, requires = "image_variance")]
+        floor: f64,
     },
     /// Time every GPU pass of every frame (timestamp queries): a table, JSON, a Chrome trace.
     Bench(BenchArgs),
@@ -444,8 +456,13 @@ fn main() {
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
-        Command::Compare { image, reference, reference_variance } => {
-            compare(&image, &reference, reference_variance.as_deref())
+        Command::Compare { image, reference, reference_variance, image_variance, max_z, floor } => {
+            compare(&image, &reference, reference_variance.as_deref()).and_then(|()| {
+                match (image_variance, reference_variance) {
+                    (Some(iv), Some(rv)) => agree(&image, &iv, &reference, &rv, max_z, floor),
+                    _ => Ok(()),
+                }
+            })
         }
         Command::Plot { stats, output, debiased } => plot(&stats, &output, debiased),
     };
@@ -815,6 +832,69 @@ fn compare(image: &Path, reference: &Path, reference_variance: Option<&Path>) ->
     };
     let debiased = e.rel_mse_debiased.map(|d| format!("  relMSE less the reference's variance {d:.6e}"));
     println!("relMSE {:.6e}  RMSE {:.6e}  MAPE {:.6e}{}", e.rel_mse, e.rmse, e.mape, debiased.unwrap_or_default());
+    Ok(())
+}
+
+/// `compare --image-variance`: whether two independent renders' means agree
+/// (`metrics::agreement`), printed; with `max_z`, an error where one differs by more.
+fn agree(
+    image: &Path,
+    image_var: &Path,
+    reference: &Path,
+    reference_var: &Path,
+    max_z: Option<f64>,
+    floor: f64,
+) -> Result<()> {
+    if !(0.0..1.0).contains(&floor) {
+        bail!("--floor {floor}: a relative difference in [0, 1)");
+    }
+    let hint = "a variance is a linear EXR (`rlpt render --variance VAR.exr`)";
+    let a = load_exr(image, "the image", "IMAGE", "agreement compares linear EXRs")?;
+    let b = load_exr(reference, "the reference", "REFERENCE", "agreement compares linear EXRs")?;
+    let va = load_exr(image_var, "the image's variance", "--image-variance", hint)?;
+    let vb = load_exr(reference_var, "the reference's variance", "--reference-variance", hint)?;
+    let ag = metrics::agreement(&a, &va, &b, &vb, floor)
+        .map_err(|m| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display()))?;
+    let pct = |d: &metrics::MeanDiff| format!("{:+.4}%", 100.0 * d.relative());
+    println!(
+        "mean difference (R G B): {} {} {}  z {:+.2} {:+.2} {:+.2}",
+        pct(&ag.global[0]),
+        pct(&ag.global[1]),
+        pct(&ag.global[2]),
+        ag.global[0].z,
+        ag.global[1].z,
+        ag.global[2].z
+    );
+    let worst_region = ag.regions.iter().max_by(|a, b| a.z.abs().total_cmp(&b.z.abs()));
+    if let Some(r) = worst_region {
+        println!(
+            "16 regions: worst z {:+.2} ({}) in columns {}..{}, rows {}..{}, channel {}",
+            r.z,
+            pct(r),
+            r.x0,
+            r.x1,
+            r.y0,
+            r.y1,
+            ["R", "G", "B"][r.channel]
+        );
+    }
+    println!(
+        "per pixel: mean z^2 {:.3}, Kolmogorov-Smirnov distance from the normal {:.4} over {} values",
+        ag.pixel_mean_z2, ag.pixel_ks, ag.pixels
+    );
+    let worst = ag.worst();
+    println!("worst |z| {:.2}", worst.z.abs());
+    if let Some(limit) = max_z {
+        if worst.z.abs() > limit || worst.z.is_nan() {
+            bail!(
+                "{} and {} disagree: a mean differs by {:.2} standard deviations ({}), more than --max-z {limit}",
+                image.display(),
+                reference.display(),
+                worst.z.abs(),
+                pct(worst)
+            );
+        }
+    }
     Ok(())
 }
 

@@ -151,6 +151,175 @@ fn errors(
     })
 }
 
+/// The difference of two renders' means over one part of the image in one
+/// channel, and its z-score from the renders' per-pixel variances.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeanDiff {
+    /// The part: columns `x0..x1`, rows `y0..y1` from the top left.
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+    pub channel: usize,
+    pub mean_a: f64,
+    pub mean_b: f64,
+    /// (mean_a - mean_b) / sqrt(var_a + var_b), each mean's variance the sum of
+    /// its pixels' variances over the count squared (pixels are independent).
+    pub z: f64,
+}
+
+impl MeanDiff {
+    /// (mean_a - mean_b) / mean_b, 0 where both are 0.
+    pub fn relative(&self) -> f64 {
+        if self.mean_b == 0.0 {
+            if self.mean_a == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            }
+        } else {
+            (self.mean_a - self.mean_b) / self.mean_b
+        }
+    }
+}
+
+/// How two independent renders of one scene agree ([`agreement`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Agreement {
+    /// The whole image, per channel (R, G, B).
+    pub global: [MeanDiff; 3],
+    /// A 4x4 grid of regions, per channel: 48 differences.
+    pub regions: Vec<MeanDiff>,
+    /// Per pixel and channel, z = (a - b) / sqrt(va + vb) over the values whose
+    /// variances are not both 0: their count, the mean of z^2 (near 1 where the
+    /// variances are calibrated), and the Kolmogorov-Smirnov distance of their
+    /// distribution from the standard normal.
+    pub pixels: usize,
+    pub pixel_mean_z2: f64,
+    pub pixel_ks: f64,
+}
+
+impl Agreement {
+    /// The difference with the largest |z|, the global ones and the regions'.
+    pub fn worst(&self) -> &MeanDiff {
+        self.global.iter().chain(&self.regions).max_by(|a, b| a.z.abs().total_cmp(&b.z.abs())).expect("three globals")
+    }
+}
+
+/// Whether two independent renders `a` and `b` of one scene, with the variances of
+/// their pixels' estimates (`rlpt render --variance`), agree: the difference of
+/// their means over the whole image and over each of 16 regions, per channel, as
+/// z-scores, and how the per-pixel z-scores are spread. Two unbiased renderers
+/// (or estimators) give |z| of a few at most, whatever the samples; a bias shows
+/// as |z| that grows with them. `Err` names sizes that differ and values that are
+/// not finite or (variances) negative.
+///
+/// `floor` is the relative difference the comparison does not resolve: each
+/// mean's deviation gets `floor` times the mean added in quadrature. f32
+/// arithmetic along a path is not exact, and where an image has almost no noise
+/// (the closed furnace) rounding alone is many deviations; 1e-4 claims agreement
+/// to a part in ten thousand, 0 to the noise alone.
+pub fn agreement(a: &Image, va: &Image, b: &Image, vb: &Image, floor: f64) -> Result<Agreement, String> {
+    let (w, h) = (a.width, a.height);
+    for (name, img) in [("second image", b), ("first image's variance", va), ("second image's variance", vb)] {
+        if (img.width, img.height) != (w, h) {
+            return Err(format!("the first image is {w}x{h} but the {name} is {}x{}", img.width, img.height));
+        }
+    }
+    for (name, img) in
+        [("first image", a), ("second image", b), ("first image's variance", va), ("second image's variance", vb)]
+    {
+        check_finite(name, img)?;
+    }
+    for (name, img) in [("first image's variance", va), ("second image's variance", vb)] {
+        if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
+            return Err(format!(
+                "the {name} has a negative value at pixel ({}, {}) (column, row from the top left): a variance is at least 0",
+                i % w.max(1) as usize,
+                i / w.max(1) as usize
+            ));
+        }
+    }
+    if w == 0 || h == 0 {
+        return Err("the images are empty".to_string());
+    }
+    let diff = |x0: u32, y0: u32, x1: u32, y1: u32, c: usize| {
+        let (mut sa, mut sb, mut sva, mut svb) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let i = (y * w + x) as usize;
+                sa += a.pixels[i][c] as f64;
+                sb += b.pixels[i][c] as f64;
+                sva += va.pixels[i][c] as f64;
+                svb += vb.pixels[i][c] as f64;
+            }
+        }
+        let n = ((x1 - x0) * (y1 - y0)).max(1) as f64;
+        let (mean_a, mean_b) = (sa / n, sb / n);
+        let rounding = floor * mean_a.abs().max(mean_b.abs());
+        let sd = ((sva + svb) / (n * n) + rounding * rounding).sqrt();
+        let z = if sd > 0.0 {
+            (mean_a - mean_b) / sd
+        } else if mean_a == mean_b {
+            0.0
+        } else {
+            f64::INFINITY.copysign(mean_a - mean_b)
+        };
+        MeanDiff { x0, y0, x1, y1, channel: c, mean_a, mean_b, z }
+    };
+    let global = [0, 1, 2].map(|c| diff(0, 0, w, h, c));
+    let mut regions = Vec::with_capacity(48);
+    for ry in 0..4 {
+        for rx in 0..4 {
+            let (x0, x1) = (rx * w / 4, (rx + 1) * w / 4);
+            let (y0, y1) = (ry * h / 4, (ry + 1) * h / 4);
+            if x1 > x0 && y1 > y0 {
+                regions.extend((0..3).map(|c| diff(x0, y0, x1, y1, c)));
+            }
+        }
+    }
+    let mut zs: Vec<f64> = Vec::with_capacity(a.pixels.len() * 3);
+    for i in 0..a.pixels.len() {
+        for c in 0..3 {
+            let v = va.pixels[i][c] as f64 + vb.pixels[i][c] as f64;
+            if v > 0.0 {
+                zs.push((a.pixels[i][c] as f64 - b.pixels[i][c] as f64) / v.sqrt());
+            }
+        }
+    }
+    let pixels = zs.len();
+    let pixel_mean_z2 = if pixels > 0 { zs.iter().map(|z| z * z).sum::<f64>() / pixels as f64 } else { 0.0 };
+    zs.sort_by(f64::total_cmp);
+    let n = pixels as f64;
+    let pixel_ks = zs
+        .iter()
+        .enumerate()
+        .map(|(k, &z)| {
+            let f = standard_normal_cdf(z);
+            (f - k as f64 / n).abs().max(((k + 1) as f64 / n - f).abs())
+        })
+        .fold(0.0, f64::max);
+    Ok(Agreement { global, regions, pixels, pixel_mean_z2, pixel_ks })
+}
+
+/// The standard normal distribution function, to about 1e-7 (the complementary
+/// error function of Numerical Recipes' `erfcc`, Chebyshev-fitted).
+pub fn standard_normal_cdf(z: f64) -> f64 {
+    // Phi(z) = erfc(-z / sqrt 2) / 2.
+    let x = -z / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.5 * x.abs());
+    let poly = -x * x - 1.26551223
+        + t * (1.00002368
+            + t * (0.37409196
+                + t * (0.09678418
+                    + t * (-0.18628806
+                        + t * (0.27886807
+                            + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))));
+    let erfc = t * poly.exp();
+    let erfc = if x >= 0.0 { erfc } else { 2.0 - erfc };
+    0.5 * erfc
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -252,5 +421,94 @@ mod tests {
         assert!((debiased - against_truth).abs() < 5.0 * se, "{debiased} against {against_truth} (se {se})");
         // The plain relMSE carries the reference's share, about 4 times the image's own here.
         assert!(e.rel_mse > 4.0 * against_truth, "{} against {against_truth}", e.rel_mse);
+    }
+
+    /// Two images with known means: the global and regional z-scores follow from
+    /// the variances, the worst is found, and mismatched inputs are refused.
+    #[test]
+    fn agreement_measures_differences_in_units_of_their_noise() {
+        let (w, h) = (8u32, 4u32);
+        let n = (w * h) as usize;
+        let a = Image { width: w, height: h, pixels: vec![[1.0, 2.0, 3.0]; n] };
+        let mut b = a.clone();
+        // The top-left region (2x1 pixels) is 0.1 darker in green in b.
+        for x in 0..2 {
+            b.pixels[x][1] -= 0.1;
+        }
+        let va = Image { width: w, height: h, pixels: vec![[0.01; 3]; n] };
+        let ag = agreement(&a, &va, &b, &va, 0.0).unwrap();
+        assert_eq!(ag.global[0].z, 0.0);
+        // Global green: mean difference 0.2 / 32, sd sqrt(2 * 0.01 * 32) / 32.
+        let want = (0.2 / 32.0) / ((2.0 * 0.01 * 32.0f64).sqrt() / 32.0);
+        assert!((ag.global[1].z - want).abs() < 1e-4, "{:?}", ag.global[1]);
+        // The region: difference 0.1, sd sqrt(2 * 0.01 * 2) / 2.
+        let worst = ag.worst();
+        assert_eq!((worst.x0, worst.y0, worst.x1, worst.y1, worst.channel), (0, 0, 2, 1, 1));
+        assert!((worst.z - 0.1 / ((0.04f64).sqrt() / 2.0)).abs() < 1e-4, "{worst:?}");
+        assert!((worst.relative() - 0.1 / 1.9).abs() < 1e-6);
+        assert_eq!(ag.regions.len(), 48);
+        assert_eq!(ag.pixels, 3 * n);
+        let small = Image { width: 1, height: 1, pixels: vec![[0.0; 3]] };
+        assert!(agreement(&a, &va, &small, &va, 0.0).unwrap_err().contains("second image is 1x1"));
+        let mut neg = va.clone();
+        neg.pixels[9][2] = -1.0;
+        assert!(agreement(&a, &va, &b, &neg, 0.0)
+            .unwrap_err()
+            .contains("second image's variance has a negative value at pixel (1, 1)"));
+    }
+
+    /// Samples of two estimates of the same values with their true variances:
+    /// per-pixel z-scores are standard normal (mean z^2 near 1, a small KS
+    /// distance), and no region differs by more than a few sigma. Shifted by a
+    /// tenth of a pixel's sigma everywhere, the global z-scores see it.
+    #[test]
+    fn agreement_of_unbiased_estimates_is_standard_normal_and_sees_a_small_bias() {
+        let mut rng = crate::math::rng::Rng::new(5, 0, 0, 0);
+        let mut gauss = || {
+            let (u, w) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * w).cos()
+        };
+        let (w, h) = (200u32, 100u32);
+        let n = (w * h) as usize;
+        let sd = 0.05f64;
+        let var = Image { width: w, height: h, pixels: vec![[(sd * sd) as f32; 3]; n] };
+        let noisy = |g: &mut dyn FnMut() -> f64, shift: f64| Image {
+            width: w,
+            height: h,
+            pixels: (0..n)
+                .map(|i| [0, 1, 2].map(|c| (1.0 + 0.1 * c as f64 + (i % 7) as f64 * 0.01 + shift + sd * g()) as f32))
+                .collect(),
+        };
+        let a = noisy(&mut gauss, 0.0);
+        let b = noisy(&mut gauss, 0.0);
+        let ag = agreement(&a, &var, &b, &var, 0.0).unwrap();
+        assert!((ag.pixel_mean_z2 - 1.0).abs() < 0.03, "{}", ag.pixel_mean_z2);
+        // KS at n = 60000: 1.95 / sqrt(n) is the 0.1 % critical distance.
+        assert!(ag.pixel_ks < 1.95 / (ag.pixels as f64).sqrt(), "{}", ag.pixel_ks);
+        assert!(ag.worst().z.abs() < 4.5, "{:?}", ag.worst());
+        let c = noisy(&mut gauss, 0.1 * sd);
+        let shifted = agreement(&c, &var, &b, &var, 0.0).unwrap();
+        // Expected z: 0.1 sd / (sd sqrt(2 / n)) = 10.
+        assert!(shifted.global.iter().all(|d| d.z > 6.0), "{:?}", shifted.global);
+    }
+
+    /// The floor adds its share of the mean to each deviation: a difference of
+    /// 1e-5 with no noise is infinitely many deviations without it, a tenth of one
+    /// with a floor of 1e-4.
+    #[test]
+    fn the_floor_bounds_what_rounding_can_differ_by() {
+        let a = Image { width: 4, height: 4, pixels: vec![[1.0; 3]; 16] };
+        let b = Image { width: 4, height: 4, pixels: vec![[1.00001; 3]; 16] };
+        let zero = Image { width: 4, height: 4, pixels: vec![[0.0; 3]; 16] };
+        assert!(agreement(&a, &zero, &b, &zero, 0.0).unwrap().global[0].z.is_infinite());
+        let z = agreement(&a, &zero, &b, &zero, 1e-4).unwrap().global[0].z;
+        assert!((z + 0.1).abs() < 1e-3, "{z}");
+    }
+
+    #[test]
+    fn the_normal_distribution_function_matches_known_values() {
+        for (z, p) in [(0.0, 0.5), (1.0, 0.8413447461), (-1.96, 0.0249978952), (3.0, 0.9986501020)] {
+            assert!((standard_normal_cdf(z) - p).abs() < 2e-7, "{z}: {}", standard_normal_cdf(z));
+        }
     }
 }
