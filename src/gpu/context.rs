@@ -340,7 +340,10 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         subgroup_size: subgroup.subgroup_size,
         subgroup_operations,
         float_atomic_add,
-        subgroup_partitioned: ops.contains(vk::SubgroupFeatureFlags::PARTITIONED_NV),
+        // RLPT_SUBGROUP_PARTITION=0 runs the portable ballot loop where the device
+        // offers partitioning too (scripts/consistency.sh checks both).
+        subgroup_partitioned: ops.contains(vk::SubgroupFeatureFlags::PARTITIONED_NV)
+            && std::env::var("RLPT_SUBGROUP_PARTITION").map_or(true, |v| v != "0"),
         timestamp_period_ns: props.limits.timestamp_period,
         timestamps,
         max_compute_shared_memory: props.limits.max_compute_shared_memory_size,
