@@ -385,10 +385,8 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// them keeps it consistent. The rows that record run a slower kernel than the
 /// others (whole workgroups skip recording, since a group's pixels share a row),
 /// so fewer recording rows make shorter frames (docs/guiding.md, "The recording
-/// schedule"). On the
-/// GPU, `crate::render::frame_dispatches` gives
-/// the recording rows to the kernel that records; the CPU renderer follows the
-/// same schedule.
+/// schedule"). On the GPU, `crate::render::frame_dispatches` gives the recording
+/// rows to the kernel that records; the CPU renderer follows the same schedule.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RecordSchedule {
     /// The first frame of each doubled stride: `RECORD_ROW_STRIDE << (k + 1)` from
