@@ -48,12 +48,8 @@ fn main() {
         options.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
         options.set_target_spirv(shaderc::SpirvVersion::V1_5);
         // glslang's SPIR-V as it is, without spirv-opt: the drivers optimise it
-        // themselves, and on the H200 (NVIDIA 580) spirv-opt's performance passes
-        // made the guided frames 1.5 to 3.3 % slower (seed-exp1 1.346 against
-        // 1.381 ms, seed-exp2 7.410 against 7.666, seed-exp3 11.88 against 12.05)
-        // and the sampling-row rebuild 7 %; unguided frames moved by +0.5 to -1.9 %.
-        // Lavapipe's images are the same to rounding (relMSE 4e-15) and its frames
-        // no slower. BENCHMARKS.md has the runs.
+        // themselves, and spirv-opt's performance passes made the guided frames
+        // slower (docs/ARCHITECTURE.md, "Shaders").
         options.set_optimization_level(shaderc::OptimizationLevel::Zero);
         options.set_generate_debug_info();
         let dir = glsl_dir.clone();

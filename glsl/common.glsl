@@ -1,7 +1,8 @@
 // The GPU/host interface: constants, bindings and structs shared with Rust.
 // build.rs turns every `#define NAME <integer>` below into a Rust constant
 // (`rlpt::shared::NAME`); the Rust mirrors of the structs live in
-// src/prepared.rs and a probe kernel checks their layout (tests/gpu_layout.rs).
+// src/prepared.rs and a probe kernel checks their layout (tests/gpu_probes.rs
+// `struct_layout_matches_the_rust_mirrors`).
 #ifndef RLPT_COMMON_GLSL
 #define RLPT_COMMON_GLSL
 
@@ -13,10 +14,8 @@
 // SPEC_PIXELS_PER_GROUP (src/render `pixels_per_group`): PIXELS_PER_GROUP for the
 // guided kernels of scenes with mirror, glass or glossy materials,
 // PIXELS_PER_GROUP_SMALL for the others and for the unguided kernel. Smaller
-// groups free an SM's slots sooner after their longest path: on the H200 the
-// unguided kernels were up to 3 % faster with 2, the guided ones of seed-exp1
-// and door 3.0 and 2.1 %, those of seed-exp2 and exp3 (glass and GGX) 0.2 and
-// 4.0 % slower (BENCHMARKS.md).
+// groups free an SM's slots sooner after their longest path, but the kernels
+// that carry glass and GGX code were slower with them (docs/ARCHITECTURE.md).
 #define PIXELS_PER_GROUP 4
 #define PIXELS_PER_GROUP_SMALL 2
 // Largest subgroup size the reduction handles with shuffles alone; smaller
@@ -112,8 +111,8 @@
 #define SPEC_FLAGS 7
 #define SPEC_MAX_BOUNCES 8
 // 1: the guided kernel records its paths' Q-learning targets; 0: it has no
-// recording code at all, and a frame's rows that do not record go to it (on the
-// H200 that code's mere presence, never run, cost 0.5 of seed-exp1's 3.0 ms).
+// recording code at all, and a frame's rows that do not record go to it: code
+// present in a kernel costs time even where it never runs (docs/guiding.md).
 #define SPEC_RECORDING 9
 #define SPEC_GUIDE_VERTICES 10
 #define SPEC_RECORD_VERTICES 11
@@ -139,8 +138,7 @@
 #define SPEC_SPHERES 16
 // Bit i: the sphere in slot i is compact (src/prepared.rs `GpuSphere::compact`).
 // The host works it out, as the driver did not fold the same comparison of the
-// slot's float constants: the branch on it stayed, with both sides' code
-// (seed-exp3 3 % slower; BENCHMARKS.md).
+// slot's float constants: the branch on it stayed, with both sides' code.
 #define SPEC_COMPACT_SPHERES 384
 // Bit i: the quad (sphere) in slot i is a light, whose test `meets_light` runs
 // (geometry.glsl; src/prepared.rs `geometry_specialization`).
@@ -197,9 +195,8 @@
 #define GLOSSY_SHARE_MIN_INV 16
 // Learned roulette starts once the table has learned from this many frames (and
 // the pixel has an estimate); plain throughput roulette before
-// (src/cpu/mod.rs `roulette_estimate`). Started at the
-// second frame, it left door.toml (CPU, 96x64, sphere) at relMSE 0.104 after 2
-// frames and 8.4e-4 after 64; started at the fifth, 0.034 and 6.4e-4.
+// (src/cpu/mod.rs `roulette_estimate`): a table of one frame is too noisy, and
+// roulette by it makes fireflies (docs/guiding.md, "Learned Russian roulette").
 #define LEARNED_RR_FRAMES 4
 // Learned guided fraction (src/guide/mod.rs `FractionState`): each cell's
 // fraction is sigmoid(theta), theta moved by Adam (step FRACTION_RATE, decay

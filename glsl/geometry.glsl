@@ -160,8 +160,8 @@ float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
 // tests read them, in a uniform buffer (src/prepared.rs `scene_constants`).
 // Every lane of a warp reads the same primitive at once, and the kernel is
 // specialized to the scene, so the loops' lengths are known when the driver
-// compiles. Against the storage buffers staged in shared memory, an
-// unguided frame on the H200 is 6 (seed-exp3) to 25 % (door) cheaper (BENCHMARKS.md).
+// compiles: the constant cache serves these warp-uniform reads without staging
+// (docs/ARCHITECTURE.md, "Specialization").
 // Primitives past the capacity are read from the storage buffers.
 layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstantsBlock {
     vec4 const_spheres[3 * CONST_SPHERES];  // center_radius, anchor_radius, axis
@@ -302,9 +302,9 @@ bool room_hit(vec3 o, vec3 d, vec3 inv_d, float best, out float t, out uint q) {
 
 // Each kind of primitive is walked in three runs: the specialized slots, the
 // uniform buffer, then the rest from the storage buffers: one loop that chose the
-// source per primitive cost 3.6 % of a frame (BENCHMARKS.md). The loops over the
-// uniform buffer stay loops: unrolled (the driver's choice once their length is
-// known) they made frames 2 to 4 % slower.
+// source per primitive was slower. The loops over the uniform buffer stay
+// loops: unrolled (the driver's choice once their length is known) they made
+// frames slower.
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     vec3 inv_d = 1.0 / d;
     float best = t_max;
@@ -460,7 +460,7 @@ bool is_sphere_light(Light l) {
 
 // params.num_lights. A scene with one light has no choice to make and the kernel
 // leaves the choosing out; with more the count is read at run time, as a loop
-// of known length unrolled made seed-exp3's (two lights) frames 1.8 % slower.
+// of known length unrolled made two-light scenes' frames slower.
 layout(constant_id = SPEC_NUM_LIGHTS) const uint SCENE_LIGHTS = 0u;
 
 bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {

@@ -99,18 +99,14 @@ float bin_cosine(uint b, uint class_) {
 }
 
 // A row is built where loads cost little. Vose's loop is sequential, and its
-// chains of dependent loads from L2 made the pass 7x slower where 8x16 rows were
-// built in the table itself (H200). Where 8 rows fit a group's 32 KB (up to 512
-// bins, STAGED) the group stages its rows in shared memory; larger rows are built
-// in the table, where it seems the L1 cache holds them: staged 4 to a group,
-// door's 20x40 rows took 3.89 ms to rebuild against 2.35 in the table (H100),
-// likely because a 6.4 KB row per invocation left too few rows in flight per
-// multiprocessor; 12x24 rows staged took 0.48 ms against 0.66
-// (src/render/mod.rs `rebuild_layout`; BENCHMARKS.md).
+// chains of dependent loads from L2 are slow. Where 8 rows fit a group's 32 KB
+// (up to 512 bins, STAGED) the group stages its rows in shared memory; larger
+// rows are built in the table, where it seems the L1 cache holds them: staged
+// fewer to a group, too few rows are in flight per multiprocessor
+// (src/render/mod.rs `rebuild_layout`; docs/guiding.md, "Learning").
 // Bin b of invocation i's row sits at b * GROUP + i in `staged`, so that the
 // invocations of a group, in step through the loops over every bin, read
-// neighbouring words (each row contiguous, they all hit one bank: the rebuild
-// took 0.19 ms on the H200 that way, 0.17 this way).
+// neighbouring words (each row contiguous, they would all hit one bank).
 shared uvec2 staged[STAGE_WORDS];
 uint row_start;   // the row's first bin in sampler_table
 uint stage_start; // the row's first bin in staged (its bins GROUP apart)

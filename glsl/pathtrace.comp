@@ -141,9 +141,8 @@ void record(uint key, float target, float counted, float factor) {
 
 // Whether the frame counters are kept (FLAG_COUNTERS: paths without radiance;
 // FLAG_COUNT_RAYS: rays too): without them the kernel counts nothing, and their
-// code is compiled out. Counting rays inside the path loop cost up to 5 % of a
-// frame on the H200 (seed-exp2 unguided, BENCHMARKS.md), so `render --stats`
-// counts paths alone.
+// code is compiled out. Counting rays inside the path loop costs a frame
+// measurably, so `render --stats` counts paths alone.
 const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
 // The host sets FLAG_COUNT_RAYS only beside FLAG_COUNTERS, and the bit is tested
 // alone: glslang evaluates `&&` of specialization constants as code in the first
@@ -153,8 +152,7 @@ const bool COUNT_RAYS = (FLAGS & FLAG_COUNT_RAYS) != 0u;
 // Where trace_path counts its rays: with the depth in one register where the
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
-// depth: with the mask there too, seed-exp1's frames were 1.1 % (unguided) and
-// 2.7 % (guided) longer on the H200.
+// depth: with the mask there too, their frames were longer.
 const bool PACK_RAYS = COUNT_RAYS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
 #define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else if (COUNT_RAYS) segments += 1u
@@ -185,11 +183,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
     uint prev_key = NO_KEY;
     // The vertex's depth (DEPTH) in the low 16 bits; in scenes with roulette, the
     // rays traced in the high ones (COUNT_RAY), added to `segments` at the end
-    // (at most 1024 bounces, so at most 2050 rays). One live register fewer took
-    // door's guided kernel from 78 to 64 registers on the H200 and its frames
-    // 3.3 % shorter (unguided 1.3 %); packed in every kernel, seed-exp1's guided
-    // frame got 2.5 % longer, so scenes without roulette keep the count apart
-    // (BENCHMARKS.md).
+    // (at most 1024 bounces, so at most 2050 rays). One live register fewer
+    // brought door's guided kernel to a better occupancy; packed in every kernel,
+    // frames without roulette got longer, so those keep the count apart.
     uint depth_rays = 0u;
 #if GUIDED
     // The recording kernel traces the rows whose paths record (src/guide/mod.rs
@@ -200,7 +196,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
     bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
     // The target of the ray that ends the path (it escapes or meets a light),
     // recorded after the loop: one call site of record_target fewer inside it
-    // made guided frames 0.7 (door) to 2.7 % (seed-exp2) faster on the H200.
+    // makes the guided frames faster.
     uint end_key = NO_KEY;
     float end_target = 0.0;
     // Where cells learn their fractions (recording kernel only): the
@@ -255,15 +251,14 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
             row = sampler_row(cell, normal_class(n));
         }
         // The row's guided fraction, loaded at every vertex that may mix, before
-        // the emissive and delta tests rather than after them: seed-exp2's
-        // guided frame 1.5 % shorter so, door's 0.5 % longer (H200, BENCHMARKS.md).
+        // the emissive and delta tests rather than after them, so that the load's
+        // latency hides behind the material's.
         float fraction = DEPTH < GUIDE_VERTICES ? row_fraction(row) : 0.0;
         // A recording path marks the rows its guided vertices read: the table
         // rebuilds those alone (src/guide/mod.rs `QTable::rows_read`). A row with
         // a fraction has been built, so it was marked for good already: only
         // rows without one are marked again, which spares the other vertices a
-        // load (each marking vertex loaded the mark first: path tracing 0.1 to
-        // 0.2 % longer on the H100).
+        // load of the mark.
         if (learn && DEPTH < GUIDE_VERTICES && fraction == 0.0) rows_read[row / GUIDE_BINS] = 1u;
 #endif
         if (bsdf.kind == MAT_EMISSIVE) {
@@ -366,9 +361,8 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
         // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
         // 0), and the last test, always true here then, says so to the compiler:
-        // the glossy evaluation leaves this site, whose second copy of it cost
-        // seed-exp2 and exp3 3.3 and 3.9 % of a guided frame (H200), and other
-        // scenes' kernels stay as they were (BENCHMARKS.md).
+        // the glossy evaluation leaves this site, whose second copy of it costs
+        // guided frames time, and other scenes' kernels stay as they were.
         if (ok && g_frac > 0.0 && !delta && (!GLOSSY_UNGUIDED || bsdf.kind != MAT_GLOSSY)) {
             vec3 wi_local = to_local(frame, wi);
             float pdf_bsdf;

@@ -1,7 +1,8 @@
 #version 460
 // Test kernel: reads element 1 of each scene array and the render parameters
-// field by field, in GLSL declaration order, so tests/gpu_layout.rs can check
-// that the Rust mirrors in src/prepared.rs have the same layout.
+// field by field, in GLSL declaration order, so tests/gpu_probes.rs
+// `struct_layout_matches_the_rust_mirrors` can check that the Rust mirrors in
+// src/prepared.rs have the same layout.
 #include "scene.glsl"
 
 layout(local_size_x = 1) in;

@@ -22,7 +22,7 @@ uint rng_next_u32(inout uint state) {
 }
 
 // Uniform in [0, 1): 23 random bits as the mantissa of a float in [1, 2), minus 1
-// (no integer-to-float conversion, which the H200 runs at a quarter of the rate).
+// (no integer-to-float conversion, which GPUs run at a fraction of the rate).
 float rng_next(inout uint state) {
     return uintBitsToFloat(0x3f800000u | (rng_next_u32(state) >> 9u)) - 1.0;
 }

@@ -64,7 +64,7 @@ pub struct BenchReport {
     /// One row per pass, then "frame" (all passes).
     pub passes: Vec<Summary>,
     /// Samples traced over the total measured time (the mean frame, not the median:
-    /// with guiding the sampling rows are rebuilt after one frame in 4 to 32, which a
+    /// with guiding the sampling rows are rebuilt after one frame in 8 to 32, which a
     /// median frame would leave out).
     pub msamples_per_s: f64,
     /// Rays traced (camera, bounce, shadow) over the total measured time; this

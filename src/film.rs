@@ -43,13 +43,9 @@ pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [
 
 /// Host memory a render of `pixels` pixels holds at its peak, about: the film, the
 /// image made from it and the file's encoding, and on the GPU the readback
-/// buffer too, as measured on this project's CI-class machine (maximum resident
-/// set of `rlpt render` at 2048x2048 and 4096x4096: 76 bytes per pixel on the
-/// CPU, 108 to 114 on lavapipe, whose device memory is host memory as well).
-/// A discrete GPU keeps the accumulation in device memory and holds less: on an
-/// NVIDIA H200 the 4096x4096 render peaked at 1.45 GB resident, 88 bytes per
-/// pixel with the driver's own share counted in. The estimate keeps lavapipe's
-/// figure, the larger, so that the warning comes early rather than late.
+/// buffer too. The bytes per pixel are measured maxima of resident memory, the
+/// GPU's taken from a CPU driver, whose device memory is host memory too, so
+/// that the warning comes early rather than late (docs/ARCHITECTURE.md, "Host memory").
 pub fn host_bytes_estimate(pixels: u64, gpu: bool) -> u64 {
     pixels * if gpu { 115 } else { 80 }
 }

@@ -4,13 +4,20 @@
 //! - [`scene`]: the TOML scene format and its validation;
 //! - [`math`]: the sampling, BSDF, intersection and random-number code of the CPU
 //!   renderer, written to mirror `glsl/*.glsl` function by function;
+//! - [`guide`]: learned guiding (docs/guiding.md);
+//! - [`prepared`]: the scene flattened into the arrays both renderers trace;
 //! - [`cpu`]: the CPU renderer (all cores);
 //! - [`gpu`]: the only home of `unsafe` Vulkan: context, buffers, pipelines;
 //! - [`render`]: the GPU renderer built on [`gpu`];
+//! - [`film`]: the accumulated result of either renderer;
+//! - [`viewer`]: the `rlpt view` window;
 //! - [`image`], [`metrics`]: image files and error metrics; [`output`]: checks on
-//!   the files a command will write;
+//!   the files a command will write; [`stats`], [`plot`]: convergence statistics
+//!   and their plot;
 //! - [`bench`](mod@bench): per-pass GPU timings (`rlpt bench`);
 //! - [`chi2`]: the goodness-of-fit test used by the sampling tests.
+//!
+//! docs/ARCHITECTURE.md walks through the modules and a scene's path to the pixel.
 
 // `!(x > 0.0)` is written on purpose: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -1,6 +1,7 @@
 //! The scene flattened into the arrays both renderers trace: the `#[repr(C)]`
 //! mirrors of the structs in `glsl/common.glsl` (std430 layout; sizes asserted
-//! here, field offsets checked on the device by `tests/gpu_layout.rs`).
+//! here, field offsets checked on the device by `tests/gpu_probes.rs`
+//! `struct_layout_matches_the_rust_mirrors`).
 //! The GPU renderer uploads them; the CPU renderer reads the same values, so
 //! precomputed normals, light probabilities and camera vectors agree exactly.
 
@@ -212,12 +213,10 @@ const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_ROOM_ENTERING +
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
 /// Guided sampling's default reach with NEE in a scene without Russian roulette:
-/// a path's first two vertices. There, deeper vertices gained nothing measurable
-/// per sample on the seed scenes, while their table lookups and the recording of
-/// their targets cost (H200, relMSE at 10 s of equal time over unguided, guiding
-/// every vertex against the first two: 1.51 against 1.27 on seed-exp1;
-/// BENCHMARKS.md). Without NEE only guided sampling aims at the lights, at every
-/// vertex, and limiting it costs (door 0.22 against 0.38): then every vertex is
+/// a path's first two vertices. There, deeper vertices gained little per sample,
+/// while their table lookups and the recording of their targets cost time
+/// (docs/guiding.md, "Defaults"). Without NEE only guided sampling aims at the
+/// lights, at every vertex: then every vertex is
 /// guided. So is every vertex where Russian roulette is on (door.toml), whatever
 /// NEE says: there every vertex records targets and looks up its cell for learned
 /// roulette anyway, and guiding them all paid at equal time
@@ -316,9 +315,8 @@ pub enum Counters {
     /// after its paths end. `render --stats` counts these.
     ZeroPaths,
     /// Also the rays traced and the lane utilization (`FLAG_COUNT_RAYS`), counted
-    /// inside the path loop, which cost up to 5 % of a frame on the H200 (seed-exp2
-    /// unguided; BENCHMARKS.md). `rlpt bench` counts these unless `--counters off`
-    /// or `paths`.
+    /// inside the path loop, which costs a frame measurably. `rlpt bench` counts
+    /// these unless `--counters off` or `paths`.
     All,
 }
 
@@ -745,8 +743,7 @@ pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
 /// (the first `SPEC_SPHERES` spheres and `SPEC_QUADS` quads, in the order of
 /// [`PreparedScene::quads`]). A scene with no light has nothing to find.
 /// Not with Russian `roulette`: with it few paths reach the last vertex, and the
-/// test is code the kernel carries for little (door's unguided H200 frame 1.2 %
-/// longer with it; `BENCHMARKS.md`).
+/// test is code the kernel carries for little (door's frames were longer with it).
 pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool) -> bool {
     let in_slot = |l: &GpuLight| match l.kind {
         shared::LIGHT_SPHERE => l.index < shared::SPEC_SPHERES,

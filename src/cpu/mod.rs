@@ -213,12 +213,10 @@ pub fn trace_path(
         //
         // The MIS weights between light sampling and the mixture use the mixture's
         // density, the one the direction was drawn from: at the light sample too,
-        // which costs it the guided density of its bin. With the BSDF's density
-        // in their place (`66e227a` to `1bb27b7`; unbiased too, the weights
-        // summing to one wherever a light emits) door's frame was 5.6 % shorter
-        // and its error at equal time 2 % lower, but smallpt's, whose lamp light
-        // sampling finds worse than the guided directions do, was 1.8 times as
-        // high (NVIDIA H100, 10 s: 0.83 of unguided's against 0.47; BENCHMARKS.md).
+        // which costs it the guided density of its bin. The BSDF's density in
+        // their place is unbiased too and cheaper, but hands the light guided
+        // directions find to light sampling, which loses badly where light
+        // sampling finds a lamp worse (smallpt; docs/guiding.md, "The mixture").
         let mixture_sample = |wi: Vec3, bin: u32| {
             let wi_local = frame.to_local(wi);
             let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);

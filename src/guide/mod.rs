@@ -30,7 +30,7 @@
 //!   [`RecordSchedule::learns_after`] names ([`QTable::learn`]), in batches. Without
 //!   Russian roulette only the rays that leave guided vertices (below) record
 //!   targets ([`record_vertices`]), and after the first frames only the paths of
-//!   one pixel row in a stride that grows from 4 to 32 as the table fills
+//!   one pixel row in a stride that grows from 8 to 32 as the table fills
 //!   ([`RecordSchedule`]).
 //! - **Sampling** at a non-delta vertex among a path's first `guided_vertices`
 //!   (by default all where Russian roulette is on; without roulette two with NEE,
@@ -52,7 +52,8 @@
 //!   contribution, from the learned Q, relative to the pixel's estimate
 //!   ([`crate::cpu::survival_probability`]).
 //!
-//! `glsl/guide.glsl` and `glsl/learn.comp` are the GPU twins.
+//! `glsl/guide.glsl` and `glsl/learn.comp` are the GPU twins. The method's reasons
+//! and measured effects are in docs/guiding.md.
 
 use crate::math::geometry::intersect;
 use crate::math::rng::Rng;
@@ -68,7 +69,7 @@ pub enum GuidingMode {
     Off,
     /// 2 x 4 bins: exactly the eight octants of the seed.
     Octant,
-    /// Finer bins over the sphere (by default 8 x 16 = 128, or 12 x 24 = 288 in
+    /// Finer bins over the sphere (by default 8 x 16 = 128, or 20 x 40 = 800 in
     /// scenes with Russian roulette: [`default_bins`]).
     Sphere,
 }
@@ -93,7 +94,7 @@ pub enum GuidingMode {
 /// Optimizing Sampling Techniques in Multiple Importance Sampling", SIGGRAPH Asia
 /// 2019), which takes from a sampler's density what its MIS partner covers. The
 /// image stays unbiased either way: the targets change what is learned, not how
-/// a sample is weighed. BENCHMARKS.md has the figures.
+/// a sample is weighed. docs/guiding.md, "Targets", has the measured effect.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum QTargets {
     /// The emission met counted with its MIS weight, the light sample at the
@@ -154,7 +155,7 @@ impl Bins {
 
     /// The column of the azimuth phi = atan2(y, x) in [0, 2 pi): the sector
     /// `floor(phi cols / 2 pi)`. Where `cols` is a multiple of 4 (the octant's 4,
-    /// the defaults 16 and 24), without the arctangent: (x, y) is turned back by whole
+    /// the defaults 16 and 40), without the arctangent: (x, y) is turned back by whole
     /// quarter turns into the first quadrant, (u, v) with u, v >= 0, and the
     /// sector within it counted by the sides of its `cols / 4 - 1` inner edges
     /// (v cos t - u sin t >= 0 from edge angle t on). The same function up to
@@ -216,10 +217,9 @@ impl Bins {
         Ok(Bins { rows, cols })
     }
 
-    /// Most bins a table may have. Finer tables learn too slowly to pay (512
-    /// bins already had too few targets per entry at the CPU renderer's test
-    /// sizes, BENCHMARKS.md), and the bound
-    /// keeps a row's 16-bit alias indices far from the marker [`UNLEARNED`].
+    /// Most bins a table may have. Finer tables learn too slowly to pay
+    /// (docs/guiding.md, "The table"), and the bound keeps a row's 16-bit alias
+    /// indices far from the marker [`UNLEARNED`].
     pub const MAX_COUNT: u64 = 1024;
 
     /// Whether `rows` x `cols` bins are a table the renderers can build: at least
@@ -382,28 +382,11 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// records once per cycle of `stride` frames.
 ///
 /// Q is a weighted mean of its targets ([`batch_rate`]), so recording fewer of
-/// them keeps it consistent; each target moves an entry that has seen n of them
-/// by about 1/n^omega. The
-/// rows that record run a kernel that is slower than the one without its code
-/// (whole workgroups skip recording, since a group's pixels share a row): on the
-/// H200 a quarter of seed-exp2's rows recording, with the rows rebuilt every 4
-/// frames, cost 0.44 ms per frame more than a sixteenth with a rebuild every 16,
-/// about 0.04 of it the rebuilds; going on from 16 to 32 (at 4096 paths per
-/// entry: seed-exp1 from frame 576, door 608 at 8x16 bins and 1376 at its default
-/// 12x24, seed-exp2 and exp3 128) took
-/// 0.8 % off seed-exp1's guided frame and 0.6 to 1.1 % off the others, with
-/// relMSE at equal time the same or lower at 1 s and 10 s (BENCHMARKS.md).
-/// Starting at stride 8 instead of 4 (after the 8 frames of every row) took
-/// door's guided frames in its first second from 5.4 ms to 5.0 on average (the
-/// H100, 185 -> 201 frames) and gave, at equal time (relMSE less the reference's
-/// variance over unguided's, 1 s / 10 s), door 0.211 / 0.191 -> 0.196 / 0.186,
-/// smallpt 0.503 / 0.427 -> 0.475 / 0.418 and seed-exp1 0.683 / 0.667 -> 0.677 /
-/// 0.665. Stride 8 after only 4 frames of every row gave 0.194 / 0.184, 0.468 /
-/// 0.420 and 0.678 / 0.665, but its first stride would not start at a multiple
-/// of itself. On the
-/// GPU, `crate::render::frame_dispatches` gives
-/// the recording rows to the kernel that records; the CPU renderer follows the
-/// same schedule.
+/// them keeps it consistent. The rows that record run a slower kernel than the
+/// others (whole workgroups skip recording, since a group's pixels share a row),
+/// so fewer recording rows make shorter frames (docs/guiding.md, "The recording
+/// schedule"). On the GPU, `crate::render::frame_dispatches` gives the recording
+/// rows to the kernel that records; the CPU renderer follows the same schedule.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RecordSchedule {
     /// The first frame of each doubled stride: `RECORD_ROW_STRIDE << (k + 1)` from
@@ -461,16 +444,11 @@ impl RecordSchedule {
     /// In between, the targets are summed per entry, and paths read a table and
     /// sample rows a few frames old; the densities they evaluate are those of the
     /// same rows, so the estimate stays unbiased, and Q takes the same targets,
-    /// folded later. The rebuild is a sequential loop per row,
-    /// about 0.16 ms on the H200 whatever the scene, the fold 0.009 ms (seed-exp1);
-    /// a fold after every frame, as before, cost seed-exp1 0.6 % of a guided frame
-    /// (BENCHMARKS.md). Rows go staler as the stride grows, but only once the table
-    /// has seen many targets per entry and changes little from frame to frame;
-    /// with the stride fixed by frame count instead, up to 16 from frame 32,
-    /// lavapipe's door test (48x32, measured at frames 32 to 47) gave 0.43 of
-    /// unguided's variance with a rebuild per cycle and 0.41 with one every 4
-    /// frames, against 0.38 with stride 4 throughout: a thumbnail's table is far
-    /// from that.
+    /// folded later. The rebuild is a sequential loop per row, and learning
+    /// once per cycle spares most frames its pass. Rows go staler as the stride
+    /// grows, but only once the table has seen many targets per entry and changes
+    /// little from frame to frame; that is why the stride follows the table's
+    /// fill, not the frame count (docs/guiding.md, "The recording schedule").
     pub fn learns_after(&self, frame: u32) -> bool {
         let stride = self.stride(frame);
         frame % stride == stride - 1
@@ -484,15 +462,8 @@ impl RecordSchedule {
 ///
 /// With roulette every vertex already records Q-learning targets
 /// ([`record_vertices`]) and looks up its cell for learned roulette, so guided
-/// sampling there costs only the sampling itself. On door.toml (NVIDIA H200,
-/// commit `74d972d`, `scripts/gpu-bench.sh RLPT OUT deep-guiding`; relMSE at 10 s
-/// of equal time less the reference's variance, over unguided's): 0.46 with the
-/// first two vertices guided (8x16 bins), 0.35 with every vertex (8x16), 0.30 with
-/// every vertex and 12x24 bins (the bins of [`default_bins`] with roulette), 0.28
-/// with every vertex and 16x32 bins; on smallpt.toml, the same way, 0.68, 0.56,
-/// 0.47 and 0.44. Per sample on the CPU renderer (BENCHMARKS.md, "What bounds
-/// door"): 0.30, 0.19 and 0.17 of unguided's (first two vertices at 8x16, every
-/// vertex at 8x16, every vertex at 12x24).
+/// sampling there costs only the sampling itself, and it paid at equal time
+/// (docs/guiding.md, "Defaults").
 ///
 /// `glsl/pathtrace.comp` takes it as the specialization constant
 /// `SPEC_GUIDE_VERTICES`.
@@ -505,52 +476,16 @@ pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
     }
 }
 
-/// The bins of `--guiding sphere` where the options name none
-/// (`RenderOptions::bins` None): [`Bins::SPHERE_ROULETTE_DEFAULT`] (20x40) in a
-/// scene with Russian roulette (`russian_roulette_depth`), [`Bins::SPHERE_DEFAULT`]
-/// (8x16) without.
-///
-/// With roulette every vertex records targets ([`record_vertices`]), so each
-/// entry of the table sees several times the targets per frame and a finer table
-/// learns in time (every vertex guided, relMSE at 10 s over unguided's: door.toml
-/// 0.30 at 12x24 against 0.35 at 8x16, smallpt.toml 0.47 against 0.56; see
-/// [`guided_vertices`]). With MIS-weighted targets and the floor at 0.1 finer
-/// bins paid more (NVIDIA H100, 10 s, ratios at 1 s / 10 s, BENCHMARKS.md): door
-/// 0.265 / 0.220 at 12x24, 0.277 / 0.208 at 16x32, 0.268 / 0.201 at 20x40
-/// (0.269 / 0.198 with another seed), 0.286 / 0.207 at 24x48 and 0.311 / 0.223 at
-/// 28x56; smallpt 0.537 / 0.477, 0.531 / 0.443, 0.545 / 0.432 and 0.559 / 0.425
-/// (12x24 to 24x48). Past 20x40 door's frames grew faster than its error fell.
-/// Small images learn finer tables more slowly: at 16x32, before MIS targets, the
-/// test suite's door at 48x32 after 32 warm-up frames had a guided variance per
-/// sample of 0.43 to 0.62 of unguided's over six seeds, against 0.28 to 0.33 at
-/// 12x24 (`learning_reduces_variance_on_door`); on the CPU renderer at 96x64
-/// (32 warm-up frames, then 2048 spp, two seeds, floor 0.1) 20x40 had 0.89 of
-/// 12x24's variance per sample, at 48x32 1.10. Where only the first two
-/// vertices are guided (the default without roulette, with NEE), finer bins gained
-/// nothing on door (CPU renderer, per sample: 0.31 of unguided's at 16x32 against
-/// 0.30 at 8x16) and lost on seed-exp1 at equal time (2 s runs on the H200, relMSE
-/// over unguided's: 2.05 at 12x24 and 2.27 at 16x32 against 1.88 at 8x16).
 /// The learning frames of a guided render (`GuideConfig::learning_frames`) where
 /// none are asked for: with Russian roulette the frames before learned roulette
 /// starts (`LEARNED_RR_FRAMES`), none without.
 ///
 /// Those first frames run plain throughput roulette over a table that has learned
 /// from a few frames at most, and each has most of unguided's variance, which the
-/// image's average then keeps: on door.toml (NVIDIA H100, commit `aace912`, the
-/// 10 s render of BENCHMARKS.md's "Guiding at equal time") frames 1 to 4 had
-/// 1.01, 0.78, 0.74 and 0.77 times an unguided frame's relMSE, frame 5 on 0.09
-/// (steady 0.085), and at 1 s those four frames were 18 % of the image's error;
-/// smallpt.toml alike (1.0 to 0.78, then 0.33 to 0.28). Without roulette the
-/// first frames gain gradually (seed-exp1: 1.01, 0.71, 0.62, 0.59, steady 0.55),
-/// and leaving them out would cost more samples than error. The image then
-/// averages the frames from the first learned-roulette frame on, which each
-/// estimate the pixel without bias; which frames are left out is fixed before
-/// the render, so the image stays unbiased. At equal time (NVIDIA H100,
-/// `scripts/gpu-bench.sh RLPT OUT learning-frames door smallpt`, relMSE less the
-/// reference's variance over unguided's at 1 s / 10 s), 0, 4 and 8 learning
-/// frames gave door 0.247 / 0.194, 0.212 / 0.191 and 0.216 / 0.191, smallpt
-/// 0.529 / 0.429, 0.502 / 0.427 and 0.531 / 0.429 (smallpt has 71 frames in its
-/// first second, and its fifth to eighth are as good as the later ones).
+/// image's average would keep. Without roulette the first frames gain gradually,
+/// and leaving them out would cost more samples than error. Which frames are left
+/// out is fixed before the render, so the image stays unbiased
+/// (docs/guiding.md, "Learned Russian roulette and learning frames").
 pub fn default_learning_frames(roulette: bool) -> u32 {
     if roulette {
         crate::shared::LEARNED_RR_FRAMES
@@ -572,6 +507,16 @@ pub fn check_learning_frames(n: u32) -> Result<(), String> {
     }
 }
 
+/// The bins of `--guiding sphere` where the options name none
+/// (`RenderOptions::bins` None): [`Bins::SPHERE_ROULETTE_DEFAULT`] (20x40) in a
+/// scene with Russian roulette (`russian_roulette_depth`), [`Bins::SPHERE_DEFAULT`]
+/// (8x16) without.
+///
+/// With roulette every vertex records targets ([`record_vertices`]), so each
+/// entry sees several times the targets per frame and a finer table learns in
+/// time; past 20x40 the frames grow faster than the error falls. Where only the
+/// first two vertices are guided, finer bins gained nothing (docs/guiding.md,
+/// "Defaults").
 pub fn default_bins(roulette: bool) -> Bins {
     if roulette {
         Bins::SPHERE_ROULETTE_DEFAULT
@@ -584,9 +529,8 @@ pub fn default_bins(roulette: bool) -> Bins {
 /// this. The guided vertices ([`guided_vertices`]), since sampling draws from a cell's
 /// bins there alone; but every vertex where Russian roulette is on, since learned
 /// roulette reads Q at the deep vertices too, and cells learned only from shallow
-/// ones left it guessing (door.toml on lavapipe, 48x32: the guided relative variance
-/// went from 0.44 to 1.42 of unguided's). On the H200, recording only the guided
-/// vertices saved 0.10 ms of seed-exp1's 2.19 with no loss per sample.
+/// ones left it guessing. Without roulette, recording only the guided vertices
+/// saves time with no loss per sample (docs/guiding.md, "Learning").
 /// `glsl/pathtrace.comp` takes it as the specialization constant `SPEC_RECORD_VERTICES`.
 pub fn record_vertices(p: &crate::prepared::RenderParams) -> u32 {
     if p.flags & crate::shared::FLAG_RUSSIAN_ROULETTE != 0 {
@@ -675,14 +619,10 @@ pub fn learned(row: &[AliasBin]) -> bool {
 /// GGX reflection (D(n) / 4 at normal incidence), so the share is min(1, 4 alpha^2):
 /// 0.25 at roughness 0.5, 1 from roughness 0.71 up; below 1/16 (roughness 0.354)
 /// none ([`glossy_share`]), so seed-exp2's and exp3's copper (roughness 0.3, 4
-/// alpha^2 = 0.032) and seed-exp3's gold (0.08, 0.00016) take none. On the H200 at
-/// equal time (one session), glossy vertices without guided sampling took
-/// seed-exp3's relMSE at 1 s from 1.25 to 1.11 of unguided's, and a share of the
-/// lobe over one bin's solid angle instead (1.04 for the copper, 0.005 for the
-/// gold) only to 1.17; min(1, 4 alpha^2) without the cut-off, next to none on the
-/// seed's glossy balls, gave 1.15 in the full run of BENCHMARKS.md at `1a15e67`,
-/// and with it 1.10. The share is a function of the vertex alone and the mixture
-/// density uses it wherever it is evaluated, so the estimate stays unbiased.
+/// alpha^2 = 0.032) and seed-exp3's gold (0.08, 0.00016) take none
+/// (docs/guiding.md, "Glossy lobes"). The share is a function of the vertex alone
+/// and the mixture density uses it wherever it is evaluated, so the estimate
+/// stays unbiased.
 /// `glsl/pathtrace.comp` `lobe_share`.
 pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
     match b.kind {
@@ -698,11 +638,9 @@ pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
 /// pays for such vertices with a second copy of the GGX evaluation, where the
 /// mixture's density is computed: the host sets `SCENE_KIND_GUIDED_GLOSSY` only for
 /// scenes with a glossy material at or above the bound ([`glossy_guided`]), and
-/// without it the kernel leaves that copy out. Seed-exp2's copper (roughness 0.3,
-/// 4 alpha^2 = 0.032) and seed-exp3's gold (0.08) are below it: their guided
-/// frames got 3.3 and 3.9 % shorter (H200, same session), and their relMSE at
-/// 10 s of equal time went from 1.07 to 1.04 and 1.03 times unguided's
-/// (BENCHMARKS.md). `glsl/pathtrace.comp` `glossy_share` is the same arithmetic.
+/// without it the kernel leaves that copy out. Seed-exp2's copper (roughness 0.3)
+/// and seed-exp3's gold (0.08) are below it. `glsl/pathtrace.comp` `glossy_share`
+/// is the same arithmetic.
 pub fn glossy_share(alpha: f32) -> f32 {
     let s = 4.0 * alpha * alpha;
     if s * (crate::shared::GLOSSY_SHARE_MIN_INV as f32) < 1.0 {
@@ -885,9 +823,8 @@ pub struct QTable {
     /// (set for good): only those rows are rebuilt when the table learns, the
     /// others stay [`UNLEARNED`] with fraction 0 (BSDF sampling alone). Most rows
     /// are never read: a cell's six orientation classes exist for whichever
-    /// surfaces it holds, and on door.toml 820 of the 3108 rows with a learned
-    /// cell were read (CPU renderer, 240x160, 10 frames), so the rebuild, a
-    /// sequential loop per row, did four times the work it needed. A row that a
+    /// surfaces it holds, and the rebuild, a sequential loop per row, would do
+    /// several times the work it needs (docs/guiding.md, "Learning"). A row that a
     /// path which does not record reads first samples the BSDF alone until a
     /// recording path reads it too, which every row's paths do in turn
     /// ([`RecordSchedule`]). `glsl/pathtrace.comp` marks them, `glsl/learn.comp`
@@ -1052,29 +989,16 @@ pub fn fraction_gradient_factor(g_frac: f32, g: f32, p_guided: f32, p_bsdf: f32,
 }
 
 /// The default exponent of Q's learning rate ([`batch_rate`]): 1, the running
-/// mean. A polynomial rate, 0.6 to 0.85, gave 9 to 11 % less variance on a
-/// 96x64 door.toml on the CPU renderer (2048 and 8192 spp, where few targets
-/// reach each entry), but on the H200 at door's own size it did not pay at equal
-/// time: 0.75 took 4 to 6 % less relMSE per sample with NEE, and learned roulette,
-/// reading a Q that follows its latest targets, kept paths longer, so that 5 to
-/// 8 % fewer samples fitted in 10 s (relMSE 0.99 of the running mean's at 10 s
-/// with sphere and NEE, 1.09 without; seed-exp1 within 2 %; BENCHMARKS.md).
+/// mean. A polynomial rate pays where few targets reach each entry, but at the
+/// GPU's image sizes learned roulette, reading a Q that follows its latest
+/// targets, keeps paths longer, and it did not pay at equal time
+/// (docs/guiding.md, "Learning").
 pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
 
-/// The exploration floor by default ([`GuideConfig::floor`]). It was 0.5 until
-/// Q learned MIS-weighted targets ([`QTargets::Mis`]); with them 0.25 had less
-/// error at equal time on all five shipped scenes with NEE (NVIDIA H100, 10 s,
-/// sphere, relMSE less the reference's variance over unguided's: door 0.238 ->
-/// 0.225, seed-exp1 0.743 -> 0.699, seed-exp2 0.886 -> 0.855, seed-exp3 0.866 ->
-/// 0.844, smallpt 0.481 -> 0.468; BENCHMARKS.md), and 0.1 less again on four of
-/// them (`--exploration-floor`, same method, ratios at 1 s / 10 s, 0.25 -> 0.1:
-/// door at 12x24 bins 0.270 / 0.226 -> 0.265 / 0.220, seed-exp1 0.711 / 0.699 ->
-/// 0.686 / 0.669, seed-exp2 0.938 / 0.855 -> 0.920 / 0.842, seed-exp3 0.915 /
-/// 0.844 -> 0.894 / 0.830, door at 20x40 0.274 / 0.207 -> 0.268 / 0.201); smallpt
-/// lost a little at 10 s (12x24: 0.545 / 0.468 -> 0.537 / 0.477; 16x32 0.529 /
-/// 0.438 -> 0.531 / 0.443). 0.05 was as good as 0.1 and no better. With full
-/// targets a smaller floor had lost on door (0.2: 0.555 against 0.546), since Q
-/// aimed at lamps that light sampling finds.
+/// The exploration floor by default ([`GuideConfig::floor`]). With MIS-weighted
+/// targets ([`QTargets::Mis`]) Q no longer aims at the lamps light sampling finds,
+/// and a sharper guided distribution pays: 0.1 had less error at equal time than
+/// 0.25 and 0.5 on most shipped scenes (docs/guiding.md, "Defaults").
 pub const DEFAULT_FLOOR: f32 = 0.1;
 
 /// The largest exploration floor taken ([`check_floor`]): a bin's weight is then

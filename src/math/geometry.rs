@@ -86,8 +86,8 @@ fn approach(s: &GpuSphere, o: Vec3, d: Vec3) -> Option<Approach> {
 /// pass, so a miss costs the centre's arithmetic alone, and no square root: it
 /// compares l^2 with r^2, and l itself is taken for the discriminant
 /// (r - l)(r + l) of the rays that pass (clamped at 0 where rounding puts l
-/// just past r; tangent, then). Against the square root taken for every test,
-/// an unguided H200 frame of seed-exp3 (nine spheres) was 2.7 % shorter.
+/// just past r; tangent, then). Most tests miss, so this spares most tests a
+/// square root (docs/ARCHITECTURE.md, "Sphere intersection").
 pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     if s.compact() {
         return intersect_sphere_compact(s, o, d, t_max);
@@ -136,9 +136,7 @@ pub fn intersect_sphere(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f
 /// hundredth, where on smallpt's walls (r = 1e5 beside a room of size 100) it
 /// would be 0.004 and more than the offset, hence the anchor there. In
 /// exchange, a ray that passes costs one
-/// square root and no division instead of two and one: seed-exp3's unguided
-/// H200 frame took 8.10 ms against 8.55 with the anchor's arithmetic on its
-/// (compact) balls (BENCHMARKS.md).
+/// square root and no division instead of two and one.
 pub fn intersect_sphere_compact(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> Option<f32> {
     let r = s.center_radius[3];
     let Approach { b, l2, .. } = approach(s, o, d)?;
@@ -153,8 +151,8 @@ pub fn intersect_sphere_compact(s: &GpuSphere, o: Vec3, d: Vec3, t_max: f32) -> 
 /// on opposite sides cross the surface once, two ends inside never (a ball is
 /// convex), and two outside twice if the line's nearest approach to the centre,
 /// at b = -(f.d), lies between them (the line passes inside, from the miss test).
-/// No square root and no division; on seed-exp3 (nine spheres) an unguided H200
-/// frame took 8.8 ms with this test against 9.8 with the roots (BENCHMARKS.md).
+/// No square root and no division: shadow rays are half the rays, and scenes of
+/// many balls pay for every root they take.
 ///
 /// The powers come from the centre, |p - C|^2 - r^2, on a compact sphere
 /// ([`GpuSphere::compact`]: no larger than half its centre's distance from the

@@ -33,9 +33,8 @@ impl Rng {
     }
 
     /// Uniform in [0, 1), in steps of 2^-23: the top 23 bits as the mantissa of a
-    /// float in [1, 2), minus 1 (exact), so 1.0 is never returned. The GPU saves
-    /// an integer-to-float conversion this way: 0.2 to 0.6 % of a frame on the
-    /// H200 (BENCHMARKS.md).
+    /// float in [1, 2), minus 1 (exact), so 1.0 is never returned. This spares
+    /// the GPU an integer-to-float conversion, which runs at a fraction of the rate.
     pub fn next_f32(&mut self) -> f32 {
         f32::from_bits(0x3f80_0000 | (self.next_u32() >> 9)) - 1.0
     }

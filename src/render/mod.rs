@@ -118,9 +118,8 @@ fn learn_groups(n: u32, group: u32) -> u32 {
 /// [`LEARN_STAGE_BYTES`] and the device's limit, as many as fit up to LEARN_GROUP
 /// (a power of two): 16 rows of the 8x16 default without roulette, 8 of 12x24
 /// and 16x32. Larger rows, the 20x40 default with roulette among them, are built
-/// in the table by groups of LEARN_GROUP: staged 4 to a group, door's 20x40 rows
-/// took 3.89 ms to rebuild against 2.35 in the table (H100), too few rows in
-/// flight; 12x24 rows staged 8 to a group took 0.48 ms against 0.66.
+/// in the table by groups of LEARN_GROUP: staged fewer to a group, too few rows
+/// are in flight and the rebuild is slower (docs/guiding.md, "Learning").
 fn rebuild_layout(bins: u32, max_shared: u32) -> (u32, u32, bool) {
     let row = bins * std::mem::size_of::<AliasBin>() as u32;
     let fit = (LEARN_STAGE_BYTES.min(max_shared) / row).min(shared::LEARN_GROUP);
@@ -752,13 +751,9 @@ impl GpuRenderer {
 /// (`SPEC_PIXELS_PER_GROUP`), for a scene of the material kinds `scene_kinds`
 /// (`RenderParams::scene_kinds`): 4 for the guided kernels of scenes with
 /// mirror, glass or glossy materials, 2 for the others and for the unguided
-/// kernel. Smaller groups free an SM's slots sooner after their longest path.
-/// On the H200 the unguided kernel ran seed-exp2, exp3 and door 2.3, 3.1 and 1.7 %
-/// faster with 2 than with 4, and the guided kernels of seed-exp1 and door, whose
-/// materials are all diffuse, 3.0 and 2.1 % (seed-exp1's at 72 registers instead
-/// of 79). Those of seed-exp2 and exp3, which carry the glass and GGX code, were
-/// 0.2 and 4.0 % slower with 2, as they had been at two earlier commits
-/// (BENCHMARKS.md).
+/// kernel. Smaller groups free an SM's slots sooner after their longest path;
+/// the guided kernels that carry the glass and GGX code were slower with 2
+/// (docs/ARCHITECTURE.md, "Workgroups").
 pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
     let lobes = (1 << shared::MAT_SPECULAR) | (1 << shared::MAT_DIELECTRIC) | (1 << shared::MAT_GLOSSY);
     if guided && scene_kinds & lobes != 0 {

@@ -705,7 +705,7 @@ mod tests {
         r.push(frame(2.0, 0.5));
         assert_eq!(r.mean(), frame(2.0, 0.5));
         // Frames as guided rendering makes them after its first ones: the rows'
-        // rebuild (0.4 ms here) after one frame in the largest stride.
+        // rebuild (0.4 in this test) after one frame in the largest stride.
         let stride = crate::shared::RECORD_MAX_STRIDE as usize;
         let mut means = Vec::new();
         for i in 0..5 * RECENT_FRAMES {
