@@ -1072,6 +1072,11 @@ fn devices() -> Result<()> {
         println!("    driver: {}", d.driver);
         println!("    subgroup size {}: {}", d.subgroup_size, d.subgroup_operations.join(", "));
         println!(
+            "    device memory: {} MB{}",
+            d.device_memory >> 20,
+            if d.unified_memory { " (shared with the host)" } else { "" }
+        );
+        println!(
             "    float atomic add: {}; subgroup partition (NV): {}; timestamps: {}; pipeline statistics: {}",
             yes_no(d.float_atomic_add),
             yes_no(d.subgroup_partitioned),
