@@ -61,7 +61,7 @@ impl GpuError {
         match result {
             vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(format!("{call} returned {result:?}")),
             vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                GpuError::OutOfMemory { what: call.to_string() }
+                GpuError::OutOfMemory { what: format!("for {call}") }
             }
             _ => GpuError::Vulkan { call, result },
         }
