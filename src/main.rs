@@ -15,6 +15,7 @@ use rlpt::scene::Scene;
 use rlpt::shared;
 use rlpt::stats::{FrameStats, RenderStats};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 #[derive(Parser)]
@@ -27,6 +28,12 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to a PNG (clamped, sRGB) or an EXR (linear float).
+    ///
+    /// Ctrl-C stops the render once the frame in flight ends and writes what was rendered
+    /// (the image, and --variance and --stats where asked), its true samples per pixel in
+    /// the summary; rlpt then exits with status 130, as a shell reports a command that
+    /// Ctrl-C ended, so that a script does not take the image for the render it asked for.
+    /// A second Ctrl-C quits at once, writing nothing.
     Render(RenderArgs),
     /// Open a window that shows the render converge; move around, switch guiding and NEE.
     View(ViewArgs),
@@ -452,7 +459,13 @@ fn main() {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => render(args),
+        Command::Render(args) => render(args).map(|outcome| {
+            if outcome == Outcome::Interrupted {
+                // 128 + SIGINT, as a shell reports a command that Ctrl-C stopped: a script
+                // must not take the image for the render it asked for.
+                std::process::exit(EXIT_INTERRUPTED);
+            }
+        }),
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
@@ -468,8 +481,77 @@ fn main() {
     };
     if let Err(e) = result {
         eprintln!("rlpt: error: {e:#}");
-        std::process::exit(1);
+        std::process::exit(if INTERRUPTED.load(Ordering::SeqCst) { EXIT_INTERRUPTED } else { 1 });
     }
+}
+
+/// The exit status of a render that Ctrl-C stopped: 128 + SIGINT, what a shell
+/// reports for a command the signal ended, whether or not the image was written.
+const EXIT_INTERRUPTED: i32 = 130;
+
+/// Set by the first Ctrl-C (SIGINT) during `rlpt render`: the render stops after
+/// the frame in flight and writes what it has, as [`catch_interrupt`] says.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Makes Ctrl-C stop a render instead of ending the process: the first sets
+/// [`INTERRUPTED`], which the frame loop reads between frames; a second, before
+/// the outputs are written, ends the process at once, writing nothing.
+fn catch_interrupt() {
+    let set = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            eprintln!("\nrlpt: interrupted again: quitting without writing anything");
+            std::process::exit(EXIT_INTERRUPTED);
+        }
+        eprintln!(
+            "\nrlpt: interrupted: writing what is rendered once the frame in flight ends \
+             (Ctrl-C again quits at once, writing nothing)"
+        );
+    });
+    if let Err(e) = set {
+        eprintln!("warning: Ctrl-C will end the render without writing what it rendered: {e}");
+    }
+}
+
+/// How a render that wrote its outputs ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Outcome {
+    /// Every frame asked for (or all that --time allowed).
+    Complete,
+    /// Ctrl-C stopped it before the frames asked for: the outputs hold fewer.
+    Interrupted,
+}
+
+/// Why the frame loop of `rlpt render` stopped.
+enum Stop {
+    /// Every frame asked for, or --time ran out.
+    Finished,
+    /// Ctrl-C ([`INTERRUPTED`]) before the last frame.
+    Interrupted,
+    /// The GPU was lost (`VK_ERROR_DEVICE_LOST`); what it says of the call.
+    DeviceLost(String),
+}
+
+/// The sentence of a render whose device was lost after `frames` frames (the
+/// learning frames counted): whether the image so far went to `output` (`written`:
+/// its spp), or why it could not.
+fn device_lost_message(detail: &str, frames: u32, output: &Path, written: Option<u32>) -> String {
+    let when = match frames {
+        0 => "before the first frame ended".to_string(),
+        1 => "after 1 frame".to_string(),
+        n => format!("after {n} frames"),
+    };
+    let outcome = match written {
+        Some(spp) => format!("the image so far ({spp} spp) was written to {}", output.display()),
+        None if frames == 0 => format!("nothing was rendered, and nothing written to {}", output.display()),
+        None => format!(
+            "what it rendered cannot be read back from a lost device, so nothing was written to {}",
+            output.display()
+        ),
+    };
+    format!(
+        "the GPU stopped responding (device lost: {detail}) {when}; {outcome}: render again, and if it recurs \
+         render a smaller image, update the GPU driver, or render on the CPU (--device cpu)"
+    )
 }
 
 /// What render, bench and view say on stderr before they start: the options the
@@ -518,7 +600,10 @@ fn check_distinct(outputs: &[(&str, &Path)]) -> Result<()> {
     Ok(())
 }
 
-fn render(args: RenderArgs) -> Result<()> {
+fn render(args: RenderArgs) -> Result<Outcome> {
+    // Ctrl-C from here on stops the render after the frame in flight and writes what it
+    // has; during the set-up (scene, device, kernels) it stops after the first frame.
+    catch_interrupt();
     check_output("output", &args.output, Some(&["png", "exr"]))?;
     if let Some(stats) = &args.stats {
         check_output("--stats", stats, None)?;
@@ -643,6 +728,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let paths_per_frame = (opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64) as f64;
     let mut film = None;
     let mut traced = 0;
+    let mut stop = Stop::Finished;
     for f in 0..traced_frames {
         let frame_start = Instant::now();
         let (gpu_ms, zero_paths) = match &mut renderer {
@@ -650,16 +736,22 @@ fn render(args: RenderArgs) -> Result<()> {
                 r.render_frame();
                 (None, Some(r.last_counters.zero_paths))
             }
-            Renderer::Gpu(r) => {
-                let t = r.render_frames(1)?;
-                (r.context().info.timestamps.then_some(t.total_ms()), t.zero_paths)
-            }
+            Renderer::Gpu(r) => match r.render_frames(1) {
+                Ok(t) => (r.context().info.timestamps.then_some(t.total_ms()), t.zero_paths),
+                Err(rlpt::gpu::GpuError::DeviceLost(detail)) => {
+                    spp = renderer.frames() * shared::SAMPLES_PER_FRAME;
+                    stop = Stop::DeviceLost(detail);
+                    break;
+                }
+                Err(e) => return Err(e.into()),
+            },
         };
         let frame_ms = gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
         let mark = time_mark(gpu_ms_total, gpu_ms_total + frame_ms);
         gpu_ms_total += frame_ms;
         let out_of_time = args.time.is_some_and(|limit| gpu_ms_total >= limit * 1e3);
-        let last = f + 1 == traced_frames || out_of_time;
+        let interrupted = INTERRUPTED.load(Ordering::SeqCst) && f + 1 < traced_frames;
+        let last = f + 1 == traced_frames || out_of_time || interrupted;
         traced = f + 1;
         let errors = match &reference {
             Some(r) if last || mark || measure_at(f + 1) => {
@@ -686,25 +778,44 @@ fn render(args: RenderArgs) -> Result<()> {
             shown = true;
         }
         bar.set_position(f as u64 + 1);
-        if out_of_time {
+        if out_of_time || interrupted {
             spp = renderer.frames() * shared::SAMPLES_PER_FRAME;
+            if interrupted {
+                stop = Stop::Interrupted;
+            }
             break;
         }
     }
     bar.finish_and_clear();
-    let film = match film {
-        Some(f) => f,
-        None => renderer.film()?,
+    let film = match (film, &stop) {
+        (Some(f), _) => f,
+        (None, Stop::DeviceLost(detail)) => match renderer.film() {
+            Ok(f) => f,
+            Err(_) => bail!(device_lost_message(detail, traced, &args.output, None)),
+        },
+        (None, _) => renderer.film()?,
     };
+    if traced == 0 {
+        // Lost at the first frame, and the film read back: nothing to write.
+        if let Stop::DeviceLost(detail) = &stop {
+            bail!(device_lost_message(detail, 0, &args.output, None));
+        }
+    }
     let elapsed = start.elapsed().as_secs_f64();
     let image = film.mean();
     image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
     if let Some(path) = &args.variance {
         let v = film.variance_of_mean().ok_or_else(|| {
+            let why = match stop {
+                Stop::Finished => "give --time more",
+                Stop::Interrupted => "it was interrupted",
+                Stop::DeviceLost(_) => "the GPU stopped responding",
+            };
             anyhow::anyhow!(
-                "--variance {}: the render stopped after 1 frame, and a pixel's variance is measured from the \
-                 spread of at least 2 (give --time more); the image was written to {}",
+                "--variance {}: the render stopped after {} frame(s), and a pixel's variance is measured from the \
+                 spread of at least 2 ({why}); the image was written to {}",
                 path.display(),
+                film.frames,
                 args.output.display()
             )
         })?;
@@ -740,8 +851,15 @@ fn render(args: RenderArgs) -> Result<()> {
         Some(d) => format!("{rel} ({d:.3e} less the reference's variance)"),
         None => rel,
     };
+    // The samples per pixel of an image cut short, and why, beside those asked for.
+    let asked = frames * shared::SAMPLES_PER_FRAME;
+    let cut = match stop {
+        Stop::Interrupted => format!(" (interrupted: {asked} asked)"),
+        Stop::DeviceLost(_) => format!(" (the GPU stopped responding: {asked} asked)"),
+        Stop::Finished => String::new(),
+    };
     println!(
-        "{}: {}x{}, {} spp{learned}, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
+        "{}: {}x{}, {} spp{cut}{learned}, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
         opts.width,
         opts.height,
@@ -753,7 +871,11 @@ fn render(args: RenderArgs) -> Result<()> {
         samples / elapsed / 1e6,
         args.output.display()
     );
-    Ok(())
+    match stop {
+        Stop::Finished => Ok(Outcome::Complete),
+        Stop::Interrupted => Ok(Outcome::Interrupted),
+        Stop::DeviceLost(detail) => bail!(device_lost_message(&detail, traced, &args.output, Some(spp))),
+    }
 }
 
 /// The two renderers behind one face.
@@ -1071,6 +1193,11 @@ fn devices() -> Result<()> {
         println!("[{}] {} ({}), Vulkan {}", d.index, d.name, d.device_type, d.api_version);
         println!("    driver: {}", d.driver);
         println!("    subgroup size {}: {}", d.subgroup_size, d.subgroup_operations.join(", "));
+        println!(
+            "    device memory: {} MB{}",
+            d.device_memory >> 20,
+            if d.unified_memory { " (shared with the host)" } else { "" }
+        );
         println!(
             "    float atomic add: {}; subgroup partition (NV): {}; timestamps: {}; pipeline statistics: {}",
             yes_no(d.float_atomic_add),

@@ -799,3 +799,159 @@ fn reference_variances_are_checked() {
     let (ok, err) = run(&["compare", &p(&png), &p(&png), "--reference-variance", &p(&good)]);
     assert!(!ok && err.contains("compare two EXRs with it"), "{err}");
 }
+
+/// Sends SIGINT (what Ctrl-C sends) to a child process.
+fn interrupt(child: &std::process::Child) {
+    let ok = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success();
+    assert!(ok, "kill -INT {}", child.id());
+}
+
+/// Waits for `child` to end, at most `limit`; kills it and fails past that.
+fn wait_at_most(child: &mut std::process::Child, limit: std::time::Duration) -> std::process::ExitStatus {
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            panic!("the process did not end within {limit:?} of Ctrl-C");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// The spp a render's summary line names ("WxH, N spp").
+fn summary_spp(stdout: &str) -> u32 {
+    let (_, after) = stdout.split_once("32x24, ").unwrap_or_else(|| panic!("no summary line: {stdout}"));
+    after.split_once(" spp").and_then(|(n, _)| n.parse().ok()).unwrap_or_else(|| panic!("no spp: {stdout}"))
+}
+
+#[test]
+fn ctrl_c_writes_what_was_rendered_with_its_spp() {
+    use std::io::Read;
+    let asked = 64_000_000u32;
+    for device in ["cpu", "gpu"] {
+        let (out, var, stats) =
+            (tmp(&format!("int-{device}.png")), tmp(&format!("int-{device}.exr")), tmp(&format!("int-{device}.json")));
+        let mut child = rlpt()
+            .args(["render", "scenes/smallpt.toml", "--width", "32", "--height", "24", "--device", device])
+            .args(["--spp", &asked.to_string(), "-o"])
+            .arg(&out)
+            .arg("--variance")
+            .arg(&var)
+            .arg("--stats")
+            .arg(&stats)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Long enough for frames on either device; a Ctrl-C during the set-up would
+        // still write the first frame.
+        std::thread::sleep(std::time::Duration::from_millis(2500));
+        interrupt(&child);
+        let status = wait_at_most(&mut child, std::time::Duration::from_secs(10));
+        let (mut stdout, mut stderr) = (String::new(), String::new());
+        child.stdout.take().unwrap().read_to_string(&mut stdout).unwrap();
+        child.stderr.take().unwrap().read_to_string(&mut stderr).unwrap();
+        assert_eq!(status.code(), Some(130), "{device}: 128 + SIGINT: {stderr}");
+        assert!(!stderr.contains("panicked") && !stderr.contains("VUID"), "{device}: {stderr}");
+        let spp = summary_spp(&stdout);
+        assert!(spp > 0 && spp.is_multiple_of(64) && spp < asked, "{device}: {spp} spp: {stdout}");
+        assert!(stdout.contains(&format!("(interrupted: {asked} asked)")), "{device}: {stdout}");
+        let img = rlpt::image::Image::load(&out).unwrap();
+        assert_eq!((img.width, img.height), (32, 24), "{device}");
+        assert!(img.pixels.iter().any(|p| p[0] > 0.0), "{device}: the image is not black");
+        let v = rlpt::image::Image::load(&var).unwrap();
+        assert_eq!((v.width, v.height), (32, 24), "{device}");
+        let s = rlpt::stats::RenderStats::load(&stats).unwrap();
+        assert_eq!(s.frames.last().map(|f| f.spp), Some(spp), "{device}: the statistics end where the image does");
+    }
+}
+
+#[test]
+fn a_second_ctrl_c_quits_at_once_writing_nothing() {
+    // On the CPU at 2048x2048 one frame (268 million paths) takes seconds even on
+    // many cores: the first Ctrl-C waits for it, the second does not.
+    let out = tmp("int-twice.png");
+    let mut child = rlpt()
+        .args(["render", "scenes/smallpt.toml", "--width", "2048", "--height", "2048", "--device", "cpu", "-o"])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    interrupt(&child);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert!(child.try_wait().unwrap().is_none(), "the first Ctrl-C waits for the frame in flight");
+    interrupt(&child);
+    let status = wait_at_most(&mut child, std::time::Duration::from_secs(3));
+    assert_eq!(status.code(), Some(130));
+    assert!(!out.exists(), "nothing is written after a second Ctrl-C");
+}
+
+#[test]
+fn a_render_larger_than_the_device_memory_says_what_to_do() {
+    // lavapipe reports 2 GiB and no render within its 128 MiB buffers comes near it:
+    // the hook makes it a device of 16 MiB.
+    let run = |args: &[&str]| {
+        let out = tmp("oom.png");
+        let o = rlpt().args(args).arg("-o").arg(&out).env(rlpt::gpu::DEVICE_MEMORY_HOOK, "16").output().unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(1), "{stderr}");
+        assert!(!stderr.contains("panicked") && !out.exists(), "{stderr}");
+        assert_eq!(stderr.lines().filter(|l| l.starts_with("rlpt: error")).count(), 1, "{stderr}");
+        stderr
+    };
+    let e = run(&["render", "scenes/smallpt.toml", "--width", "1024", "--height", "768", "--spp", "64"]);
+    assert!(
+        e.contains("the render needs about 49 MB of GPU memory (24 MB for the 1024x768 image, 24 MB to read it back)")
+            && e.contains("has 16 MB: render a smaller image (--width, --height), or on the CPU (--device cpu)"),
+        "{e}"
+    );
+    let e = run(&["render", "scenes/door.toml", "--guiding", "sphere", "--width", "64", "--height", "48"]);
+    assert!(e.contains("MB for the guiding table") && e.contains("fewer guiding bins (--bins)"), "{e}");
+    // The same image fits with fewer bins.
+    let out = tmp("oom-fits.png");
+    let o = rlpt()
+        .args(["render", "scenes/door.toml", "--guiding", "sphere", "--bins", "4x8", "--width", "64", "--height"])
+        .args(["48", "--spp", "64", "-o"])
+        .arg(&out)
+        .env(rlpt::gpu::DEVICE_MEMORY_HOOK, "16")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn a_lost_device_is_a_sentence_that_says_what_was_kept() {
+    let out = tmp("lost.png");
+    let stats = tmp("lost.json");
+    let o = rlpt()
+        .args(["render", "scenes/smallpt.toml", "--width", "32", "--height", "24", "--spp", "6400", "-o"])
+        .arg(&out)
+        .arg("--stats")
+        .arg(&stats)
+        .env(rlpt::render::DEVICE_LOST_HOOK, "3")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked") && !stderr.contains("VUID"), "{stderr}");
+    assert!(
+        stderr.contains("the GPU stopped responding (device lost: vkQueueSubmit returned ERROR_DEVICE_LOST) after 3 frames; what it rendered cannot be read back from a lost device, so nothing was written to")
+            && stderr.contains("render again, and if it recurs render a smaller image, update the GPU driver, or render on the CPU (--device cpu)"),
+        "{stderr}"
+    );
+    assert!(!out.exists() && !stats.exists(), "nothing written from a lost device");
+    // bench says the same sentence, from the library's error.
+    let o = rlpt()
+        .args(["bench", "scenes/smallpt.toml", "--width", "16", "--height", "16", "--frames", "4", "--warmup", "0"])
+        .env(rlpt::render::DEVICE_LOST_HOOK, "2")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("the GPU stopped responding (device lost") && !stderr.contains("panicked"), "{stderr}");
+}

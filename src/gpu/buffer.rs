@@ -21,6 +21,17 @@ pub struct Buffer {
     pub raw: vk::Buffer,
     pub size: u64,
     allocation: Option<Allocation>,
+    /// Bytes counted against the device's memory (`Context::note_allocation`).
+    counted: u64,
+}
+
+/// `bytes` for a message: in MB, or in bytes below one.
+fn megabytes(bytes: u64) -> String {
+    if bytes < 1 << 20 {
+        format!("{bytes} bytes")
+    } else {
+        format!("{} MB", bytes.div_ceil(1 << 20))
+    }
 }
 
 impl Buffer {
@@ -43,6 +54,12 @@ impl Buffer {
         let raw = unsafe { ctx.device.create_buffer(&info, None) }.map_err(|e| GpuError::vk("vkCreateBuffer", e))?;
         // SAFETY: `raw` was just created on this device.
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
+        let what = format!("the {name} buffer ({})", megabytes(size));
+        if let Err(e) = ctx.note_allocation(&what, requirements.size) {
+            // SAFETY: the buffer has no memory bound and is unused.
+            unsafe { ctx.device.destroy_buffer(raw, None) };
+            return Err(e);
+        }
         let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
             name,
             requirements,
@@ -53,12 +70,11 @@ impl Buffer {
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {
+                ctx.note_free(requirements.size);
                 // SAFETY: the buffer has no memory bound and is unused.
                 unsafe { ctx.device.destroy_buffer(raw, None) };
                 return Err(match e {
-                    gpu_allocator::AllocationError::OutOfMemory => {
-                        GpuError::OutOfMemory { what: format!("{name} ({size} bytes)") }
-                    }
+                    gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfMemory { what },
                     e => GpuError::Allocation { what: name.to_string(), source: e },
                 });
             }
@@ -66,12 +82,13 @@ impl Buffer {
         // SAFETY: memory and offset come from an allocation that satisfies the buffer's requirements.
         if let Err(e) = unsafe { ctx.device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
             let _ = ctx.allocator().free(allocation);
+            ctx.note_free(requirements.size);
             // SAFETY: unused buffer.
             unsafe { ctx.device.destroy_buffer(raw, None) };
             return Err(GpuError::vk("vkBindBufferMemory", e));
         }
         ctx.set_name(raw, name);
-        Ok(Buffer { ctx: ctx.clone(), raw, size, allocation: Some(allocation) })
+        Ok(Buffer { ctx: ctx.clone(), raw, size, allocation: Some(allocation), counted: requirements.size })
     }
 
     /// An upload buffer holding `data`.
@@ -129,6 +146,7 @@ impl Drop for Buffer {
     fn drop(&mut self) {
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator().free(a);
+            self.ctx.note_free(self.counted);
         }
         // SAFETY: callers wait for GPU work on this buffer before dropping it (run_commands waits).
         unsafe { self.ctx.device.destroy_buffer(self.raw, None) };

@@ -2,7 +2,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::{c_void, CStr, CString};
 use std::mem::ManuallyDrop;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Failures a user can act on, each said in a sentence.
@@ -27,8 +27,16 @@ pub enum GpuError {
          `apt install vulkan-validationlayers`"
     )]
     NoValidationLayer,
-    #[error("the GPU ran out of memory while allocating {what}: try a smaller image")]
+    #[error(
+        "the GPU ran out of memory allocating {what} (other programs may hold some of it): render a smaller \
+         image (--width, --height), with fewer guiding bins (--bins) or cells, or on the CPU (--device cpu)"
+    )]
     OutOfMemory { what: String },
+    #[error(
+        "the render needs about {} MB of GPU memory ({what}) and {device} has {} MB: {hint}",
+        needed.div_ceil(1 << 20), available / (1 << 20)
+    )]
+    DeviceMemoryTooSmall { what: String, needed: u64, available: u64, device: String, hint: String },
     #[error(
         "{what} would take {} MB, more than the {} MB this device's shaders can address in one buffer \
          (maxStorageBufferRange): {hint}", bytes.div_ceil(1 << 20), limit / (1 << 20)
@@ -36,7 +44,10 @@ pub enum GpuError {
     BufferTooLarge { what: String, bytes: u64, limit: u64, hint: &'static str },
     #[error("cannot show a window through Vulkan: {0}")]
     NoPresentation(String),
-    #[error("the GPU device was lost (a driver crash or a kernel that ran too long): {0}")]
+    #[error(
+        "the GPU stopped responding (device lost: {0}): render again, and if it recurs render a smaller \
+         image, update the GPU driver, or render on the CPU (--device cpu)"
+    )]
     DeviceLost(String),
     #[error("Vulkan call {call} failed: {result}")]
     Vulkan { call: &'static str, result: vk::Result },
@@ -48,9 +59,9 @@ impl GpuError {
     /// Wraps a `vk::Result` from `call`, turning the ones a user can act on into their own variants.
     pub fn vk(call: &'static str, result: vk::Result) -> GpuError {
         match result {
-            vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(format!("{call} returned {result}")),
+            vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(format!("{call} returned {result:?}")),
             vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                GpuError::OutOfMemory { what: call.to_string() }
+                GpuError::OutOfMemory { what: format!("for {call}") }
             }
             _ => GpuError::Vulkan { call, result },
         }
@@ -81,6 +92,12 @@ pub struct DeviceInfo {
     pub max_compute_shared_memory: u32,
     /// `maxStorageBufferRange`: the largest storage buffer a shader can address.
     pub max_storage_buffer_range: u32,
+    /// Bytes of the largest device-local memory heap: what buffers that shaders
+    /// read and write are allocated from (see [`DEVICE_MEMORY_HOOK`] for tests).
+    pub device_memory: u64,
+    /// Every memory heap is device-local (lavapipe, integrated GPUs): host-visible
+    /// buffers (uploads, readbacks) take the same memory as the device's own.
+    pub unified_memory: bool,
     /// `VK_KHR_pipeline_executable_properties`: the driver reports each pipeline's
     /// register and memory use (`rlpt bench`).
     pub pipeline_statistics: bool,
@@ -155,7 +172,21 @@ pub struct Context {
     messenger: vk::DebugUtilsMessengerEXT,
     /// Validation messages of warning or error severity; boxed so the callback's pointer stays valid.
     messages: Box<AtomicU32>,
+    /// Set once a call returned `VK_ERROR_DEVICE_LOST` (or [`Context::lose_device`]
+    /// said so): every later submission fails the same way, without touching the device.
+    lost: AtomicBool,
+    /// Bytes of the buffers alive now ([`Context::note_allocation`]).
+    allocated: AtomicU64,
+    /// The device memory [`DEVICE_MEMORY_HOOK`] pretends, in bytes: allocations past it fail.
+    memory_cap: Option<u64>,
 }
+
+/// Test hook, for tests only: `RLPT_TEST_DEVICE_MEMORY_MB=N` makes a [`Context`]
+/// report a device of N MiB of memory ([`DeviceInfo::device_memory`]), and refuse
+/// buffer allocations past it as out of memory, the way a real device that is full
+/// does: lavapipe reports 2 GiB but lets every buffer take host memory, and no render
+/// its 128 MiB buffer limit allows comes near that, so a test cannot fill it.
+pub const DEVICE_MEMORY_HOOK: &str = "RLPT_TEST_DEVICE_MEMORY_MB";
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -286,6 +317,12 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         pipeline_statistics = exec.pipeline_executable_info == vk::TRUE;
     }
     // SAFETY: as above.
+    let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
+    let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
+    let local = |h: &&vk::MemoryHeap| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL);
+    let device_memory = heaps.iter().filter(local).map(|h| h.size).max().unwrap_or(0);
+    let unified_memory = !heaps.is_empty() && heaps.iter().all(|h| local(&h));
+    // SAFETY: as above.
     let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
     let queue_family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE));
     let timestamps = queue_family.is_some_and(|q| families[q].timestamp_valid_bits > 0)
@@ -348,6 +385,8 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         timestamps,
         max_compute_shared_memory: props.limits.max_compute_shared_memory_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        device_memory,
+        unified_memory,
         pipeline_statistics,
         missing,
         physical,
@@ -460,7 +499,12 @@ impl Context {
                 missing: chosen.missing.join(", "),
             });
         }
-        let info = chosen.clone();
+        let mut info = chosen.clone();
+        let memory_cap =
+            std::env::var(DEVICE_MEMORY_HOOK).ok().and_then(|v| v.trim().parse::<u64>().ok()).map(|mb| mb << 20);
+        if let Some(cap) = memory_cap {
+            info.device_memory = info.device_memory.min(cap);
+        }
 
         let priorities = [1.0f32];
         let queue_info =
@@ -536,6 +580,9 @@ impl Context {
             debug_device,
             messenger,
             messages,
+            lost: AtomicBool::new(false),
+            allocated: AtomicU64::new(0),
+            memory_cap,
         };
         ctx.set_name(ctx.queue, "rlpt queue");
         Ok(Arc::new(ctx))
@@ -565,6 +612,44 @@ impl Context {
         }
     }
 
+    /// Whether the device was lost: every submission fails from then on.
+    pub fn is_lost(&self) -> bool {
+        self.lost.load(Ordering::SeqCst)
+    }
+
+    /// Marks the device lost, as a submission that returned `VK_ERROR_DEVICE_LOST`
+    /// does, and returns that error: the way tests reach the device-lost path
+    /// (`render::DEVICE_LOST_HOOK`), which no test can cause for real.
+    pub fn lose_device(&self, call: &'static str) -> GpuError {
+        self.lost.store(true, Ordering::SeqCst);
+        GpuError::vk(call, vk::Result::ERROR_DEVICE_LOST)
+    }
+
+    /// `GpuError::vk`, noting a lost device.
+    fn vk_error(&self, call: &'static str, result: vk::Result) -> GpuError {
+        if result == vk::Result::ERROR_DEVICE_LOST {
+            self.lost.store(true, Ordering::SeqCst);
+        }
+        GpuError::vk(call, result)
+    }
+
+    /// Counts a buffer of `bytes` against the device's memory before it is
+    /// allocated: an error where [`DEVICE_MEMORY_HOOK`] caps the memory and it
+    /// would not fit. [`Context::note_free`] gives the bytes back.
+    pub(crate) fn note_allocation(&self, what: &str, bytes: u64) -> Result<()> {
+        let before = self.allocated.fetch_add(bytes, Ordering::SeqCst);
+        if self.memory_cap.is_some_and(|cap| before + bytes > cap) {
+            self.allocated.fetch_sub(bytes, Ordering::SeqCst);
+            return Err(GpuError::OutOfMemory { what: what.to_string() });
+        }
+        Ok(())
+    }
+
+    /// Gives back what [`Context::note_allocation`] counted.
+    pub(crate) fn note_free(&self, bytes: u64) {
+        self.allocated.fetch_sub(bytes, Ordering::SeqCst);
+    }
+
     /// Records commands with `record`, submits them and waits for completion.
     pub fn run_commands(&self, name: &str, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
         self.run_commands_synced(name, &[], &[], record)
@@ -579,6 +664,9 @@ impl Context {
         signals: &[vk::Semaphore],
         record: impl FnOnce(vk::CommandBuffer),
     ) -> Result<()> {
+        if self.is_lost() {
+            return Err(GpuError::vk("vkQueueSubmit", vk::Result::ERROR_DEVICE_LOST));
+        }
         let wait_semaphores: Vec<vk::Semaphore> = waits.iter().map(|w| w.0).collect();
         let wait_stages: Vec<vk::PipelineStageFlags> = waits.iter().map(|w| w.1).collect();
         let pool = self.command_pool.lock().unwrap_or_else(|e| e.into_inner());
@@ -609,11 +697,11 @@ impl Context {
                 .signal_semaphores(signals)];
             // SAFETY: the queue is used from one thread at a time (the pool lock is held).
             let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
-                .map_err(|e| GpuError::vk("vkQueueSubmit", e))
+                .map_err(|e| self.vk_error("vkQueueSubmit", e))
                 // SAFETY: the fence was just submitted.
                 .and_then(|_| {
                     unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) }
-                        .map_err(|e| GpuError::vk("vkWaitForFences", e))
+                        .map_err(|e| self.vk_error("vkWaitForFences", e))
                 });
             // SAFETY: after the wait (or a failed submit) the fence is unused.
             unsafe { self.device.destroy_fence(fence, None) };
@@ -643,7 +731,7 @@ impl Context {
         match unsafe { loader.queue_present(self.queue, &info) } {
             Ok(suboptimal) => Ok(suboptimal),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(true),
-            Err(e) => Err(GpuError::vk("vkQueuePresentKHR", e)),
+            Err(e) => Err(self.vk_error("vkQueuePresentKHR", e)),
         }
     }
 

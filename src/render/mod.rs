@@ -104,6 +104,74 @@ fn fits_one_buffer(ctx: &Context, what: &str, bytes: u64, hint: &'static str) ->
     Ok(())
 }
 
+/// Test hook, for tests only: `RLPT_TEST_DEVICE_LOST_AFTER=N` makes a
+/// [`GpuRenderer`] lose its device when a submission would trace frame N + 1 (N
+/// frames traced, learning frames counted): the submission fails as one that
+/// returned `VK_ERROR_DEVICE_LOST` does, and every later one with it
+/// (`Context::lose_device`), so the film cannot be read back. No test can lose a
+/// device for real.
+pub const DEVICE_LOST_HOOK: &str = "RLPT_TEST_DEVICE_LOST_AFTER";
+
+/// `bytes` in MB, rounded up.
+fn mb(bytes: u64) -> u64 {
+    bytes.div_ceil(1 << 20)
+}
+
+/// The device memory a render of `scene` takes, against what `ctx`'s device has:
+/// an error that says what would not fit and what to do, before anything is
+/// allocated. The storage buffers count; uploads and readbacks too where they
+/// take the same memory ([`DeviceInfo::unified_memory`](crate::gpu::DeviceInfo)).
+fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuError> {
+    let available = ctx.info.device_memory;
+    let p = &scene.params;
+    let accum = p.width as u64 * p.height as u64 * std::mem::size_of::<AccumPixel>() as u64;
+    let table = scene.guide.as_ref().map_or(0, |cfg| {
+        let entries = cfg.entries() as u64;
+        let cells = cfg.grid.cells() as u64;
+        let rows = cfg.sampling_rows() as u64;
+        2 * 4 * entries
+            + 2 * 4 * (entries + cells)
+            + 2 * 4 * rows
+            + cells * std::mem::size_of::<crate::guide::FractionState>() as u64
+            + entries * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64
+    });
+    let uploads = [
+        std::mem::size_of_val(&scene.params),
+        std::mem::size_of_val(scene.materials.as_slice()),
+        std::mem::size_of_val(scene.spheres.as_slice()),
+        std::mem::size_of_val(scene.quads.as_slice()),
+        std::mem::size_of_val(scene.lights.as_slice()),
+    ]
+    .iter()
+    .map(|&b| b as u64)
+    .sum::<u64>();
+    let unified = ctx.info.unified_memory;
+    let needed = accum + table + if unified { accum + uploads } else { 0 };
+    if available == 0 || needed <= available {
+        return Ok(());
+    }
+    let mut parts = vec![format!("{} MB for the {}x{} image", mb(accum), p.width, p.height)];
+    if unified {
+        parts.push(format!("{} MB to read it back", mb(accum)));
+    }
+    if table > 0 {
+        parts.push(format!("{} MB for the guiding table", mb(table)));
+    }
+    let hint = if scene.guide.is_some() {
+        "render a smaller image (--width, --height), with fewer guiding bins (--bins) or cells (the scene's \
+         [guiding] resolution), or on the CPU (--device cpu)"
+    } else {
+        "render a smaller image (--width, --height), or on the CPU (--device cpu)"
+    };
+    Err(GpuError::DeviceMemoryTooSmall {
+        what: parts.join(", "),
+        needed,
+        available,
+        device: ctx.info.name.clone(),
+        hint: hint.into(),
+    })
+}
+
 /// Groups of `group` invocations for `n` items of learn.comp's work, at most
 /// LEARN_MAX_GROUPS (the shader steps through the rest): 65535 is the most that
 /// every device takes, and door's table of 32x32 bins (1081344 entries) needed
@@ -271,6 +339,8 @@ pub struct GpuRenderer {
     /// `ABLATE_*` bits for `render_frame_profiled`: parts of guiding left out
     /// (profiling only: the image is then not what rlpt renders).
     pub ablate: u32,
+    /// [`DEVICE_LOST_HOOK`]'s frame count (tests only).
+    lose_device_after: Option<u32>,
 }
 
 /// pathtrace.comp's push constants (`Push`).
@@ -312,6 +382,7 @@ impl GpuRenderer {
             (true, false) => "pathtrace_guided",
             (true, true) => "pathtrace_guided_partitioned",
         };
+        fits_device_memory(ctx, scene)?;
         let geometry = scene.geometry_specialization();
         let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
         let mut scene_buffers = vec![
@@ -426,6 +497,7 @@ impl GpuRenderer {
             accum_frames: 0,
             learned_frames: 0,
             ablate: 0,
+            lose_device_after: std::env::var(DEVICE_LOST_HOOK).ok().and_then(|v| v.trim().parse().ok()),
         };
         renderer.bind_path_pipelines();
         Ok(renderer)
@@ -572,15 +644,26 @@ impl GpuRenderer {
         Ok(())
     }
 
+    /// [`DEVICE_LOST_HOOK`]: the device lost where tracing `count` more frames
+    /// would pass the frames it names.
+    fn check_device_lost_hook(&self, count: u32) -> Result<(), GpuError> {
+        match self.lose_device_after {
+            Some(n) if self.frames_traced.saturating_add(count) > n => Err(self.ctx.lose_device("vkQueueSubmit")),
+            _ => Ok(()),
+        }
+    }
+
     /// Renders `count` frames in one submission (each followed by learning when
     /// guiding is on: the fold and the rows' rebuild as `RecordSchedule::learns_after`
     /// says) and returns what they measured. Times come from timestamp
     /// queries (zero where the queue has none).
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
+        self.check_device_lost_hook(count)?;
         let timestamps = self.ctx.info.timestamps;
         let first = self.frames_traced;
+        let before = (self.frames_traced, self.accum_frames, self.learned_frames);
         let pushes: Vec<PathPush> = (0..count).map(|_| PathPush { ablate: 0, ..self.next_frame() }).collect();
-        self.ctx.run_commands("pathtrace frames", |cmd| {
+        let submitted = self.ctx.run_commands("pathtrace frames", |cmd| {
             self.counters.cmd_clear(cmd);
             self.ctx.barrier(cmd);
             if timestamps {
@@ -611,7 +694,12 @@ impl GpuRenderer {
             }
             self.ctx.barrier(cmd);
             self.counters.cmd_copy_to(cmd, &self.counters_readback);
-        })?;
+        });
+        if let Err(e) = submitted {
+            // The frames did not finish: the counts stay those of the accumulation.
+            (self.frames_traced, self.accum_frames, self.learned_frames) = before;
+            return Err(e);
+        }
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
         let mut t = FrameTimings { zero_paths, segments, subgroup_segments, ..Default::default() };
         if timestamps {
@@ -634,6 +722,7 @@ impl GpuRenderer {
                 missing: "timestamp queries on the compute queue, which GPU timing needs".into(),
             });
         }
+        self.check_device_lost_hook(1)?;
         let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.frames_traced));
         let push = self.next_frame();
         self.ctx.run_commands("profiled frame", |cmd| {
