@@ -86,14 +86,13 @@ for s in "${scenes[@]}"; do
         pair "$s-sphere-$nee-ballot" "$s-off-$nee"
     done
     # The CPU renderer, at a quarter of each side.
-    small="$out/$s-small.toml"
     w=$(sed -n 's/^width *= *\([0-9]*\).*/\1/p' "$f")
     h=$(sed -n 's/^height *= *\([0-9]*\).*/\1/p' "$f")
-    sed -E "s/^width *= *[0-9]+/width = $(((w + 3) / 4))/; s/^height *= *[0-9]+/height = $(((h + 3) / 4))/" "$f" >"$small"
-    render "$s-cpu-off-on" "$small" cpu "$t_cpu" --guiding off --nee on
-    render "$s-cpu-off-off" "$small" cpu "$t_cpu" --guiding off --nee off
-    render "$s-cpu-sphere-on" "$small" cpu "$t_cpu" --guiding sphere --nee on
-    render "$s-gpu-small-off-on" "$small" gpu "$t_gpu" --guiding off --nee on
+    small=(--width $(((w + 3) / 4)) --height $(((h + 3) / 4)))
+    render "$s-cpu-off-on" "$f" cpu "$t_cpu" --guiding off --nee on "${small[@]}"
+    render "$s-cpu-off-off" "$f" cpu "$t_cpu" --guiding off --nee off "${small[@]}"
+    render "$s-cpu-sphere-on" "$f" cpu "$t_cpu" --guiding sphere --nee on "${small[@]}"
+    render "$s-gpu-small-off-on" "$f" gpu "$t_gpu" --guiding off --nee on "${small[@]}"
     pair "$s-cpu-off-on" "$s-cpu-off-off"
     pair "$s-cpu-sphere-on" "$s-cpu-off-on"
     pair "$s-cpu-off-on" "$s-gpu-small-off-on"
