@@ -41,8 +41,6 @@ const uint GUIDE_ENTRIES = GUIDE_RES_X * GUIDE_RES_Y * GUIDE_RES_Z * GUIDE_BINS;
 #define GUIDE_ENTRIES (params.guide_cells * params.guide_bins)
 #endif
 
-float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
-
 // src/guide/mod.rs `Bins::column`: the sector of atan2(y, x) in [0, 2 pi), found
 // without the arctangent where the columns are a multiple of 4: (x, y) turned
 // back by whole quarter turns into the first quadrant, the sector within it

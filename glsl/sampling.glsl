@@ -50,4 +50,7 @@ float mis_weight(float pdf_a, float pdf_b, bool power) {
 
 float max_component(vec3 v) { return max(v.x, max(v.y, v.z)); }
 
+// src/math/mod.rs `mean3`: the scalar that Q learns and learned roulette compares.
+float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }
+
 #endif

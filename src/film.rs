@@ -1,7 +1,7 @@
 //! The accumulated result of a render, identical for both renderers.
 
 use crate::image::Image;
-use crate::prepared::AccumPixel;
+use crate::layout::AccumPixel;
 use crate::shared;
 use glam::Vec3;
 
@@ -27,7 +27,7 @@ pub struct Film {
 pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3]) {
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
     if frames == 0 {
-        let learned = if learned_frames > 0 { crate::guide::mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
+        let learned = if learned_frames > 0 { crate::math::mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
         *acc = AccumPixel { sum: [sum[0], sum[1], sum[2], learned], m2_frame_mean: [0.0; 4] };
         return;
     }

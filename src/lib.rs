@@ -1,9 +1,12 @@
 //! rlpt: a Vulkan compute path tracer that learns where light comes from.
 //!
 //! The crate is one library with a thin command line (`src/main.rs`) on top:
+//! - [`layout`]: the `#[repr(C)]` mirrors of `glsl/common.glsl` and the limits,
+//!   under everything else;
 //! - [`scene`]: the TOML scene format and its validation;
 //! - [`math`]: the sampling, BSDF, intersection and random-number code of the CPU
 //!   renderer, written to mirror `glsl/*.glsl` function by function;
+//! - [`camera`]: the primary rays, the same on both devices;
 //! - [`guide`]: learned guiding (docs/guiding.md);
 //! - [`prepared`]: the scene flattened into the arrays both renderers trace;
 //! - [`cpu`]: the CPU renderer (all cores);
@@ -25,12 +28,14 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
+pub mod camera;
 pub mod chi2;
 pub mod cpu;
 pub mod film;
 pub mod gpu;
 pub mod guide;
 pub mod image;
+pub mod layout;
 pub mod math;
 pub mod metrics;
 pub mod output;

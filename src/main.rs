@@ -120,13 +120,13 @@ enum Heuristic {
 #[derive(clap::Args)]
 struct Settings {
     /// Image width in pixels (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::prepared::MAX_IMAGE_SIDE as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::layout::MAX_IMAGE_SIDE as i64))]
     width: Option<u32>,
     /// Image height in pixels (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::prepared::MAX_IMAGE_SIDE as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::layout::MAX_IMAGE_SIDE as i64))]
     height: Option<u32>,
     /// Scattering events per path (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=rlpt::prepared::MAX_BOUNCES as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=rlpt::layout::MAX_BOUNCES as i64))]
     max_bounces: Option<u32>,
     /// Random seed; the same seed gives the same image on the same device (with
     /// guiding, to rounding only: learning adds its targets in the order threads finish).
@@ -287,7 +287,7 @@ struct RenderArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Samples per pixel, rounded up to a multiple of 64 (default: the scene's).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::prepared::MAX_SPP as i64))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::layout::MAX_SPP as i64))]
     spp: Option<u32>,
     #[command(flatten)]
     settings: Settings,
@@ -576,7 +576,7 @@ fn warn_memory(opts: &RenderOptions, device: DeviceKind) {
 /// The warning of a `[guiding]` box that misses what the camera sees
 /// (`guide::grid_warning`), where `prepared` is guided.
 fn warn_grid(scene: &Scene, prepared: &PreparedScene) {
-    if let Some(w) = rlpt::guide::grid_warning(prepared, &scene.guiding) {
+    if let Some(w) = rlpt::guide::grid_warning(prepared, prepared.guide.as_ref(), &scene.guiding) {
         eprintln!("warning: {}: {w}", scene.source.display());
     }
 }

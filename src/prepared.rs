@@ -1,238 +1,17 @@
-//! The scene flattened into the arrays both renderers trace: the `#[repr(C)]`
-//! mirrors of the structs in `glsl/common.glsl` (std430 layout; sizes asserted
-//! here, field offsets checked on the device by `tests/gpu_probes.rs`
-//! `struct_layout_matches_the_rust_mirrors`).
-//! The GPU renderer uploads them; the CPU renderer reads the same values, so
-//! precomputed normals, light probabilities and camera vectors agree exactly.
+//! The scene flattened into the arrays both renderers trace
+//! ([`crate::layout::SceneArrays`]), with the render options that shape them and
+//! the analysis that orders them. The GPU renderer uploads them; the CPU renderer
+//! reads the same values, so precomputed normals, light probabilities and camera
+//! vectors agree exactly.
 
 use crate::guide::{self, Bins, Grid, GuideConfig, GuidingMode};
-use crate::math::geometry::Room;
+use crate::layout::{
+    v4, GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams, Room, SceneArrays, MAX_BOUNCES, MAX_IMAGE_SIDE,
+    MAX_SPP,
+};
 use crate::math::Vec3;
 use crate::scene::Scene;
 use crate::shared;
-use bytemuck::{Pod, Zeroable};
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuMaterial {
-    pub albedo_roughness: [f32; 4],
-    pub emission_ior: [f32; 4],
-    pub kind: u32,
-    pub two_sided: u32,
-    pub pad: [u32; 2],
-}
-
-impl GpuMaterial {
-    /// The BSDF of this record, as `material_bsdf` in `glsl/pathtrace.comp` reads
-    /// it: the roughness in `albedo_roughness.w`, alpha its square.
-    pub fn bsdf(&self) -> crate::math::bsdf::Bsdf {
-        use crate::scene::MaterialKind;
-        let kind = match self.kind {
-            shared::MAT_DIFFUSE => MaterialKind::Diffuse,
-            shared::MAT_SPECULAR => MaterialKind::Specular,
-            shared::MAT_GLOSSY => MaterialKind::Glossy,
-            shared::MAT_DIELECTRIC => MaterialKind::Dielectric,
-            _ => MaterialKind::Emissive,
-        };
-        let [r, g, b, roughness] = self.albedo_roughness;
-        crate::math::bsdf::Bsdf {
-            kind,
-            albedo: Vec3::new(r, g, b),
-            alpha: roughness * roughness,
-            ior: self.emission_ior[3],
-        }
-    }
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuSphere {
-    pub center_radius: [f32; 4],
-    /// xyz: the anchor, the point of the sphere nearest the world origin; w: the radius again.
-    pub anchor_radius: [f32; 4],
-    /// xyz: the unit outward normal at the anchor (the centre is anchor - radius * axis);
-    /// w: 1 for a compact sphere ([`GpuSphere::compact`]), else 0.
-    pub axis: [f32; 4],
-    pub material: u32,
-    pub light: u32,
-    pub pad: [u32; 2],
-}
-
-impl GpuSphere {
-    /// A sphere with its intersection frame: the anchor and axis are worked out in
-    /// f64 from the f32 centre and radius, so that they describe the same surface
-    /// to within f32 rounding near the anchor (see `math::geometry::intersect_sphere`).
-    pub fn new(center: Vec3, radius: f32, material: u32, light: u32) -> GpuSphere {
-        let c = center.as_dvec3();
-        let len = c.length();
-        // The centre at the origin: any point of the sphere is as near as any other.
-        let axis = if len > 0.0 { -c / len } else { glam::DVec3::Z };
-        let anchor = (c + radius as f64 * axis).as_vec3();
-        let axis = axis.as_vec3();
-        let compact = 4.0 * radius * radius <= center.dot(center);
-        GpuSphere {
-            center_radius: v4(center, radius),
-            anchor_radius: v4(anchor, radius),
-            axis: v4(axis, if compact { 1.0 } else { 0.0 }),
-            material,
-            light,
-            pad: [0; 2],
-        }
-    }
-
-    /// Whether the sphere is no larger than half its centre's distance from the
-    /// world origin (2r <= |C|), so that its hit tests work from the centre
-    /// instead of the anchor ([`crate::math::geometry::intersect_sphere_compact`]
-    /// and [`crate::math::geometry::sphere_blocks`] say why that is precise
-    /// enough); set by [`GpuSphere::new`], in `axis[3]`.
-    pub fn compact(&self) -> bool {
-        self.axis[3] != 0.0
-    }
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuQuad {
-    pub origin: [f32; 4],
-    /// xyz: the edge; w: the scale of the quad's points for hit offsets
-    /// ([`crate::math::geometry::quad_points_scale`]).
-    pub edge_u: [f32; 4],
-    pub edge_v: [f32; 4],
-    pub normal: [f32; 4],
-    pub dual_u: [f32; 4],
-    pub dual_v: [f32; 4],
-    pub material: u32,
-    pub light: u32,
-    pub pad: [u32; 2],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuLight {
-    pub kind: u32,
-    pub index: u32,
-    pub pmf: f32,
-    pub cdf: f32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct RenderParams {
-    pub cam_position_near: [f32; 4],
-    pub cam_forward_tan: [f32; 4],
-    pub cam_right_aspect: [f32; 4],
-    pub cam_up: [f32; 4],
-    pub environment: [f32; 4],
-    pub width: u32,
-    pub height: u32,
-    pub max_bounces: u32,
-    pub rr_depth: u32,
-    pub num_spheres: u32,
-    pub num_quads: u32,
-    pub num_lights: u32,
-    pub flags: u32,
-    pub seed: u32,
-    pub guide_bins: u32,
-    pub guide_rows: u32,
-    pub guide_cols: u32,
-    pub guide_min: [f32; 4],
-    pub guide_inv_cell: [f32; 4],
-    pub guide_res_x: u32,
-    pub guide_res_y: u32,
-    pub guide_res_z: u32,
-    pub guide_cells: u32,
-    pub guide_floor: f32,
-    /// Vertices of a path that mix guided sampling in: those at depth < this; 0 for
-    /// the default of the roulette and NEE flags, read through
-    /// [`crate::guide::guided_vertices`], so that switching NEE (`set_nee`, the
-    /// viewer's N key) switches the default too (in a scene without roulette).
-    pub guide_vertices: u32,
-    /// Shadow rays test the first this many quads only: the rest bound the scene
-    /// ([`occluding_order`]) and cannot block a segment between two of its points.
-    pub occluding_quads: u32,
-    /// The material and light kinds of the scene ([`scene_kinds`]): the kernel is
-    /// specialized to them and leaves out the code of the others.
-    pub scene_kinds: u32,
-}
-
-impl RenderParams {
-    /// Points the camera fields at `cam` (the aspect ratio is the image's: set
-    /// `width` and `height` first).
-    pub fn set_camera(&mut self, cam: &crate::scene::Camera) {
-        let right = cam.forward.cross(cam.up).normalize();
-        let up = right.cross(cam.forward).normalize();
-        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
-        self.cam_position_near = v4(cam.position, cam.near);
-        self.cam_forward_tan = v4(cam.forward, tan_half);
-        self.cam_right_aspect = v4(right, self.width as f32 / self.height as f32);
-        self.cam_up = v4(up, 0.0);
-    }
-
-    /// Next-event estimation on or off.
-    pub fn set_nee(&mut self, on: bool) {
-        if on {
-            self.flags |= shared::FLAG_NEE;
-        } else {
-            self.flags &= !shared::FLAG_NEE;
-        }
-    }
-}
-
-/// One pixel of the accumulation buffer: the sum of all radiance samples, and
-/// Welford's running sum of squared deviations of the per-frame 64-sample means
-/// (for variance estimates; it stays accurate in f32 where sum-of-squares minus
-/// square-of-sum cancels).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct AccumPixel {
-    pub sum: [f32; 4],
-    pub m2_frame_mean: [f32; 4],
-}
-
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuSphere>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
-const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
-const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
-const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
-// The specialization constants' layout (glsl/common.glsl): the quads' slots
-// follow the scalar constants, the spheres' follow the quads', and nothing after.
-const _: () =
-    assert!(shared::SPEC_SPHERE_BASE == shared::SPEC_QUAD_BASE + shared::SPEC_QUADS * shared::SPEC_QUAD_FLOATS);
-const _: () = assert!(
-    shared::SPEC_COMPACT_SPHERES == shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERES * shared::SPEC_SPHERE_FLOATS
-);
-const _: () = assert!(shared::SPEC_LIGHT_QUADS == shared::SPEC_COMPACT_SPHERES + 1);
-const _: () = assert!(shared::SPEC_LIGHT_SPHERES == shared::SPEC_LIGHT_QUADS + 1);
-const _: () = assert!(shared::SPEC_ROOM_QUADS == shared::SPEC_LIGHT_SPHERES + 1);
-const _: () = assert!(shared::SPEC_ROOM_BOUNDS == shared::SPEC_ROOM_QUADS + 1);
-const _: () = assert!(shared::SPEC_ROOM_FACES == shared::SPEC_ROOM_BOUNDS + 6);
-const _: () = assert!(shared::SPEC_ROOM_ENTERING == shared::SPEC_ROOM_FACES + 6);
-const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_ROOM_ENTERING + 1);
-// geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
-const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
-
-/// Guided sampling's default reach with NEE in a scene without Russian roulette:
-/// a path's first two vertices. There, deeper vertices gained little per sample,
-/// while their table lookups and the recording of their targets cost time
-/// (docs/guiding.md, "Defaults"). Without NEE only guided sampling aims at the
-/// lights, at every vertex: then every vertex is
-/// guided. So is every vertex where Russian roulette is on (door.toml), whatever
-/// NEE says: there every vertex records targets and looks up its cell for learned
-/// roulette anyway, and guiding them all paid at equal time
-/// ([`crate::guide::guided_vertices`]).
-pub const DEFAULT_GUIDED_VERTICES_NEE: u32 = 2;
-
-/// Largest image width or height, in pixels, a scene or an option may ask for.
-pub const MAX_IMAGE_SIDE: u32 = 16384;
-/// Largest samples per pixel a render may ask for: the most whole frames of
-/// `SAMPLES_PER_FRAME` whose samples a u32 counts (renders round `spp` up to whole
-/// frames; u32::MAX itself would round past it).
-pub const MAX_SPP: u32 = u32::MAX / shared::SAMPLES_PER_FRAME * shared::SAMPLES_PER_FRAME;
-/// Largest `max_bounces`: a path's ray count shares a 32-bit register with its
-/// depth in kernels with roulette (`glsl/pathtrace.comp` `depth_rays`), 16 bits
-/// each, and a path of 1024 bounces traces at most 2050 rays.
-pub const MAX_BOUNCES: u32 = 1024;
 
 /// A render option outside the values the renderers can honour: which option,
 /// its value and what was expected. [`RenderOptions::check`] finds it, and
@@ -297,7 +76,7 @@ pub struct RenderOptions {
     /// Guided sampling at the first this many vertices (at least 1) of each path
     /// (depth 0 is the camera ray's hit); deeper vertices sample the BSDF alone.
     /// None: every vertex with Russian roulette (`russian_roulette_depth`);
-    /// without it [`DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
+    /// without it [`crate::layout::DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without
     /// ([`crate::guide::guided_vertices`]).
     pub guided_vertices: Option<u32>,
     /// What the GPU kernel counts per frame (`FrameTimings`). The CPU renderer
@@ -428,22 +207,40 @@ impl RenderOptions {
     }
 }
 
-/// Scene arrays plus render parameters, ready to upload or trace.
+/// The scene ready to upload or trace: its arrays ([`SceneArrays`], which it
+/// derefs to, as the geometry reads them) and the guiding configuration.
 #[derive(Clone, Debug)]
 pub struct PreparedScene {
-    pub params: RenderParams,
-    pub materials: Vec<GpuMaterial>,
-    pub spheres: Vec<GpuSphere>,
-    pub quads: Vec<GpuQuad>,
-    pub lights: Vec<GpuLight>,
+    pub arrays: SceneArrays,
     /// Guiding geometry, when guiding is on.
     pub guide: Option<GuideConfig>,
-    /// The walls found by one slab test ([`room_walls`]); [`Room::NONE`] where there are none.
-    pub room: Room,
 }
 
-fn v4(v: Vec3, w: f32) -> [f32; 4] {
-    [v.x, v.y, v.z, w]
+impl std::ops::Deref for PreparedScene {
+    type Target = SceneArrays;
+    fn deref(&self) -> &SceneArrays {
+        &self.arrays
+    }
+}
+
+impl std::ops::DerefMut for PreparedScene {
+    fn deref_mut(&mut self) -> &mut SceneArrays {
+        &mut self.arrays
+    }
+}
+
+impl RenderParams {
+    /// Points the camera fields at `cam` (the aspect ratio is the image's: set
+    /// `width` and `height` first).
+    pub fn set_camera(&mut self, cam: &crate::scene::Camera) {
+        let right = cam.forward.cross(cam.up).normalize();
+        let up = right.cross(cam.forward).normalize();
+        let tan_half = (cam.vfov_deg.to_radians() * 0.5).tan();
+        self.cam_position_near = v4(cam.position, cam.near);
+        self.cam_forward_tan = v4(cam.forward, tan_half);
+        self.cam_right_aspect = v4(right, self.width as f32 / self.height as f32);
+        self.cam_up = v4(up, 0.0);
+    }
 }
 
 /// Where specialization constant `id` (from `SPEC_QUAD_BASE` on) lies in
@@ -676,7 +473,8 @@ impl PreparedScene {
         };
         params.set_camera(&scene.camera);
         room.entering = room.camera_may_enter(&params);
-        let mut prepared = PreparedScene { params, materials, spheres, quads, lights, guide: None, room };
+        let mut prepared =
+            PreparedScene { arrays: SceneArrays { params, materials, spheres, quads, lights, room }, guide: None };
         let bins = match opts.guiding {
             GuidingMode::Off => None,
             GuidingMode::Octant => Some(Bins::OCTANT),
@@ -741,7 +539,7 @@ pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
 /// (`math::geometry::meets_light`; the image is the same). On the GPU the lights'
 /// tests are written out per specialized slot, so every light must lie in one
 /// (the first `SPEC_SPHERES` spheres and `SPEC_QUADS` quads, in the order of
-/// [`PreparedScene::quads`]). A scene with no light has nothing to find.
+/// [`SceneArrays::quads`]). A scene with no light has nothing to find.
 /// Not with Russian `roulette`: with it few paths reach the last vertex, and the
 /// test is code the kernel carries for little (door's frames were longer with it).
 pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool) -> bool {
@@ -752,7 +550,7 @@ pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool
     !roulette && environment == Vec3::ZERO && lights.iter().all(in_slot)
 }
 
-/// The order of the scene's quads in [`PreparedScene::quads`], and how many of
+/// The order of the scene's quads in [`SceneArrays::quads`], and how many of
 /// them come first as the ones a shadow ray must test.
 ///
 /// A quad whose plane has every primitive of the scene in one closed half-space
@@ -926,7 +724,7 @@ mod tests {
     /// stays.
     #[test]
     fn guided_vertices_default_to_two_with_nee_and_all_without() {
-        assert_eq!(DEFAULT_GUIDED_VERTICES_NEE, 2);
+        assert_eq!(crate::layout::DEFAULT_GUIDED_VERTICES_NEE, 2);
         let mut p = RenderParams { flags: shared::FLAG_NEE, ..Default::default() };
         assert_eq!(guided_vertices(&p), 2);
         p.set_nee(false);
@@ -1314,8 +1112,10 @@ mod tests {
             let with = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap();
             assert!(with.room.quads > 0, "{name}");
             assert!(!with.room.entering, "{name}: the camera looks in through an open face, or stands inside");
-            let without = PreparedScene { room: Room::NONE, ..with.clone() };
-            let entering = PreparedScene { room: Room { entering: true, ..with.room }, ..with.clone() };
+            let mut without = with.clone();
+            without.room = Room::NONE;
+            let mut entering = with.clone();
+            entering.room.entering = true;
             let (lo, hi) = (with.room.min, with.room.max);
             let size = (hi - lo).max_element();
             let cam = Vec3::from_slice(&with.params.cam_position_near[..3]);

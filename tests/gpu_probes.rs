@@ -6,10 +6,10 @@ mod common;
 use common::readback;
 use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
+use rlpt::layout::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
 use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
-use rlpt::prepared::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
 use rlpt::scene::MaterialKind;
 use rlpt::shared;
 

@@ -5,8 +5,9 @@
 mod common;
 
 use common::*;
+use rlpt::camera::camera_ray;
 use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
-use rlpt::cpu::{camera_ray, trace_path, CpuRenderer, Guide};
+use rlpt::cpu::{trace_path, CpuRenderer, Guide};
 use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
@@ -1001,9 +1002,9 @@ fn learning_reduces_variance_on_door() {
     assert_no_validation_messages(&ctx);
 }
 
-/// mean3 of a pixel's sum, as `guide::mean3` computes it.
+/// mean3 of a pixel's sum, as `math::mean3` computes it.
 fn mean3(sum: &[f32]) -> f32 {
-    rlpt::guide::mean3(Vec3::from_slice(&sum[..3]))
+    rlpt::math::mean3(Vec3::from_slice(&sum[..3]))
 }
 
 /// The frame after the learning frames starts the image (CPU renderer): the film

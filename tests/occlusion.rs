@@ -6,6 +6,7 @@
 //! (its offset moves it by one), or the light point within a hit epsilon of it.
 //! There the full test's answer is rounding, and such points are measure zero.
 
+use rlpt::layout::{GpuQuad, GpuSphere};
 use rlpt::math::geometry::{
     hit_epsilon, intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light, shadow_ray,
     sphere_blocks,
@@ -13,7 +14,7 @@ use rlpt::math::geometry::{
 use rlpt::math::rng::Rng;
 use rlpt::math::sampling::uniform_sphere;
 use rlpt::math::Vec3;
-use rlpt::prepared::{GpuQuad, GpuSphere, PreparedScene, RenderOptions};
+use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::scene::Scene;
 
 /// The hit test against every primitive but the light the segment ends on.

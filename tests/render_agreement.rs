@@ -6,7 +6,7 @@
 mod common;
 
 use common::*;
-use rlpt::cpu::camera_ray;
+use rlpt::camera::camera_ray;
 use rlpt::film::Film;
 use rlpt::math::geometry::intersect_sphere;
 use rlpt::prepared::{Counters, PreparedScene, RenderOptions};
@@ -452,7 +452,7 @@ fn the_subgroups_count_the_rays_of_their_longest_paths() {
             let mut longest = 0u32;
             for sample in 0..rlpt::shared::SAMPLES_PER_FRAME {
                 let mut rng = rlpt::math::rng::Rng::new(p.seed, pixel, 0, sample);
-                let u = rlpt::cpu::pixel_jitter(sample, rng.next_2d());
+                let u = rlpt::camera::pixel_jitter(sample, rng.next_2d());
                 let (o, d) = camera_ray(p, x, y, u);
                 let (_, rays) = rlpt::cpu::trace_path(&prepared, None, o, d, &mut rng, 0.0, None);
                 cpu_rays += rays as u64;
@@ -561,7 +561,8 @@ fn the_room_finds_the_walls_the_quads_find_on_the_gpu() {
         let with = PreparedScene::new(&scene, &opts).expect("valid options");
         assert!(with.room.quads >= 5, "{guiding:?}: the scene has a room");
         assert_eq!(with.room.entering, entering, "{guiding:?}");
-        let without = PreparedScene { room: rlpt::math::geometry::Room::NONE, ..with.clone() };
+        let mut without = with.clone();
+        without.room = rlpt::layout::Room::NONE;
         let render = |p: &PreparedScene| {
             let mut r = GpuRenderer::new(&ctx, p).expect("renderer");
             let segments: u64 =

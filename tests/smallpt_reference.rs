@@ -198,7 +198,7 @@ fn f32_intersection_matches_f64_on_the_huge_walls() {
             (f32v(o), f32v([s * phi.cos(), s * phi.sin(), z]))
         } else {
             let u = [rng.next() as f32, rng.next() as f32];
-            rlpt::cpu::camera_ray(&prepared.params, (u[0] * 640.0) as u32, (u[1] * 480.0) as u32, u)
+            rlpt::camera::camera_ray(&prepared.params, (u[0] * 640.0) as u32, (u[1] * 480.0) as u32, u)
         };
         let hit = rlpt::math::geometry::intersect(&prepared, o, d, f32::INFINITY)
             .unwrap_or_else(|| panic!("a ray from inside smallpt's box escaped: o {o:?} d {d:?}"));

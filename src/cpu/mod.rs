@@ -2,6 +2,7 @@
 //! random numbers as `glsl/pathtrace.comp`, on all cores (rayon). It is the
 //! reference the GPU renderer is tested against.
 
+use crate::camera::{camera_ray, pixel_jitter};
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
@@ -11,32 +12,13 @@ use crate::math::geometry::{
 use crate::math::rng::Rng;
 use crate::math::sampling::mis_weight;
 use crate::math::{max_component, Frame, Vec3};
-use crate::prepared::{AccumPixel, PreparedScene, RenderParams};
+use crate::prepared::PreparedScene;
 use crate::scene::MaterialKind;
 use crate::shared;
 use rayon::prelude::*;
 
 fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
-}
-
-/// Where in its pixel sample `sample` (0..64) of a frame looks: the pixel is cut
-/// into the 8 x 8 grid of the workgroup's samples, and each sample is jittered by
-/// `j` inside its own sub-square (stratified sampling: edges converge much faster
-/// than with 64 independent positions). `glsl/pathtrace.comp` `main`.
-pub fn pixel_jitter(sample: u32, j: [f32; 2]) -> [f32; 2] {
-    let (sx, sy) = (shared::SAMPLES_X, shared::SAMPLES_Y);
-    [((sample % sx) as f32 + j[0]) / sx as f32, ((sample / sx) as f32 + j[1]) / sy as f32]
-}
-
-/// The primary ray through pixel (x, y) jittered by `u`; `glsl/pathtrace.comp` `camera_ray`.
-pub fn camera_ray(p: &RenderParams, x: u32, y: u32, u: [f32; 2]) -> (Vec3, Vec3) {
-    let tan = p.cam_forward_tan[3];
-    let aspect = p.cam_right_aspect[3];
-    let sx = (2.0 * (x as f32 + u[0]) / p.width as f32 - 1.0) * tan * aspect;
-    let sy = (1.0 - 2.0 * (y as f32 + u[1]) / p.height as f32) * tan;
-    let d = (xyz(p.cam_forward_tan) + sx * xyz(p.cam_right_aspect) + sy * xyz(p.cam_up)).normalize();
-    (xyz(p.cam_position_near) + p.cam_position_near[3] * d, d)
 }
 
 fn material_bsdf(scene: &PreparedScene, mat: u32) -> Bsdf {
@@ -58,40 +40,6 @@ impl<'a> Guide<'a> {
     pub fn new(cfg: &'a GuideConfig, table: &'a QTable) -> Guide<'a> {
         Guide { cfg, q: &table.q, rows: &table.rows, fractions: &table.fractions }
     }
-}
-
-/// Russian roulette with guiding: the probability that a path goes on, from its
-/// expected contribution (throughput times the radiance the table has learned for
-/// the ray it is about to trace) relative to the pixel's estimate so far. Paths
-/// that can still matter to the pixel survive; a path whose every continuation is
-/// dim is cut early (after Vorba & Křivánek, "Adjoint-Driven Russian Roulette and
-/// Splitting in Light Transport Simulation", 2016, without the splitting). Plain
-/// throughput-based roulette gives up exactly where guiding pays, in dim regions
-/// lit through long paths. At least `RR_MIN_PERCENT` %, so that a dark estimate
-/// in a bin not yet learned costs little variance; any probability above zero
-/// keeps the estimate unbiased. `glsl/pathtrace.comp` is the same.
-pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
-    (shared::RR_WINDOW as f32 * expected / pixel_estimate).clamp(shared::RR_MIN_PERCENT as f32 / 100.0, 1.0)
-}
-
-/// The pixel estimate learned Russian roulette compares with (the mean3 of the
-/// pixel's mean radiance so far), or 0, meaning plain throughput roulette, where
-/// the pixel has no frames yet or the table has learned from fewer than
-/// `LEARNED_RR_FRAMES` frames (`frames_traced`, which a restart of the
-/// accumulation keeps): a roulette driven by the first frames' table puts, through
-/// its 1/q weights, fireflies into the image that the average keeps for a long
-/// time. The frames so far are the accumulation's `accum_frames` and the
-/// `learned_frames` left out of the image before it (`GuideConfig::learning_frames`),
-/// whose mean3 sum the pixel keeps in `sum[3]` once the image has a frame
-/// (`crate::film::accumulate`); before that (`accum_frames` 0) the pixel still
-/// holds them as its sum. `glsl/pathtrace.comp` is the same.
-pub fn roulette_estimate(acc: &AccumPixel, accum_frames: u32, learned_frames: u32, frames_traced: u32) -> f32 {
-    let frames = accum_frames + learned_frames;
-    if frames == 0 || frames_traced < shared::LEARNED_RR_FRAMES {
-        return 0.0;
-    }
-    let learned = if accum_frames > 0 { acc.sum[3] } else { 0.0 };
-    (guide::mean3(Vec3::from_slice(&acc.sum[..3])) + learned) / (shared::SAMPLES_PER_FRAME * frames) as f32
 }
 
 /// Traces one path from the camera ray (o, d) and returns the radiance it
@@ -147,7 +95,14 @@ pub fn trace_path(
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                record_to(&mut **learn, prev_key, guide::mean3(env), guide::mean3(env), prev_factor, bins_per_cell);
+                record_to(
+                    &mut **learn,
+                    prev_key,
+                    crate::math::mean3(env),
+                    crate::math::mean3(env),
+                    prev_factor,
+                    bins_per_cell,
+                );
             }
             radiance += beta * env;
             break;
@@ -165,10 +120,10 @@ pub fn trace_path(
                 mis_weight(prev_pdf, light_pdf(scene, hit.light, prev_p, d), power)
             };
             radiance += beta * le * w;
-            le_counted = guide::mean3(le) * w;
+            le_counted = crate::math::mean3(le) * w;
         }
         // What the target of the ray that arrived here counts of that emission.
-        let le_target = if mis_targets { le_counted } else { guide::mean3(le) };
+        let le_target = if mis_targets { le_counted } else { crate::math::mean3(le) };
         let bsdf = material_bsdf(scene, hit.material);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.kind == MaterialKind::Dielectric || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
@@ -225,7 +180,7 @@ pub fn trace_path(
             (pdf > 0.0 && f.max_element() > 0.0).then(|| {
                 let weight = f * (wi_local.z.abs() / pdf);
                 let factor = if learn_fraction {
-                    guide::fraction_gradient_factor(g_frac, row_fraction, pg, pb, pdf, guide::mean3(weight))
+                    guide::fraction_gradient_factor(g_frac, row_fraction, pg, pb, pdf, crate::math::mean3(weight))
                 } else {
                     0.0
                 };
@@ -258,7 +213,7 @@ pub fn trace_path(
                         let w = mis_weight(ls.pdf, pdf, power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                         if mis_targets {
-                            nee_here = guide::mean3(f * wi_local.z.abs() * ls.le * (w / ls.pdf));
+                            nee_here = crate::math::mean3(f * wi_local.z.abs() * ls.le * (w / ls.pdf));
                         }
                     }
                 }
@@ -300,7 +255,7 @@ pub fn trace_path(
         if let (Some(g), Some(learn)) = (guide, learn.as_mut().filter(|_| wants_target)) {
             // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
             let reflected = match sampled {
-                Some((_, weight, _, _, bin, _)) => guide::mean3(weight) * g.q[(cell_key + bin) as usize],
+                Some((_, weight, _, _, bin, _)) => crate::math::mean3(weight) * g.q[(cell_key + bin) as usize],
                 None => 0.0,
             };
             // With `mis_targets` the target is the light as the image counts it
@@ -329,7 +284,7 @@ pub fn trace_path(
             let q = match guide {
                 // The radiance learned for the ray about to be traced, times the throughput.
                 Some(g) if pixel_estimate > 0.0 => {
-                    survival_probability(guide::mean3(beta) * g.q[prev_key as usize], pixel_estimate)
+                    guide::survival_probability(crate::math::mean3(beta) * g.q[prev_key as usize], pixel_estimate)
                 }
                 _ => max_component(beta).min(0.95),
             };
@@ -459,7 +414,7 @@ impl CpuRenderer {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
                         let estimate = match guide {
-                            Some(_) => roulette_estimate(acc, accum_frames, learned_frames, frame),
+                            Some(_) => guide::roulette_estimate(acc, accum_frames, learned_frames, frame),
                             None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
@@ -560,42 +515,5 @@ mod tests {
             record_to(&mut seen, 130, bad, bad, 0.25, 128);
             assert!(seen.targets.is_empty() && seen.gradients.is_empty(), "{bad}");
         }
-    }
-
-    #[test]
-    fn learned_roulette_waits_for_a_table_of_several_frames() {
-        let n = shared::LEARNED_RR_FRAMES;
-        let pixel = |sum: Vec3, w: f32| AccumPixel { sum: [sum.x, sum.y, sum.z, w], m2_frame_mean: [0.0; 4] };
-        let sum = Vec3::new(3.0, 6.0, 9.0) * (shared::SAMPLES_PER_FRAME * n) as f32;
-        for traced in 0..n {
-            assert_eq!(roulette_estimate(&pixel(sum, 0.0), traced, 0, traced), 0.0, "{traced} frames");
-        }
-        assert_eq!(roulette_estimate(&pixel(sum, 0.0), n, 0, n), 6.0);
-        assert_eq!(roulette_estimate(&pixel(sum, 0.0), 2 * n, 0, 2 * n), 3.0);
-        // After a restart of the accumulation the table is still learned.
-        assert_eq!(roulette_estimate(&pixel(sum / n as f32, 0.0), 1, 0, 3 * n), 6.0);
-        assert_eq!(roulette_estimate(&pixel(Vec3::ZERO, 0.0), 0, 0, 3 * n), 0.0);
-    }
-
-    /// After the learning frames the estimate counts them: first as the sum the
-    /// pixel still holds, then as its `sum[3]` beside the image's frames.
-    #[test]
-    fn learned_roulette_counts_the_learning_frames() {
-        let n = shared::LEARNED_RR_FRAMES;
-        let per_frame = shared::SAMPLES_PER_FRAME as f32;
-        // n learning frames of mean3 6, held as the sum before the image's first frame.
-        let mut acc = AccumPixel {
-            sum: [3.0 * per_frame * n as f32, 6.0 * per_frame * n as f32, 9.0 * per_frame * n as f32, 0.0],
-            m2_frame_mean: [5.0; 4],
-        };
-        assert_eq!(roulette_estimate(&acc, 0, n, n), 6.0);
-        // The image's first frame, of mean3 2 (and 1, 2, 3 per channel), replaces them and keeps their share.
-        crate::film::accumulate(&mut acc, 0, n, [per_frame, 2.0 * per_frame, 3.0 * per_frame]);
-        assert_eq!(acc.sum, [per_frame, 2.0 * per_frame, 3.0 * per_frame, 6.0 * per_frame * n as f32]);
-        assert_eq!(acc.m2_frame_mean, [0.0; 4]);
-        assert_eq!(roulette_estimate(&acc, 1, n, n + 1), (2.0 + 6.0 * n as f32) / (n + 1) as f32);
-        // Without learning frames the first frame keeps nothing of what the pixel held.
-        crate::film::accumulate(&mut acc, 0, 0, [per_frame; 3]);
-        assert_eq!(acc.sum, [per_frame, per_frame, per_frame, 0.0]);
     }
 }

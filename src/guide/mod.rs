@@ -50,16 +50,17 @@
 //!   left to the BSDF half of the mixture.
 //! - **Russian roulette** with guiding keeps a path in proportion to its expected
 //!   contribution, from the learned Q, relative to the pixel's estimate
-//!   ([`crate::cpu::survival_probability`]).
+//!   ([`survival_probability`]).
 //!
 //! `glsl/guide.glsl` and `glsl/learn.comp` are the GPU twins. The method's reasons
 //! and measured effects are in docs/guiding.md.
 
+use crate::layout::{AccumPixel, GpuMaterial, RenderParams, SceneArrays};
 use crate::math::geometry::intersect;
 use crate::math::rng::Rng;
-use crate::math::{Frame, Vec3};
-use crate::prepared::PreparedScene;
+use crate::math::{mean3, Frame, Vec3};
 use crate::scene::GuidingSettings;
+use crate::shared;
 use std::f32::consts::PI;
 
 /// Which guiding, if any.
@@ -263,7 +264,7 @@ impl Grid {
     /// The grid of a scene: the `[guiding]` table where it says so; otherwise the
     /// box around the points that camera rays and their first diffuse bounce reach
     /// (so huge wall spheres do not stretch it), and 16 cells along its longest axis.
-    pub fn for_scene(scene: &PreparedScene, settings: &GuidingSettings) -> Grid {
+    pub fn for_scene(scene: &SceneArrays, settings: &GuidingSettings) -> Grid {
         let (min, max) = match (settings.bounds_min, settings.bounds_max) {
             (Some(a), Some(b)) => (a, b),
             _ => probe_bounds(scene),
@@ -283,10 +284,10 @@ impl Grid {
 /// then falls in the grid's edge cells (points outside the box use the nearest
 /// cell), and the table learns one blur of the whole scene. None where the box
 /// is chosen automatically, or guiding is off.
-pub fn grid_warning(prepared: &PreparedScene, settings: &GuidingSettings) -> Option<String> {
-    let cfg = prepared.guide.as_ref()?;
+pub fn grid_warning(scene: &SceneArrays, cfg: Option<&GuideConfig>, settings: &GuidingSettings) -> Option<String> {
+    let cfg = cfg?;
     settings.bounds_min?;
-    let (lo, hi) = probe_bounds(prepared);
+    let (lo, hi) = probe_bounds(scene);
     let (min, max) = (cfg.grid.min, cfg.grid.max);
     let overlaps = (0..3).all(|a| min[a] < hi[a] && max[a] > lo[a]);
     (!overlaps).then(|| {
@@ -304,7 +305,7 @@ pub fn grid_warning(prepared: &PreparedScene, settings: &GuidingSettings) -> Opt
 
 /// The bounding box of the camera and of the surface points seen from it
 /// directly and after one bounce, enlarged by 1% of its diagonal.
-pub fn probe_bounds(scene: &PreparedScene) -> (Vec3, Vec3) {
+pub fn probe_bounds(scene: &SceneArrays) -> (Vec3, Vec3) {
     let p = &scene.params;
     let eye = Vec3::new(p.cam_position_near[0], p.cam_position_near[1], p.cam_position_near[2]);
     let (mut lo, mut hi) = (eye, eye);
@@ -315,7 +316,7 @@ pub fn probe_bounds(scene: &PreparedScene) -> (Vec3, Vec3) {
     probe.height = n;
     for y in 0..n {
         for x in 0..n {
-            let (o, d) = crate::cpu::camera_ray(&probe, x, y, rng.next_2d());
+            let (o, d) = crate::camera::camera_ray(&probe, x, y, rng.next_2d());
             let Some(h) = intersect(scene, o, d, f32::INFINITY) else { continue };
             lo = lo.min(h.p);
             hi = hi.max(h.p);
@@ -398,7 +399,7 @@ impl RecordSchedule {
     /// The schedule of a render of `pixels` pixels (`SAMPLES_PER_FRAME` paths each
     /// per frame) over a table of `entries` entries.
     pub fn new(pixels: u64, entries: u64) -> RecordSchedule {
-        use crate::shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
+        use shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
         // In frames of every row: recorded so far, and needed for the next doubling.
         let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries.max(1) as f64;
         let mut recorded = RECORD_ALL_FRAMES as f64;
@@ -425,10 +426,10 @@ impl RecordSchedule {
     /// One pixel row in this many records in frame `frame`: 1 (every row) in the
     /// first `RECORD_ALL_FRAMES` frames, then `RECORD_ROW_STRIDE` up to `RECORD_MAX_STRIDE`.
     pub fn stride(&self, frame: u32) -> u32 {
-        if frame < crate::shared::RECORD_ALL_FRAMES {
+        if frame < shared::RECORD_ALL_FRAMES {
             return 1;
         }
-        crate::shared::RECORD_ROW_STRIDE << self.doublings.iter().filter(|&&d| frame >= d).count()
+        shared::RECORD_ROW_STRIDE << self.doublings.iter().filter(|&&d| frame >= d).count()
     }
 
     /// Whether the paths of pixel row `y` record their targets in frame `frame`.
@@ -458,7 +459,7 @@ impl RecordSchedule {
 /// The vertices that mix guided sampling in: those of depth below this. The
 /// params' `guide_vertices` where set (not 0), else the default for their flags:
 /// every vertex where Russian roulette is on, whatever NEE says; without roulette
-/// [`crate::prepared::DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without.
+/// [`crate::layout::DEFAULT_GUIDED_VERTICES_NEE`] with NEE, every vertex without.
 ///
 /// With roulette every vertex already records Q-learning targets
 /// ([`record_vertices`]) and looks up its cell for learned roulette, so guided
@@ -467,10 +468,10 @@ impl RecordSchedule {
 ///
 /// `glsl/pathtrace.comp` takes it as the specialization constant
 /// `SPEC_GUIDE_VERTICES`.
-pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
+pub fn guided_vertices(p: &RenderParams) -> u32 {
     match p.guide_vertices {
-        0 if p.flags & crate::shared::FLAG_RUSSIAN_ROULETTE != 0 => u32::MAX,
-        0 if p.flags & crate::shared::FLAG_NEE != 0 => crate::prepared::DEFAULT_GUIDED_VERTICES_NEE,
+        0 if p.flags & shared::FLAG_RUSSIAN_ROULETTE != 0 => u32::MAX,
+        0 if p.flags & shared::FLAG_NEE != 0 => crate::layout::DEFAULT_GUIDED_VERTICES_NEE,
         0 => u32::MAX,
         n => n,
     }
@@ -488,7 +489,7 @@ pub fn guided_vertices(p: &crate::prepared::RenderParams) -> u32 {
 /// (docs/guiding.md, "Learned Russian roulette and learning frames").
 pub fn default_learning_frames(roulette: bool) -> u32 {
     if roulette {
-        crate::shared::LEARNED_RR_FRAMES
+        shared::LEARNED_RR_FRAMES
     } else {
         0
     }
@@ -532,17 +533,12 @@ pub fn default_bins(roulette: bool) -> Bins {
 /// ones left it guessing. Without roulette, recording only the guided vertices
 /// saves time with no loss per sample (docs/guiding.md, "Learning").
 /// `glsl/pathtrace.comp` takes it as the specialization constant `SPEC_RECORD_VERTICES`.
-pub fn record_vertices(p: &crate::prepared::RenderParams) -> u32 {
-    if p.flags & crate::shared::FLAG_RUSSIAN_ROULETTE != 0 {
+pub fn record_vertices(p: &RenderParams) -> u32 {
+    if p.flags & shared::FLAG_RUSSIAN_ROULETTE != 0 {
         u32::MAX
     } else {
         guided_vertices(p)
     }
-}
-
-/// Mean of the three channels: the scalar Q learns.
-pub fn mean3(v: Vec3) -> f32 {
-    (v.x + v.y + v.z) * (1.0 / 3.0)
 }
 
 /// One bin of a guided sampling row: its column of the row's alias table
@@ -565,10 +561,10 @@ pub struct AliasBin {
 
 /// The column of every bin of a row with nothing to sample (no alias index
 /// reaches 65535: rows have at most 1024 bins). `glsl/common.glsl`.
-pub const UNLEARNED: u32 = crate::shared::UNLEARNED;
+pub const UNLEARNED: u32 = shared::UNLEARNED;
 
 /// Scale of the 16-bit thresholds. `glsl/common.glsl` `ALIAS_THRESHOLD_ONE`.
-const THRESHOLD_ONE: u32 = crate::shared::ALIAS_THRESHOLD_ONE;
+const THRESHOLD_ONE: u32 = shared::ALIAS_THRESHOLD_ONE;
 
 /// Draws a direction from a sampling row ([`build_alias_row`]): the column
 /// from `uc`, the bin by comparing the remainder with the column's threshold,
@@ -643,7 +639,7 @@ pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
 /// is the same arithmetic.
 pub fn glossy_share(alpha: f32) -> f32 {
     let s = 4.0 * alpha * alpha;
-    if s * (crate::shared::GLOSSY_SHARE_MIN_INV as f32) < 1.0 {
+    if s * (shared::GLOSSY_SHARE_MIN_INV as f32) < 1.0 {
         0.0
     } else {
         s.min(1.0)
@@ -652,7 +648,7 @@ pub fn glossy_share(alpha: f32) -> f32 {
 
 /// Whether a material takes guided directions as a glossy lobe ([`glossy_share`]
 /// above zero), from its kernel record.
-pub fn glossy_guided(m: &crate::prepared::GpuMaterial) -> bool {
+pub fn glossy_guided(m: &GpuMaterial) -> bool {
     let b = m.bsdf();
     b.kind == crate::scene::MaterialKind::Glossy && glossy_share(b.alpha) > 0.0
 }
@@ -732,7 +728,7 @@ fn alias_densities(row: &mut [AliasBin]) {
 /// the class's distribution weights each bin by the cosine between that axis and
 /// the bin's centre. The class is a function of the vertex alone, so the sampled
 /// directions and the pdf that weights them always come from the same distribution.
-pub const NORMAL_CLASSES: u32 = crate::shared::NORMAL_CLASSES;
+pub const NORMAL_CLASSES: u32 = shared::NORMAL_CLASSES;
 
 /// The class of a unit normal: `2 * axis + (component < 0)` for the axis of its
 /// largest component (ties go to the lower axis). `glsl/guide.glsl` `normal_class`.
@@ -934,7 +930,7 @@ pub struct FractionState {
 }
 
 /// Smallest learned fraction, and 1 minus the largest. `glsl/common.glsl`.
-pub const FRACTION_MIN: f32 = crate::shared::FRACTION_MIN;
+pub const FRACTION_MIN: f32 = shared::FRACTION_MIN;
 
 /// ln(p / (1 - p)), for p in (0, 1).
 fn logit(p: f32) -> f32 {
@@ -952,7 +948,7 @@ impl FractionState {
     /// fraction stays within its bounds. A gradient that is not finite (a sum
     /// that overflowed) is skipped: Adam's moments would keep it for good.
     pub fn step(&mut self, gradient: f32, start: f32) {
-        use crate::shared::{FRACTION_BETA1, FRACTION_BETA2, FRACTION_RATE};
+        use shared::{FRACTION_BETA1, FRACTION_BETA2, FRACTION_RATE};
         if !gradient.is_finite() {
             return;
         }
@@ -1124,6 +1120,40 @@ impl QTable {
     }
 }
 
+/// Russian roulette with guiding: the probability that a path goes on, from its
+/// expected contribution (throughput times the radiance the table has learned for
+/// the ray it is about to trace) relative to the pixel's estimate so far. Paths
+/// that can still matter to the pixel survive; a path whose every continuation is
+/// dim is cut early (after Vorba & Křivánek, "Adjoint-Driven Russian Roulette and
+/// Splitting in Light Transport Simulation", 2016, without the splitting). Plain
+/// throughput-based roulette gives up exactly where guiding pays, in dim regions
+/// lit through long paths. At least `RR_MIN_PERCENT` %, so that a dark estimate
+/// in a bin not yet learned costs little variance; any probability above zero
+/// keeps the estimate unbiased. `glsl/pathtrace.comp` is the same.
+pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
+    (shared::RR_WINDOW as f32 * expected / pixel_estimate).clamp(shared::RR_MIN_PERCENT as f32 / 100.0, 1.0)
+}
+
+/// The pixel estimate learned Russian roulette compares with (the mean3 of the
+/// pixel's mean radiance so far), or 0, meaning plain throughput roulette, where
+/// the pixel has no frames yet or the table has learned from fewer than
+/// `LEARNED_RR_FRAMES` frames (`frames_traced`, which a restart of the
+/// accumulation keeps): a roulette driven by the first frames' table puts, through
+/// its 1/q weights, fireflies into the image that the average keeps for a long
+/// time. The frames so far are the accumulation's `accum_frames` and the
+/// `learned_frames` left out of the image before it (`GuideConfig::learning_frames`),
+/// whose mean3 sum the pixel keeps in `sum[3]` once the image has a frame
+/// (`crate::film::accumulate`); before that (`accum_frames` 0) the pixel still
+/// holds them as its sum. `glsl/pathtrace.comp` is the same.
+pub fn roulette_estimate(acc: &AccumPixel, accum_frames: u32, learned_frames: u32, frames_traced: u32) -> f32 {
+    let frames = accum_frames + learned_frames;
+    if frames == 0 || frames_traced < shared::LEARNED_RR_FRAMES {
+        return 0.0;
+    }
+    let learned = if accum_frames > 0 { acc.sum[3] } else { 0.0 };
+    (mean3(Vec3::from_slice(&acc.sum[..3])) + learned) / (shared::SAMPLES_PER_FRAME * frames) as f32
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1268,7 +1298,7 @@ mod tests {
         for (gradient, sign) in [(-3.0e-4f32, 1.0f32), (2.5e3, -1.0)] {
             let mut s = FractionState::default();
             s.step(gradient, 0.5);
-            assert!((s.theta - sign * crate::shared::FRACTION_RATE).abs() < 1e-6, "{s:?}");
+            assert!((s.theta - sign * shared::FRACTION_RATE).abs() < 1e-6, "{s:?}");
             assert_eq!(s.steps, 1.0);
             let mut last = s.fraction(0.5);
             for _ in 0..200 {
@@ -1311,5 +1341,42 @@ mod tests {
         let full = fraction_gradient_factor(0.5, 0.5, 2.0, 0.3, 1.15, 0.8);
         let shared = fraction_gradient_factor(0.125, 0.5, 2.0, 0.3, 1.15, 0.8);
         assert!((shared / full - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn learned_roulette_waits_for_a_table_of_several_frames() {
+        let n = shared::LEARNED_RR_FRAMES;
+        let pixel = |sum: Vec3, w: f32| AccumPixel { sum: [sum.x, sum.y, sum.z, w], m2_frame_mean: [0.0; 4] };
+        let sum = Vec3::new(3.0, 6.0, 9.0) * (shared::SAMPLES_PER_FRAME * n) as f32;
+        for traced in 0..n {
+            assert_eq!(roulette_estimate(&pixel(sum, 0.0), traced, 0, traced), 0.0, "{traced} frames");
+        }
+        assert_eq!(roulette_estimate(&pixel(sum, 0.0), n, 0, n), 6.0);
+        assert_eq!(roulette_estimate(&pixel(sum, 0.0), 2 * n, 0, 2 * n), 3.0);
+        // After a restart of the accumulation the table is still learned.
+        assert_eq!(roulette_estimate(&pixel(sum / n as f32, 0.0), 1, 0, 3 * n), 6.0);
+        assert_eq!(roulette_estimate(&pixel(Vec3::ZERO, 0.0), 0, 0, 3 * n), 0.0);
+    }
+
+    /// After the learning frames the estimate counts them: first as the sum the
+    /// pixel still holds, then as its `sum[3]` beside the image's frames.
+    #[test]
+    fn learned_roulette_counts_the_learning_frames() {
+        let n = shared::LEARNED_RR_FRAMES;
+        let per_frame = shared::SAMPLES_PER_FRAME as f32;
+        // n learning frames of mean3 6, held as the sum before the image's first frame.
+        let mut acc = AccumPixel {
+            sum: [3.0 * per_frame * n as f32, 6.0 * per_frame * n as f32, 9.0 * per_frame * n as f32, 0.0],
+            m2_frame_mean: [5.0; 4],
+        };
+        assert_eq!(roulette_estimate(&acc, 0, n, n), 6.0);
+        // The image's first frame, of mean3 2 (and 1, 2, 3 per channel), replaces them and keeps their share.
+        crate::film::accumulate(&mut acc, 0, n, [per_frame, 2.0 * per_frame, 3.0 * per_frame]);
+        assert_eq!(acc.sum, [per_frame, 2.0 * per_frame, 3.0 * per_frame, 6.0 * per_frame * n as f32]);
+        assert_eq!(acc.m2_frame_mean, [0.0; 4]);
+        assert_eq!(roulette_estimate(&acc, 1, n, n + 1), (2.0 + 6.0 * n as f32) / (n + 1) as f32);
+        // Without learning frames the first frame keeps nothing of what the pixel held.
+        crate::film::accumulate(&mut acc, 0, 0, [per_frame; 3]);
+        assert_eq!(acc.sum, [per_frame, per_frame, per_frame, 0.0]);
     }
 }

@@ -9,7 +9,9 @@
 
 use super::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use super::Vec3;
+use crate::layout::GpuMaterial;
 use crate::scene::MaterialKind;
+use crate::shared;
 use std::f32::consts::PI;
 
 /// What a BSDF needs of a material.
@@ -203,4 +205,20 @@ pub fn ggx_sample_vndf(wo: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
     let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
     let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
     Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(1e-6)).normalize()
+}
+
+impl GpuMaterial {
+    /// The BSDF of this record, as `material_bsdf` in `glsl/pathtrace.comp` reads
+    /// it: the roughness in `albedo_roughness.w`, alpha its square.
+    pub fn bsdf(&self) -> Bsdf {
+        let kind = match self.kind {
+            shared::MAT_DIFFUSE => MaterialKind::Diffuse,
+            shared::MAT_SPECULAR => MaterialKind::Specular,
+            shared::MAT_GLOSSY => MaterialKind::Glossy,
+            shared::MAT_DIELECTRIC => MaterialKind::Dielectric,
+            _ => MaterialKind::Emissive,
+        };
+        let [r, g, b, roughness] = self.albedo_roughness;
+        Bsdf { kind, albedo: Vec3::new(r, g, b), alpha: roughness * roughness, ior: self.emission_ior[3] }
+    }
 }

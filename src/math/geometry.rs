@@ -1,8 +1,8 @@
-//! Ray intersection, surface offsets and light sampling on a [`PreparedScene`];
+//! Ray intersection, surface offsets and light sampling on a [`SceneArrays`];
 //! `glsl/geometry.glsl` is the same code.
 
 use super::Vec3;
-use crate::prepared::{GpuQuad, GpuSphere, PreparedScene};
+use crate::layout::{GpuQuad, GpuSphere, RenderParams, Room, SceneArrays};
 use crate::shared;
 use std::f32::consts::PI;
 
@@ -222,35 +222,7 @@ pub fn quad_points_scale(origin: Vec3, edge_u: Vec3, edge_v: Vec3) -> f32 {
     max_abs(origin) + max_abs(edge_u) + max_abs(edge_v)
 }
 
-/// The box whose faces are walls of the scene (`crate::prepared::room_walls`
-/// finds it): the box around every primitive, and the quads that lie in its
-/// faces and cover them whole. A ray meets such a quad exactly where it
-/// crosses that face of the box, and a line crosses a box's surface at most
-/// twice, entering and leaving, so one slab test per ray finds which of them it
-/// meets first ([`Room::hit`]) in place of a hit test per quad: the five walls of
-/// the seed's rooms, the six of door's. `glsl/geometry.glsl` `room_hit` is the
-/// same test.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Room {
-    pub min: Vec3,
-    pub max: Vec3,
-    /// Per face `2 * axis + side` (side 1 the face at `max`): the index in
-    /// [`PreparedScene::quads`] of the quad that covers it, `shared::NO_QUAD`
-    /// where the face is open.
-    pub faces: [u32; 6],
-    /// How many faces have a quad. Those quads are the last of
-    /// [`PreparedScene::quads`], and the closest-hit walk leaves them to [`Room::hit`].
-    pub quads: u32,
-    /// Whether a ray may meet a wall from outside the box ([`Room::camera_may_enter`]):
-    /// where not, the test leaves out the face a ray enters by.
-    pub entering: bool,
-}
-
 impl Room {
-    /// No room: every quad has its own hit test.
-    pub const NONE: Room =
-        Room { min: Vec3::ZERO, max: Vec3::ZERO, faces: [shared::NO_QUAD; 6], quads: 0, entering: false };
-
     /// Whether the camera's rays may start outside the box beyond a face that
     /// has a quad, and so meet that wall from outside. Every other ray starts on a
     /// surface inside the box, or leaves it for good: the primitives all lie
@@ -259,7 +231,7 @@ impl Room {
     /// and door's camera stands inside its room: none of them needs the entering
     /// face. The camera's rays start `near` from its position, and a margin of
     /// rounding is counted in.
-    pub fn camera_may_enter(&self, p: &crate::prepared::RenderParams) -> bool {
+    pub fn camera_may_enter(&self, p: &RenderParams) -> bool {
         let c = p.cam_position_near;
         let reach = c[3].max(0.0);
         (0..6).any(|f| {
@@ -272,7 +244,7 @@ impl Room {
     }
 
     /// The first of the room's quads that the ray from `o` along `d` meets at a
-    /// distance in (0, t_max), and its index in [`PreparedScene::quads`]. From
+    /// distance in (0, t_max), and its index in [`SceneArrays::quads`]. From
     /// outside the box, the face it enters by, where that face has a quad and
     /// `entering` is set; else the face it leaves by. The distances are the
     /// quads' own (plane offset minus origin, over the direction's component),
@@ -313,7 +285,7 @@ impl Room {
 
 /// Nearest hit along the unit direction `d` closer than `t_max`: the spheres,
 /// the room's walls ([`Room::hit`]), then the other quads.
-pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
+pub fn intersect(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
     let mut best = t_max;
     let mut found: Option<(bool, usize)> = None;
     for (i, s) in scene.spheres.iter().enumerate() {
@@ -351,7 +323,7 @@ pub fn intersect(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32) -> Option<
 /// [`LightSample::end`]; `shared::NO_SPHERE` / `NO_QUAD` for none). The quads that
 /// bound the scene cannot block, and are not tested (`crate::prepared::occluding_order`).
 /// `glsl/geometry.glsl` `occluded`.
-pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip_sphere: u32, skip_quad: u32) -> bool {
+pub fn occluded(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip_sphere: u32, skip_quad: u32) -> bool {
     let quads = &scene.quads[..scene.params.occluding_quads as usize];
     scene.spheres.iter().enumerate().any(|(i, s)| i as u32 != skip_sphere && sphere_blocks(s, o, d, t_max))
         || quads.iter().enumerate().any(|(i, q)| i as u32 != skip_quad && intersect_quad(q, o, d, t_max).is_some())
@@ -362,7 +334,7 @@ pub fn occluded(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip_sphere
 /// in a scene whose environment is black, the ray can add nothing to a path that
 /// ends where it lands (`crate::prepared::last_ray_to_lights`).
 /// `glsl/geometry.glsl` `meets_light`.
-pub fn meets_light(scene: &PreparedScene, o: Vec3, d: Vec3) -> bool {
+pub fn meets_light(scene: &SceneArrays, o: Vec3, d: Vec3) -> bool {
     scene.lights.iter().any(|l| match l.kind {
         shared::LIGHT_SPHERE => intersect_sphere(&scene.spheres[l.index as usize], o, d, f32::INFINITY).is_some(),
         _ => intersect_quad(&scene.quads[l.index as usize], o, d, f32::INFINITY).is_some(),
@@ -427,7 +399,7 @@ fn one_minus_cos_max(sin2_max: f32) -> f32 {
 }
 
 /// Emitted radiance of material `mat` leaving a surface with front normal `n` towards `w`.
-pub fn emitted(scene: &PreparedScene, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
+pub fn emitted(scene: &SceneArrays, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
     let m = &scene.materials[mat as usize];
     let e = xyz(m.emission_ior);
     if m.two_sided != 0 || n.dot(w) > 0.0 {
@@ -440,7 +412,7 @@ pub fn emitted(scene: &PreparedScene, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
 /// Chooses a light by power with `u_sel` and samples a point on it with `u`:
 /// spheres seen from outside by the cone of directions they subtend, spheres
 /// from inside and quads uniformly by area.
-pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
+pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
     let n_lights = scene.lights.len();
     if n_lights == 0 {
         return None;
@@ -534,7 +506,7 @@ pub fn sample_light(scene: &PreparedScene, p: Vec3, u_sel: f32, u: [f32; 2]) -> 
 /// strategies see the same pair of densities for the same path; where `w` meets
 /// the light is found again analytically from `p` (not from the offset origin
 /// the ray was traced from). Zero where `w` misses the light.
-pub fn light_pdf(scene: &PreparedScene, light: u32, p: Vec3, w: Vec3) -> f32 {
+pub fn light_pdf(scene: &SceneArrays, light: u32, p: Vec3, w: Vec3) -> f32 {
     let l = &scene.lights[light as usize];
     let pdf_solid = if l.kind == shared::LIGHT_SPHERE {
         let s = &scene.spheres[l.index as usize];

@@ -40,6 +40,12 @@ pub fn max_component(v: Vec3) -> f32 {
     v.x.max(v.y).max(v.z)
 }
 
+/// Mean of the three channels: the scalar that guiding's Q learns and learned
+/// roulette compares (`glsl/sampling.glsl` `mean3`).
+pub fn mean3(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) * (1.0 / 3.0)
+}
+
 /// Rec. 709 luminance.
 pub fn luminance(v: Vec3) -> f32 {
     0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z

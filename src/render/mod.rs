@@ -5,7 +5,8 @@
 use crate::film::Film;
 use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, PipelineStatistic, Timer};
 use crate::guide::{AliasBin, GuideConfig, QTable, RecordSchedule};
-use crate::prepared::{AccumPixel, PreparedScene};
+use crate::layout::AccumPixel;
+use crate::prepared::PreparedScene;
 use crate::shared;
 use std::sync::Arc;
 
@@ -319,7 +320,7 @@ pub struct GpuRenderer {
     /// The scene's hit-test data as specialization constants (`PreparedScene::geometry_specialization`).
     geometry: Vec<u32>,
     /// The scene's room, whose `entering` follows the camera (`set_params`).
-    room: crate::math::geometry::Room,
+    room: crate::layout::Room,
     accum: Buffer,
     readback: Buffer,
     counters: Buffer,
@@ -327,7 +328,7 @@ pub struct GpuRenderer {
     timer: Timer,
     width: u32,
     height: u32,
-    params: crate::prepared::RenderParams,
+    params: crate::layout::RenderParams,
     /// Frames traced so far (decorrelates random numbers; not reset with the accumulation).
     frames_traced: u32,
     /// Frames in the accumulation buffer.
@@ -574,7 +575,7 @@ impl GpuRenderer {
     /// specialization constants, the path-tracing pipeline is built anew; so too
     /// where the camera moves out of the scene's room or back in
     /// (`Room::camera_may_enter`).
-    pub fn set_params(&mut self, params: &crate::prepared::RenderParams) -> Result<(), GpuError> {
+    pub fn set_params(&mut self, params: &crate::layout::RenderParams) -> Result<(), GpuError> {
         let p = &self.params;
         assert_eq!(
             (p.width, p.height, p.guide_bins, p.guide_cells),
@@ -597,7 +598,7 @@ impl GpuRenderer {
     }
 
     /// The render parameters in use.
-    pub fn params(&self) -> &crate::prepared::RenderParams {
+    pub fn params(&self) -> &crate::layout::RenderParams {
         &self.params
     }
 
@@ -858,7 +859,7 @@ fn path_pipelines(
     ctx: &Arc<Context>,
     kernel: &str,
     guided: bool,
-    p: &crate::prepared::RenderParams,
+    p: &crate::layout::RenderParams,
     geometry: &[u32],
 ) -> Result<(Pipeline, Option<Pipeline>), GpuError> {
     let plain = path_pipeline(ctx, kernel, guided, false, p, geometry)?;
@@ -874,7 +875,7 @@ fn path_pipeline(
     kernel: &str,
     guided: bool,
     recording: bool,
-    p: &crate::prepared::RenderParams,
+    p: &crate::layout::RenderParams,
     geometry: &[u32],
 ) -> Result<Pipeline, GpuError> {
     let mut bindings = vec![(shared::BINDING_PARAMS, Binding::Uniform)];
@@ -914,7 +915,7 @@ fn path_pipeline(
 /// glsl/common.glsl, by constant_id, up to `SPEC_QUAD_BASE`; the scene's
 /// geometry follows) for the render `p` describes. Table shapes
 /// are at least 1, also where guiding is off and the kernel does not read them.
-fn specialization(p: &crate::prepared::RenderParams) -> [u32; shared::SPEC_QUAD_BASE as usize] {
+fn specialization(p: &crate::layout::RenderParams) -> [u32; shared::SPEC_QUAD_BASE as usize] {
     let mut c = [0u32; shared::SPEC_QUAD_BASE as usize];
     c[shared::SPEC_NUM_SPHERES as usize] = p.num_spheres;
     c[shared::SPEC_NUM_QUADS as usize] = p.num_quads;
@@ -986,7 +987,7 @@ mod tests {
     /// (distinct values, so a constant wired to the wrong field shows).
     #[test]
     fn specialization_constants_carry_their_fields() {
-        let p = crate::prepared::RenderParams {
+        let p = crate::layout::RenderParams {
             num_spheres: 11,
             num_quads: 12,
             guide_rows: 13,
@@ -1028,14 +1029,14 @@ mod tests {
             assert_eq!(c[id as usize], v, "specialization constant {id}");
         }
         // With Russian roulette every vertex records (learned roulette reads Q there).
-        let rr = crate::prepared::RenderParams { flags: p.flags | shared::FLAG_RUSSIAN_ROULETTE, ..p };
+        let rr = crate::layout::RenderParams { flags: p.flags | shared::FLAG_RUSSIAN_ROULETTE, ..p };
         assert_eq!(specialization(&rr)[shared::SPEC_RECORD_VERTICES as usize], u32::MAX);
         // guide_vertices 0: without roulette the default of the NEE flag, so that switching NEE
         // (set_params) changes the constants and rebuilds the kernels.
-        let mut d = crate::prepared::RenderParams { guide_vertices: 0, ..p };
+        let mut d = crate::layout::RenderParams { guide_vertices: 0, ..p };
         let c = specialization(&d);
         let guided = shared::SPEC_GUIDE_VERTICES as usize;
-        assert_eq!(c[guided], crate::prepared::DEFAULT_GUIDED_VERTICES_NEE);
+        assert_eq!(c[guided], crate::layout::DEFAULT_GUIDED_VERTICES_NEE);
         d.set_nee(false);
         assert_eq!(specialization(&d)[guided], u32::MAX);
         // With roulette the default is every vertex, NEE on or off.

@@ -80,9 +80,9 @@ pub(super) fn parse_str(text: &str, name: &str) -> Result<Scene, SceneError> {
 // Limits.
 
 /// Largest accepted image width or height, in pixels.
-const MAX_IMAGE_SIDE: i64 = crate::prepared::MAX_IMAGE_SIDE as i64;
+const MAX_IMAGE_SIDE: i64 = crate::layout::MAX_IMAGE_SIDE as i64;
 /// Largest accepted `max_bounces`.
-const MAX_BOUNCES: i64 = crate::prepared::MAX_BOUNCES as i64;
+const MAX_BOUNCES: i64 = crate::layout::MAX_BOUNCES as i64;
 /// Largest magnitude of a coordinate, an edge component or a radius. The
 /// renderers work in f32: squared distances, areas and light densities of a
 /// scene this size stay far inside its range (about 3.4e38), where at 1e19 they
@@ -667,7 +667,7 @@ fn parse_render(t: &Table<'_, '_, '_>) -> Result<RenderSettings, SceneError> {
         r.height = t.integer("height", v, 1, MAX_IMAGE_SIDE, "image height in pixels")?;
     }
     if let Some(v) = t.get("spp") {
-        r.spp = t.integer("spp", v, 1, crate::prepared::MAX_SPP as i64, "samples per pixel")?;
+        r.spp = t.integer("spp", v, 1, crate::layout::MAX_SPP as i64, "samples per pixel")?;
     }
     if let Some(v) = t.get("max_bounces") {
         r.max_bounces = t.integer("max_bounces", v, 0, MAX_BOUNCES, "scattering events per path")?;

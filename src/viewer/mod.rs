@@ -537,7 +537,7 @@ impl Viewer {
         let (w, h) = self.display.size();
         let rect = letterbox((w, h), (sc.extent.width, sc.extent.height));
         let (px, py) = window_to_pixel(rect, (w, h), (cx, cy))?;
-        let (o, d) = crate::cpu::camera_ray(mr.renderer.params(), px, py, [0.5, 0.5]);
+        let (o, d) = crate::camera::camera_ray(mr.renderer.params(), px, py, [0.5, 0.5]);
         let hit = intersect(&mr.prepared, o, d, f32::INFINITY)?;
         Some((cfg.grid.cell(hit.p), cfg.bins))
     }

@@ -1,0 +1,248 @@
+//! The `#[repr(C)]` mirrors of the structs in `glsl/common.glsl` (std430 layout;
+//! sizes asserted here, field offsets checked on the device by
+//! `tests/gpu_probes.rs` `struct_layout_matches_the_rust_mirrors`), the limits
+//! every layer checks against, and [`SceneArrays`], the scene flattened into the
+//! arrays both renderers trace. It imports nothing of rlpt but the constants of
+//! `common.glsl` (`crate::shared`): every other module may build on it.
+
+use crate::shared;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+pub(crate) fn v4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMaterial {
+    pub albedo_roughness: [f32; 4],
+    pub emission_ior: [f32; 4],
+    pub kind: u32,
+    pub two_sided: u32,
+    pub pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuSphere {
+    pub center_radius: [f32; 4],
+    /// xyz: the anchor, the point of the sphere nearest the world origin; w: the radius again.
+    pub anchor_radius: [f32; 4],
+    /// xyz: the unit outward normal at the anchor (the centre is anchor - radius * axis);
+    /// w: 1 for a compact sphere ([`GpuSphere::compact`]), else 0.
+    pub axis: [f32; 4],
+    pub material: u32,
+    pub light: u32,
+    pub pad: [u32; 2],
+}
+
+impl GpuSphere {
+    /// A sphere with its intersection frame: the anchor and axis are worked out in
+    /// f64 from the f32 centre and radius, so that they describe the same surface
+    /// to within f32 rounding near the anchor (see `math::geometry::intersect_sphere`).
+    pub fn new(center: Vec3, radius: f32, material: u32, light: u32) -> GpuSphere {
+        let c = center.as_dvec3();
+        let len = c.length();
+        // The centre at the origin: any point of the sphere is as near as any other.
+        let axis = if len > 0.0 { -c / len } else { glam::DVec3::Z };
+        let anchor = (c + radius as f64 * axis).as_vec3();
+        let axis = axis.as_vec3();
+        let compact = 4.0 * radius * radius <= center.dot(center);
+        GpuSphere {
+            center_radius: v4(center, radius),
+            anchor_radius: v4(anchor, radius),
+            axis: v4(axis, if compact { 1.0 } else { 0.0 }),
+            material,
+            light,
+            pad: [0; 2],
+        }
+    }
+
+    /// Whether the sphere is no larger than half its centre's distance from the
+    /// world origin (2r <= |C|), so that its hit tests work from the centre
+    /// instead of the anchor ([`crate::math::geometry::intersect_sphere_compact`]
+    /// and [`crate::math::geometry::sphere_blocks`] say why that is precise
+    /// enough); set by [`GpuSphere::new`], in `axis[3]`.
+    pub fn compact(&self) -> bool {
+        self.axis[3] != 0.0
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuQuad {
+    pub origin: [f32; 4],
+    /// xyz: the edge; w: the scale of the quad's points for hit offsets
+    /// ([`crate::math::geometry::quad_points_scale`]).
+    pub edge_u: [f32; 4],
+    pub edge_v: [f32; 4],
+    pub normal: [f32; 4],
+    pub dual_u: [f32; 4],
+    pub dual_v: [f32; 4],
+    pub material: u32,
+    pub light: u32,
+    pub pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLight {
+    pub kind: u32,
+    pub index: u32,
+    pub pmf: f32,
+    pub cdf: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct RenderParams {
+    pub cam_position_near: [f32; 4],
+    pub cam_forward_tan: [f32; 4],
+    pub cam_right_aspect: [f32; 4],
+    pub cam_up: [f32; 4],
+    pub environment: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub max_bounces: u32,
+    pub rr_depth: u32,
+    pub num_spheres: u32,
+    pub num_quads: u32,
+    pub num_lights: u32,
+    pub flags: u32,
+    pub seed: u32,
+    pub guide_bins: u32,
+    pub guide_rows: u32,
+    pub guide_cols: u32,
+    pub guide_min: [f32; 4],
+    pub guide_inv_cell: [f32; 4],
+    pub guide_res_x: u32,
+    pub guide_res_y: u32,
+    pub guide_res_z: u32,
+    pub guide_cells: u32,
+    pub guide_floor: f32,
+    /// Vertices of a path that mix guided sampling in: those at depth < this; 0 for
+    /// the default of the roulette and NEE flags, read through
+    /// [`crate::guide::guided_vertices`], so that switching NEE (`set_nee`, the
+    /// viewer's N key) switches the default too (in a scene without roulette).
+    pub guide_vertices: u32,
+    /// Shadow rays test the first this many quads only: the rest bound the scene
+    /// ([`crate::prepared::occluding_order`]) and cannot block a segment between two of its points.
+    pub occluding_quads: u32,
+    /// The material and light kinds of the scene ([`crate::prepared::scene_kinds`]): the kernel is
+    /// specialized to them and leaves out the code of the others.
+    pub scene_kinds: u32,
+}
+
+impl RenderParams {
+    /// Next-event estimation on or off.
+    pub fn set_nee(&mut self, on: bool) {
+        if on {
+            self.flags |= shared::FLAG_NEE;
+        } else {
+            self.flags &= !shared::FLAG_NEE;
+        }
+    }
+}
+
+/// One pixel of the accumulation buffer: the sum of all radiance samples, and
+/// Welford's running sum of squared deviations of the per-frame 64-sample means
+/// (for variance estimates; it stays accurate in f32 where sum-of-squares minus
+/// square-of-sum cancels).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct AccumPixel {
+    pub sum: [f32; 4],
+    pub m2_frame_mean: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuSphere>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
+const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
+const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
+const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
+// The specialization constants' layout (glsl/common.glsl): the quads' slots
+// follow the scalar constants, the spheres' follow the quads', and nothing after.
+const _: () =
+    assert!(shared::SPEC_SPHERE_BASE == shared::SPEC_QUAD_BASE + shared::SPEC_QUADS * shared::SPEC_QUAD_FLOATS);
+const _: () = assert!(
+    shared::SPEC_COMPACT_SPHERES == shared::SPEC_SPHERE_BASE + shared::SPEC_SPHERES * shared::SPEC_SPHERE_FLOATS
+);
+const _: () = assert!(shared::SPEC_LIGHT_QUADS == shared::SPEC_COMPACT_SPHERES + 1);
+const _: () = assert!(shared::SPEC_LIGHT_SPHERES == shared::SPEC_LIGHT_QUADS + 1);
+const _: () = assert!(shared::SPEC_ROOM_QUADS == shared::SPEC_LIGHT_SPHERES + 1);
+const _: () = assert!(shared::SPEC_ROOM_BOUNDS == shared::SPEC_ROOM_QUADS + 1);
+const _: () = assert!(shared::SPEC_ROOM_FACES == shared::SPEC_ROOM_BOUNDS + 6);
+const _: () = assert!(shared::SPEC_ROOM_ENTERING == shared::SPEC_ROOM_FACES + 6);
+const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_ROOM_ENTERING + 1);
+// geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
+const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
+
+/// Guided sampling's default reach with NEE in a scene without Russian roulette:
+/// a path's first two vertices. There, deeper vertices gained little per sample,
+/// while their table lookups and the recording of their targets cost time
+/// (docs/guiding.md, "Defaults"). Without NEE only guided sampling aims at the
+/// lights, at every vertex: then every vertex is
+/// guided. So is every vertex where Russian roulette is on (door.toml), whatever
+/// NEE says: there every vertex records targets and looks up its cell for learned
+/// roulette anyway, and guiding them all paid at equal time
+/// ([`crate::guide::guided_vertices`]).
+pub const DEFAULT_GUIDED_VERTICES_NEE: u32 = 2;
+
+/// Largest image width or height, in pixels, a scene or an option may ask for.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest samples per pixel a render may ask for: the most whole frames of
+/// `SAMPLES_PER_FRAME` whose samples a u32 counts (renders round `spp` up to whole
+/// frames; u32::MAX itself would round past it).
+pub const MAX_SPP: u32 = u32::MAX / shared::SAMPLES_PER_FRAME * shared::SAMPLES_PER_FRAME;
+/// Largest `max_bounces`: a path's ray count shares a 32-bit register with its
+/// depth in kernels with roulette (`glsl/pathtrace.comp` `depth_rays`), 16 bits
+/// each, and a path of 1024 bounces traces at most 2050 rays.
+pub const MAX_BOUNCES: u32 = 1024;
+
+/// The box whose faces are walls of the scene (`crate::prepared::room_walls`
+/// finds it; its tests are in `crate::math::geometry`): the box around every primitive, and the quads that lie in its
+/// faces and cover them whole. A ray meets such a quad exactly where it
+/// crosses that face of the box, and a line crosses a box's surface at most
+/// twice, entering and leaving, so one slab test per ray finds which of them it
+/// meets first (`Room::hit`) in place of a hit test per quad: the five walls of
+/// the seed's rooms, the six of door's. `glsl/geometry.glsl` `room_hit` is the
+/// same test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Room {
+    pub min: Vec3,
+    pub max: Vec3,
+    /// Per face `2 * axis + side` (side 1 the face at `max`): the index in
+    /// [`SceneArrays::quads`] of the quad that covers it, `shared::NO_QUAD`
+    /// where the face is open.
+    pub faces: [u32; 6],
+    /// How many faces have a quad. Those quads are the last of
+    /// [`SceneArrays::quads`], and the closest-hit walk leaves them to `Room::hit`.
+    pub quads: u32,
+    /// Whether a ray may meet a wall from outside the box (`Room::camera_may_enter`):
+    /// where not, the test leaves out the face a ray enters by.
+    pub entering: bool,
+}
+
+impl Room {
+    /// No room: every quad has its own hit test.
+    pub const NONE: Room =
+        Room { min: Vec3::ZERO, max: Vec3::ZERO, faces: [shared::NO_QUAD; 6], quads: 0, entering: false };
+}
+
+/// The scene as the renderers trace it: what the GPU's buffers hold (parameters,
+/// materials, spheres, quads, lights) and the room its kernel is specialized to.
+/// `crate::prepared::PreparedScene` makes it (and derefs to it); the geometry of
+/// `crate::math::geometry` reads it.
+#[derive(Clone, Debug)]
+pub struct SceneArrays {
+    pub params: RenderParams,
+    pub materials: Vec<GpuMaterial>,
+    pub spheres: Vec<GpuSphere>,
+    pub quads: Vec<GpuQuad>,
+    pub lights: Vec<GpuLight>,
+    /// The walls found by one slab test (`crate::prepared::room_walls`);
+    /// [`Room::NONE`] where there are none.
+    pub room: Room,
+}
