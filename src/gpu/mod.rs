@@ -10,7 +10,10 @@ mod swapchain;
 mod timer;
 
 pub use buffer::{Buffer, BufferUsage};
-pub use context::{list_devices, Context, ContextOptions, DeviceInfo, GpuError, Surface, WindowTarget};
+pub use context::{
+    list_devices, validation_messages_total, Context, ContextOptions, DeviceInfo, GpuError, Surface, ValidationCounter,
+    WindowTarget,
+};
 pub use pipeline::{Binding, Pipeline, PipelineStatistic};
 pub use swapchain::{Acquired, Image, Swapchain};
 pub use timer::Timer;
