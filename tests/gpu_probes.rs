@@ -279,12 +279,15 @@ fn glsl_bsdfs_match_rust_and_sample_their_pdf() {
             assert!(r.degrees_of_freedom >= 100, "the zoom resolves the lobe: {r}");
         }
 
-        // eval and pdf agree pointwise.
+        // eval and pdf agree pointwise: at directions all over the sphere, and at
+        // sampled ones, inside the lobe (which a narrow lobe's uniform ones miss).
+        let sampled = samples.iter().flatten().take(4096).map(|d| [d[0] as f32, d[1] as f32, d[2] as f32, 0.0]);
         let dirs: Vec<[f32; 4]> = (0..4096)
             .map(|_| {
                 let d = rlpt::math::sampling::uniform_sphere(rng.next_2d());
                 [d.x, d.y, d.z, 0.0]
             })
+            .chain(sampled)
             .collect();
         let ev = run_bsdf_probe(&ctx, b, *wo, 1, &dirs);
         for (i, d) in dirs.iter().enumerate() {
