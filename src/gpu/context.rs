@@ -96,7 +96,8 @@ pub struct DeviceInfo {
 pub struct ContextOptions {
     /// Device index as listed by `rlpt devices`; `None` picks the first discrete GPU, else the first usable one.
     pub gpu: Option<usize>,
-    /// Turn on the Khronos validation layer; every message it prints is counted.
+    /// Turn on the Khronos validation layer, with synchronization validation where the
+    /// layer offers `VK_EXT_validation_features`; every message it prints is counted.
     pub validation: bool,
     /// A window to present to (the viewer): the context then owns a surface for it,
     /// chooses a device whose compute queue can present to it, and enables swapchains.
@@ -263,8 +264,8 @@ fn create_instance(
             extensions.push(ash::ext::validation_features::NAME.as_ptr());
         }
     }
-    // Synchronization validation too: hazards between dispatches, copies and host
-    // access that the core checks do not see.
+    // Synchronization validation too: read/write hazards between commands (dispatches,
+    // copies) within and across submissions, which the core checks do not see.
     let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
     let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
     let mut info = vk::InstanceCreateInfo::default()
@@ -468,9 +469,10 @@ impl Context {
         // only vkCreateInstance and vkDestroyInstance.
         let (debug_instance, messenger) = if options.validation {
             let di = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            // The create info was chained into the instance's: unchain it.
             let mut own = messenger_info;
-            own.p_next = std::ptr::null(); // it was chained into the instance's create info
-                                           // SAFETY: the messenger is destroyed in Drop before the instance; its user data outlives it.
+            own.p_next = std::ptr::null();
+            // SAFETY: the messenger is destroyed in Drop before the instance; its user data outlives it.
             let m = unsafe { di.create_debug_utils_messenger(&own, None) }
                 .map_err(|e| GpuError::vk("vkCreateDebugUtilsMessengerEXT", e))?;
             guard.2 = Some((di.clone(), m));
