@@ -255,7 +255,11 @@ fn glsl_bsdfs_match_rust_and_sample_their_pdf() {
             assert_eq!(cpu.is_some(), g_dir[3] == 1.0, "{b:?}: GPU and CPU disagree on success for input {x:?}");
             if let Some(s) = cpu {
                 let gw = Vec3::new(g_dir[0], g_dir[1], g_dir[2]);
-                if (gw - s.wi).length() > 1e-3 || (g_w[3] - s.pdf).abs() > 1e-3 * s.pdf.max(1.0) {
+                let weight = Vec3::new(g_w[0], g_w[1], g_w[2]);
+                if (gw - s.wi).length() > 1e-3
+                    || (g_w[3] - s.pdf).abs() > 1e-3 * s.pdf.max(1.0)
+                    || (weight - s.weight).abs().max_element() > 1e-3
+                {
                     mismatches += 1;
                 }
                 samples.push(Some([gw.x as f64, gw.y as f64, gw.z as f64]));
