@@ -483,6 +483,13 @@ fn main() {
         eprintln!("rlpt: error: {e:#}");
         std::process::exit(if INTERRUPTED.load(Ordering::SeqCst) { EXIT_INTERRUPTED } else { 1 });
     }
+    // Every context is gone by now, so this counts what the layer said at their
+    // destruction too: with validation on, any message fails the run (and the tests).
+    let messages = rlpt::gpu::validation_messages_total();
+    if messages > 0 {
+        eprintln!("rlpt: error: the Vulkan validation layer reported {messages} problem(s) (printed above)");
+        std::process::exit(1);
+    }
 }
 
 /// The exit status of a render that Ctrl-C stopped: 128 + SIGINT, what a shell

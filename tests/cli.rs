@@ -1,11 +1,41 @@
 //! The command line as a user meets it.
 
-use std::process::Command;
+use std::process::{Command, Output};
 
+/// `rlpt` with the Khronos validation layer on (synchronization validation included)
+/// for every GPU it touches; run it with [`Checked::checked_output`].
 fn rlpt() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_rlpt"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR")).env("RLPT_VALIDATION", "1");
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     c
+}
+
+/// How every test here runs `rlpt`: the run fails the test if the validation layer
+/// said anything, whatever the exit status the test expects.
+trait Checked {
+    fn checked_output(&mut self) -> Output;
+}
+
+impl Checked for Command {
+    fn checked_output(&mut self) -> Output {
+        let o = self.output().expect("rlpt runs");
+        assert_no_validation_messages(&String::from_utf8_lossy(&o.stderr));
+        assert_no_validation_messages(&String::from_utf8_lossy(&o.stdout));
+        o
+    }
+}
+
+/// rlpt prints each message the layer sends it as "vulkan validation (...)", and ends
+/// with "the Vulkan validation layer reported N problem(s)" and a failure status when
+/// any was counted, those at a context's destruction included; where no messenger of
+/// rlpt's is registered the layer prints its own "Validation Error" / "Validation Warning".
+fn assert_no_validation_messages(output: &str) {
+    for sign in ["vulkan validation", "validation layer reported", "Validation Error", "Validation Warning"] {
+        assert!(!output.contains(sign), "the validation layer spoke:\n{output}");
+    }
 }
 
 fn tmp(name: &str) -> std::path::PathBuf {
@@ -33,8 +63,7 @@ fn render_writes_png_and_exr_and_prints_a_summary() {
                 "-o",
             ])
             .arg(&out)
-            .output()
-            .unwrap();
+            .checked_output();
         let stderr = String::from_utf8_lossy(&o.stderr);
         let stdout = String::from_utf8_lossy(&o.stdout);
         assert!(o.status.success(), "{stderr}");
@@ -58,8 +87,10 @@ fn no_vulkan_driver_is_a_sentence_not_a_crash() {
         .env("VK_DRIVER_FILES", icd_dir.join("none.json"))
         .env("VK_ICD_FILENAMES", icd_dir.join("none.json"))
         .env_remove("VK_ADD_DRIVER_FILES")
-        .output()
-        .unwrap();
+        // Without validation: with it the loader's own complaint about the missing driver
+        // reaches the messenger, and that is what this test provokes.
+        .env_remove("RLPT_VALIDATION")
+        .checked_output();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(
@@ -75,7 +106,7 @@ fn no_vulkan_driver_is_a_sentence_not_a_crash() {
 fn bad_scene_names_file_and_line() {
     let scene = tmp("bad.toml");
     std::fs::write(&scene, "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nvfov = 200\n").unwrap();
-    let o = rlpt().args(["render"]).arg(&scene).args(["-o"]).arg(tmp("bad.png")).output().unwrap();
+    let o = rlpt().args(["render"]).arg(&scene).args(["-o"]).arg(tmp("bad.png")).checked_output();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(stderr.contains("bad.toml:4:"), "{stderr}");
@@ -84,17 +115,17 @@ fn bad_scene_names_file_and_line() {
 
 #[test]
 fn bad_output_is_refused_before_rendering() {
-    let o = rlpt().args(["render", "scenes/smallpt.toml", "-o", "out.jpg"]).output().unwrap();
+    let o = rlpt().args(["render", "scenes/smallpt.toml", "-o", "out.jpg"]).checked_output();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains(".png or .exr"));
-    let o = rlpt().args(["render", "scenes/smallpt.toml", "-o", "/nonexistent-dir/out.png"]).output().unwrap();
+    let o = rlpt().args(["render", "scenes/smallpt.toml", "-o", "/nonexistent-dir/out.png"]).checked_output();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("does not exist"));
 }
 
 #[test]
 fn devices_lists_the_subgroup_size() {
-    let o = rlpt().arg("devices").output().unwrap();
+    let o = rlpt().arg("devices").checked_output();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(stdout.contains("subgroup size") && stdout.contains("driver:"), "{stdout}");
@@ -123,8 +154,7 @@ fn bench_times_every_pass_and_writes_json_and_a_trace() {
         .arg(&json)
         .arg("--trace")
         .arg(&trace)
-        .output()
-        .unwrap();
+        .checked_output();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for pass in ["pathtrace", "learn: fold targets", "learn: build sampling rows", "frame", "GPU timestamps"] {
@@ -197,8 +227,7 @@ fn bench_without_counters_reports_no_counts() {
     let o = rlpt()
         .args(["bench", "scenes/door.toml", "--width", "16", "--height", "8", "--frames", "1", "--warmup", "0"])
         .args(["--counters", "off"])
-        .output()
-        .unwrap();
+        .checked_output();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && stdout.contains("not counted (--counters off)"), "{stdout}");
 }
@@ -246,8 +275,7 @@ fn bench_refuses_a_trace_without_gpu_timestamps() {
             "--trace",
         ])
         .arg(tmp("cpu-trace.json"))
-        .output()
-        .unwrap();
+        .checked_output();
     assert!(!o.status.success());
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("--trace") && stderr.contains("--device cpu"), "{stderr}");
@@ -257,8 +285,7 @@ fn bench_refuses_a_trace_without_gpu_timestamps() {
 fn bench_ablate_needs_gpu_guiding() {
     let o = rlpt()
         .args(["bench", "scenes/smallpt.toml", "--width", "8", "--height", "8", "--frames", "1", "--ablate", "record"])
-        .output()
-        .unwrap();
+        .checked_output();
     assert!(!o.status.success());
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("--ablate") && stderr.contains("--guiding"), "{stderr}");
@@ -268,8 +295,7 @@ fn bench_ablate_needs_gpu_guiding() {
 fn guided_vertices_must_be_at_least_one() {
     let o = rlpt()
         .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", "--guided-vertices", "0"])
-        .output()
-        .unwrap();
+        .checked_output();
     assert!(!o.status.success());
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("--guided-vertices") && stderr.contains("0"), "{stderr}");
@@ -281,8 +307,7 @@ fn refuses(flag: &str, cases: &[(&str, &str)]) {
     for (arg, says) in cases {
         let o = rlpt()
             .args(["render", "scenes/smallpt.toml", "-o", "x.png", "--guiding", "sphere", flag, arg])
-            .output()
-            .unwrap();
+            .checked_output();
         assert!(!o.status.success(), "{flag} {arg} was accepted");
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(!stderr.contains("panicked"), "{flag} {arg}: {stderr}");
@@ -349,7 +374,7 @@ fn the_image_starts_after_the_learning_frames() {
     let read = |scene: &str, extra: &[&str]| {
         let base = ["render", scene, "--width", "16", "--height", "8", "--spp", "128", "--device", "cpu"];
         let args: Vec<&str> = base.iter().chain(["-o", o, "--stats", stats].iter()).chain(extra).copied().collect();
-        let out = rlpt().args(&args).output().unwrap();
+        let out = rlpt().args(&args).checked_output();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         let s = serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(stats).unwrap()).unwrap();
         let spp: Vec<u64> = s["frames"].as_array().unwrap().iter().map(|f| f["spp"].as_u64().unwrap()).collect();
@@ -417,7 +442,7 @@ fn bins_are_rows_by_columns_within_the_limit() {
 
 /// Runs `rlpt ARGS` and returns (success, stderr).
 fn run(args: &[&str]) -> (bool, String) {
-    let o = rlpt().args(args).output().unwrap();
+    let o = rlpt().args(args).checked_output();
     (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
@@ -684,7 +709,7 @@ fn a_references_variance_takes_its_noise_out_of_the_relmse() {
         args.extend_from_slice(extra);
         let out = p(out);
         args.extend_from_slice(&["-o", &out]);
-        let o = rlpt().args(&args).output().unwrap();
+        let o = rlpt().args(&args).checked_output();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         String::from_utf8_lossy(&o.stdout).into_owned()
     };
@@ -730,8 +755,7 @@ fn a_references_variance_takes_its_noise_out_of_the_relmse() {
     // compare says the same.
     let o = rlpt()
         .args(["compare", &p(&image), &p(&reference), "--reference-variance", &p(&reference_var)])
-        .output()
-        .unwrap();
+        .checked_output();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
         o.status.success() && stdout.contains(&format!("less the reference's variance {debiased:.6e}")),

@@ -4,7 +4,7 @@
 mod common;
 
 use common::readback;
-use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
+use rlpt::chi2::{chi2_sphere, sidak, Chi2Options, Zoom};
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
 use rlpt::layout::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
 use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
@@ -226,6 +226,9 @@ fn test_bsdfs() -> Vec<(Bsdf, Vec3)> {
     let glossy = |r: f32| Bsdf { kind: MaterialKind::Glossy, albedo: Vec3::new(0.9, 0.6, 0.5), alpha: r * r, ior: 1.0 };
     vec![
         (Bsdf { kind: MaterialKind::Diffuse, albedo: Vec3::new(0.7, 0.5, 0.3), alpha: 1.0, ior: 1.0 }, wo(30.0)),
+        (glossy(0.05), wo(0.0)),
+        (glossy(0.05), wo(50.0)),
+        (glossy(0.08), wo(75.0)),
         (glossy(0.3), wo(10.0)),
         (glossy(0.3), wo(70.0)),
         (glossy(0.6), wo(45.0)),
@@ -238,7 +241,8 @@ fn glsl_bsdfs_match_rust_and_sample_their_pdf() {
     let ctx = common::gpu();
     let n = 400_000usize;
     let cases = test_bsdfs();
-    let alpha = sidak(0.01, cases.len());
+    let zoomed = cases.iter().filter(|(b, _)| b.kind == MaterialKind::Glossy && b.alpha < 0.01).count();
+    let alpha = sidak(0.01, cases.len() + zoomed);
     for (b, wo) in &cases {
         let mut rng = Rng::new(7, b.kind as u32, (b.alpha * 1000.0) as u32, (wo.z * 1000.0) as u32);
         let inputs: Vec<[f32; 4]> = (0..n).map(|_| [rng.next_f32(), rng.next_f32(), rng.next_f32(), 0.0]).collect();
@@ -251,7 +255,11 @@ fn glsl_bsdfs_match_rust_and_sample_their_pdf() {
             assert_eq!(cpu.is_some(), g_dir[3] == 1.0, "{b:?}: GPU and CPU disagree on success for input {x:?}");
             if let Some(s) = cpu {
                 let gw = Vec3::new(g_dir[0], g_dir[1], g_dir[2]);
-                if (gw - s.wi).length() > 1e-3 || (g_w[3] - s.pdf).abs() > 1e-3 * s.pdf.max(1.0) {
+                let weight = Vec3::new(g_w[0], g_w[1], g_w[2]);
+                if (gw - s.wi).length() > 1e-3
+                    || (g_w[3] - s.pdf).abs() > 1e-3 * s.pdf.max(1.0)
+                    || (weight - s.weight).abs().max_element() > 1e-3
+                {
                     mismatches += 1;
                 }
                 samples.push(Some([gw.x as f64, gw.y as f64, gw.z as f64]));
@@ -266,13 +274,24 @@ fn glsl_bsdfs_match_rust_and_sample_their_pdf() {
         let pdf = move |d: [f64; 3]| bsdf_pdf(&b2, w, Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)) as f64;
         let r = chi2_sphere(&samples, pdf, &Chi2Options::default());
         assert!(r.passed(alpha), "GLSL sampler of {b:?} wo={wo:?} fails chi-square: {r:?}");
+        // A lobe narrower than the bins (roughness below 0.1): zoomed into, as in bsdf_cpu.rs.
+        if b.kind == MaterialKind::Glossy && b.alpha < 0.01 {
+            let zoom = Zoom::new([-wo.x as f64, -wo.y as f64, wo.z as f64], 0.5 / b.alpha as f64);
+            let zoomed: Vec<_> = samples.iter().map(|s| s.map(|d| zoom.sample(d))).collect();
+            let r = chi2_sphere(&zoomed, |d| zoom.pdf(pdf, d), &Chi2Options::default());
+            assert!(r.passed(alpha), "GLSL sampler of {b:?} wo={wo:?}, zoomed into the lobe: {r:?}");
+            assert!(r.degrees_of_freedom >= 100, "the zoom resolves the lobe: {r}");
+        }
 
-        // eval and pdf agree pointwise.
+        // eval and pdf agree pointwise: at directions all over the sphere, and at
+        // sampled ones, inside the lobe (which a narrow lobe's uniform ones miss).
+        let sampled = samples.iter().flatten().take(4096).map(|d| [d[0] as f32, d[1] as f32, d[2] as f32, 0.0]);
         let dirs: Vec<[f32; 4]> = (0..4096)
             .map(|_| {
                 let d = rlpt::math::sampling::uniform_sphere(rng.next_2d());
                 [d.x, d.y, d.z, 0.0]
             })
+            .chain(sampled)
             .collect();
         let ev = run_bsdf_probe(&ctx, b, *wo, 1, &dirs);
         for (i, d) in dirs.iter().enumerate() {

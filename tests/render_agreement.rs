@@ -49,12 +49,13 @@ fn furnace_open_gpu_and_cpu() {
 }
 
 #[test]
-fn furnace_open_without_nee_gpu() {
+fn furnace_open_without_nee_gpu_and_cpu() {
     let scene = scene("furnace-open.toml");
     let mut opts = options(&scene, 48, 48, 512);
     opts.nee = false;
     let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
     check_furnace_open(&render_gpu(&gpu(), &scene, &opts), &prepared, "GPU, NEE off");
+    check_furnace_open(&render_cpu(&scene, &opts), &prepared, "CPU, NEE off");
 }
 
 fn check_furnace_closed(film: &Film, what: &str) {
@@ -629,4 +630,108 @@ fn a_camera_moving_out_of_the_room_turns_the_entering_test_on() {
     r.set_params(&inside.params).expect("camera moved back");
     assert!(frame(&mut r) == want_in, "and back in, as one made for the first camera");
     assert_no_validation_messages(&ctx);
+}
+
+/// A unit ball of `material` under a uniform sky of radiance 1, seen whole.
+fn ball_furnace(material: &str, max_bounces: u32) -> Scene {
+    let text = format!(
+        "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 40.0\n\
+         [render]\nmax_bounces = {max_bounces}\n[environment]\nradiance = [1.0, 1.0, 1.0]\n\
+         [[material]]\nname = \"ball\"\n{material}\n\
+         [[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"ball\"\n"
+    );
+    Scene::parse(&text, "ball furnace").expect("valid scene")
+}
+
+/// White furnaces for the delta materials: an albedo-1 mirror ball and an albedo-1
+/// glass ball under a uniform sky of 1 render 1 in every pixel, NEE on and off, GPU
+/// and CPU. A mirror path's throughput is 1 x 1, exactly; a glass path enters and
+/// leaves the convex ball, its radiance scaled by 1/eta^2 and then eta^2, the Fresnel
+/// split taken by probability with weight 1 (its internal reflections have albedo 1
+/// too, and a sphere has no total internal reflection, so with 1024 bounces a path
+/// is cut with a probability far below f32 rounding). What is left is f32 rounding,
+/// bounded by [`rounding_bound`] (a glass sample's own, from 1/eta^2 times eta^2,
+/// is a few units of 2^-24, inside it; lavapipe and the CPU show at most one).
+/// A mirror sample is exactly 1, and so is its pixel.
+#[test]
+fn mirror_and_glass_balls_of_albedo_one_render_exactly_one() {
+    let ctx = gpu();
+    for (name, material) in
+        [("mirror", "type = \"specular\"\nalbedo = [1.0, 1.0, 1.0]"), ("glass", "type = \"dielectric\"\nior = 1.5")]
+    {
+        let scene = ball_furnace(material, 1024);
+        for nee in [true, false] {
+            let mut opts = options(&scene, 24, 24, 256);
+            opts.nee = nee;
+            for (device, film) in [("GPU", render_gpu(&ctx, &scene, &opts)), ("CPU", render_cpu(&scene, &opts))] {
+                for p in &film.mean().pixels {
+                    for &m in p {
+                        let bound = if name == "mirror" { 0.0 } else { rounding_bound(&film, m) };
+                        assert!(
+                            (m as f64 - 1.0).abs() <= bound,
+                            "{name} ball, {device}, NEE {nee}: a pixel renders {m:.9}, not 1 within f32 rounding"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The per-pixel variance estimate is calibrated: for two independent renders
+/// (different seeds) of seed-exp1 at 48x32 with 64 frames (4096 spp), z = (a - b) /
+/// sqrt(va + vb) per pixel follows a standard normal. Each channel is tested on its
+/// own, its z-scores independent across pixels (the channels of one pixel share
+/// their paths): the Kolmogorov-Smirnov distance from the normal below its 0.1 %
+/// critical value 1.95 / sqrt(n), and the mean of z^2 within 4 standard errors
+/// sqrt(2 / n) of its expectation. No Russian roulette in this scene, and 64
+/// samples per frame mean: the frame means are near normal. On lavapipe and the
+/// CPU the mean z^2 came out 1.06 to 1.09 and the KS distance 0.015 to 0.037
+/// (limit 0.053); an estimate 30 % too small or too large fails the mean z^2.
+fn check_calibrated(render: impl Fn(&Scene, &RenderOptions) -> Film, what: &str) {
+    let scene = scene("seed-exp1.toml");
+    let frames = 64;
+    let mut opts = options(&scene, 48, 32, 64 * frames);
+    let a = render(&scene, &opts);
+    opts.seed += 1;
+    let b = render(&scene, &opts);
+    let (va, vb) = (a.variance_of_mean().unwrap(), b.variance_of_mean().unwrap());
+    let (ma, mb) = (a.mean(), b.mean());
+    for c in 0..3 {
+        let grey = |img: &rlpt::image::Image| rlpt::image::Image {
+            width: img.width,
+            height: img.height,
+            pixels: img.pixels.iter().map(|p| [p[c]; 3]).collect(),
+        };
+        let r = rlpt::metrics::agreement(&grey(&ma), &grey(&va), &grey(&mb), &grey(&vb), 0.0).unwrap();
+        // The three copies of one channel: the statistics of that channel's z alone.
+        let n = (r.pixels / 3) as f64;
+        assert!(n > 300.0, "{what}: only {n} pixels with noise");
+        let (ks_limit, z2_limit) = (1.95 / n.sqrt(), 4.0 * (2.0 / n).sqrt());
+        // Each variance is estimated from `frames` frame means: z is t-distributed with
+        // about nu = 2 (frames - 1) degrees of freedom, and E z^2 = nu / (nu - 2) (1.016).
+        let nu = 2.0 * (frames as f64 - 1.0);
+        let z2_expected = nu / (nu - 2.0);
+        assert!(
+            r.pixel_ks < ks_limit,
+            "{what}, channel {c}: z-scores' KS distance from the normal {:.4}, above {ks_limit:.4}",
+            r.pixel_ks
+        );
+        assert!(
+            (r.pixel_mean_z2 - z2_expected).abs() < z2_limit,
+            "{what}, channel {c}: mean z^2 {:.4}, not {z2_expected:.3} within {z2_limit:.3}",
+            r.pixel_mean_z2
+        );
+    }
+}
+
+#[test]
+fn variance_estimates_are_calibrated_on_the_gpu() {
+    let ctx = gpu();
+    check_calibrated(|s, o| render_gpu(&ctx, s, o), "GPU");
+}
+
+#[test]
+fn variance_estimates_are_calibrated_on_the_cpu() {
+    check_calibrated(render_cpu, "CPU");
 }

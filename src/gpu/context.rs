@@ -113,7 +113,8 @@ pub struct DeviceInfo {
 pub struct ContextOptions {
     /// Device index as listed by `rlpt devices`; `None` picks the first discrete GPU, else the first usable one.
     pub gpu: Option<usize>,
-    /// Turn on the Khronos validation layer; every message it prints is counted.
+    /// Turn on the Khronos validation layer, with synchronization validation where the
+    /// layer offers `VK_EXT_validation_features`; every message it prints is counted.
     pub validation: bool,
     /// A window to present to (the viewer): the context then owns a surface for it,
     /// chooses a device whose compute queue can present to it, and enables swapchains.
@@ -170,8 +171,9 @@ pub struct Context {
     debug_instance: Option<ash::ext::debug_utils::Instance>,
     debug_device: Option<ash::ext::debug_utils::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
-    /// Validation messages of warning or error severity; boxed so the callback's pointer stays valid.
-    messages: Box<AtomicU32>,
+    /// Validation messages of warning or error severity; shared so the callback's pointer
+    /// stays valid and so that a [`ValidationCounter`] can read it after the context is gone.
+    messages: Arc<AtomicU32>,
     /// Set once a call returned `VK_ERROR_DEVICE_LOST` (or [`Context::lose_device`]
     /// said so): every later submission fails the same way, without touching the device.
     lost: AtomicBool,
@@ -179,6 +181,27 @@ pub struct Context {
     allocated: AtomicU64,
     /// The device memory [`DEVICE_MEMORY_HOOK`] pretends, in bytes: allocations past it fail.
     memory_cap: Option<u64>,
+}
+
+/// Validation messages of warning or error severity reported in this process, by
+/// every context, including those counted while a context was destroyed.
+static MESSAGES_TOTAL: AtomicU32 = AtomicU32::new(0);
+
+/// Number of warnings and errors the validation layer reported in this process so
+/// far, over every context made and destroyed (the CLI fails on any, at exit).
+pub fn validation_messages_total() -> u32 {
+    MESSAGES_TOTAL.load(Ordering::SeqCst)
+}
+
+/// A context's validation message count that outlives the context: it also counts
+/// what the layer reports while the context is destroyed (leaked objects, for one).
+#[derive(Clone, Debug)]
+pub struct ValidationCounter(Arc<AtomicU32>);
+
+impl ValidationCounter {
+    pub fn get(&self) -> u32 {
+        self.0.load(Ordering::SeqCst)
+    }
 }
 
 /// Test hook, for tests only: `RLPT_TEST_DEVICE_MEMORY_MB=N` makes a [`Context`]
@@ -199,8 +222,9 @@ unsafe extern "system" fn debug_callback(
     if severity
         .intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
     {
-        // SAFETY: `user` is the `AtomicU32` boxed in the Context that outlives the messenger;
-        // `data` is valid for the duration of the callback.
+        MESSAGES_TOTAL.fetch_add(1, Ordering::SeqCst);
+        // SAFETY: `user` is the `AtomicU32` the Context holds until after it destroys the
+        // messenger and the instance; `data` is valid for the duration of the callback.
         unsafe {
             (*(user as *const AtomicU32)).fetch_add(1, Ordering::SeqCst);
             let msg = if data.is_null() || (*data).p_message.is_null() {
@@ -233,6 +257,7 @@ fn create_instance(
         .api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
+    let mut sync_validation = false;
     if let Some(display) = display {
         let needed = ash_window::enumerate_required_extensions(display)
             .map_err(|e| GpuError::vk("ash_window::enumerate_required_extensions", e))?;
@@ -260,11 +285,27 @@ fn create_instance(
         }
         layers.push(VALIDATION_LAYER.as_ptr());
         extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        // SAFETY: plain enumeration of the layer's own extensions.
+        let layer_extensions = unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+            .map_err(|e| GpuError::vk("vkEnumerateInstanceExtensionProperties", e))?;
+        sync_validation = layer_extensions
+            .iter()
+            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::validation_features::NAME));
+        if sync_validation {
+            extensions.push(ash::ext::validation_features::NAME.as_ptr());
+        }
     }
+    // Synchronization validation too: read/write hazards between commands (dispatches,
+    // copies) within and across submissions, which the core checks do not see.
+    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
     let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_layer_names(&layers)
         .enabled_extension_names(&extensions);
+    if sync_validation {
+        info = info.push_next(&mut features);
+    }
     if let Some(m) = messenger_info {
         info = info.push_next(m);
     }
@@ -421,7 +462,7 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
 impl Context {
     pub fn new(options: &ContextOptions) -> Result<Arc<Context>> {
         let entry = load_entry()?;
-        let messages = Box::new(AtomicU32::new(0));
+        let messages = Arc::new(AtomicU32::new(0));
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
                 vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
@@ -440,7 +481,11 @@ impl Context {
             options.window.map(|w| w.display),
         )?;
         // From here on, failures must destroy the surface and the instance: a guard does it.
-        struct InstanceGuard(Option<ash::Instance>, Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>);
+        struct InstanceGuard(
+            Option<ash::Instance>,
+            Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>,
+            Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+        );
         impl Drop for InstanceGuard {
             fn drop(&mut self) {
                 // SAFETY: only reached on an error path, before any other child object exists.
@@ -448,13 +493,32 @@ impl Context {
                     if let Some((loader, surface)) = self.1.take() {
                         loader.destroy_surface(surface, None);
                     }
+                    if let Some((debug, messenger)) = self.2.take() {
+                        debug.destroy_debug_utils_messenger(messenger, None);
+                    }
                     if let Some(i) = self.0.take() {
                         i.destroy_instance(None);
                     }
                 }
             }
         }
-        let mut guard = InstanceGuard(Some(instance.clone()), None);
+        let mut guard = InstanceGuard(Some(instance.clone()), None, None);
+        // The messenger first, so that every later call's messages are counted (those of
+        // vkCreateDevice included); the one chained to the instance's creation covers
+        // only vkCreateInstance and vkDestroyInstance.
+        let (debug_instance, messenger) = if options.validation {
+            let di = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            // The create info was chained into the instance's: unchain it.
+            let mut own = messenger_info;
+            own.p_next = std::ptr::null();
+            // SAFETY: the messenger is destroyed in Drop before the instance; its user data outlives it.
+            let m = unsafe { di.create_debug_utils_messenger(&own, None) }
+                .map_err(|e| GpuError::vk("vkCreateDebugUtilsMessengerEXT", e))?;
+            guard.2 = Some((di.clone(), m));
+            (Some(di), m)
+        } else {
+            (None, vk::DebugUtilsMessengerEXT::null())
+        };
         let surface = match options.window {
             None => None,
             Some(w) => {
@@ -536,15 +600,7 @@ impl Context {
         // SAFETY: family and index exist (one queue was requested from this family).
         let queue = unsafe { device.get_device_queue(info.queue_family, 0) };
 
-        let (debug_instance, debug_device, messenger) = if options.validation {
-            let di = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            // SAFETY: the messenger is destroyed in Drop before the instance; its user data outlives it.
-            let m = unsafe { di.create_debug_utils_messenger(&messenger_info, None) }
-                .map_err(|e| GpuError::vk("vkCreateDebugUtilsMessengerEXT", e))?;
-            (Some(di), Some(ash::ext::debug_utils::Device::new(&instance, &device)), m)
-        } else {
-            (None, None, vk::DebugUtilsMessengerEXT::null())
-        };
+        let debug_device = debug_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
@@ -565,6 +621,7 @@ impl Context {
 
         guard.0 = None;
         guard.1 = None;
+        guard.2 = None;
         let ctx = Context {
             entry,
             instance,
@@ -595,6 +652,12 @@ impl Context {
     /// Number of warnings and errors the validation layer reported so far (0 when it is off).
     pub fn validation_messages(&self) -> u32 {
         self.messages.load(Ordering::SeqCst)
+    }
+
+    /// The count of [`validation_messages`](Self::validation_messages), readable after the
+    /// context is dropped, so that messages at its destruction are seen too.
+    pub fn validation_counter(&self) -> ValidationCounter {
+        ValidationCounter(self.messages.clone())
     }
 
     /// True when the validation layer is on.

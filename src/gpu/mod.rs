@@ -11,7 +11,8 @@ mod timer;
 
 pub use buffer::{Buffer, BufferUsage};
 pub use context::{
-    list_devices, Context, ContextOptions, DeviceInfo, GpuError, Surface, WindowTarget, DEVICE_MEMORY_HOOK,
+    list_devices, validation_messages_total, Context, ContextOptions, DeviceInfo, GpuError, Surface, ValidationCounter,
+    WindowTarget, DEVICE_MEMORY_HOOK,
 };
 pub use pipeline::{Binding, Pipeline, PipelineStatistic};
 pub use swapchain::{Acquired, Image, Swapchain};

@@ -51,7 +51,7 @@ pub fn bsdf_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
         MaterialKind::Diffuse if wo.z > 0.0 && wi.z > 0.0 => (b.albedo / PI, cosine_hemisphere_pdf(wi.z)),
         MaterialKind::Glossy if wo.z > 0.0 && wi.z > 0.0 => {
             let h = (wo + wi).normalize();
-            let d = ggx_d(h.z, b.alpha);
+            let d = ggx_d(h, b.alpha);
             let lambda_o = ggx_lambda(wo.z, b.alpha);
             // ggx_g1(wo) and ggx_g2(wo, wi), sharing Lambda(wo).
             let g1 = 1.0 / (1.0 + lambda_o);
@@ -102,7 +102,7 @@ pub fn bsdf_sample(b: &Bsdf, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSampl
             if wi.z <= 0.0 {
                 return None;
             }
-            let pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h.z, b.alpha) / (4.0 * wo.z);
+            let pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
             if !(pdf > 0.0) {
                 return None;
             }
@@ -162,13 +162,17 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     0.5 * (r_parl * r_parl + r_perp * r_perp)
 }
 
-/// GGX (Trowbridge-Reitz) normal distribution D(h), by cos(theta_h).
-pub fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
-    if cos_h <= 0.0 {
+/// GGX (Trowbridge-Reitz) normal distribution D(h) of a unit half vector:
+/// alpha^2 / (pi (sin^2 theta_h + alpha^2 cos^2 theta_h)^2), the sine squared taken as
+/// h.x^2 + h.y^2. The textbook form by cos theta_h alone, 1 + cos^2 (alpha^2 - 1), cancels
+/// in f32 where alpha is small: at roughness 0.05 the glossy lobe's evaluated albedo came
+/// out 1.3 % high at normal incidence (tests/bsdf_cpu.rs, `glossy_albedo_sampled_matches_its_integral`).
+pub fn ggx_d(h: Vec3, alpha: f32) -> f32 {
+    if h.z <= 0.0 {
         return 0.0;
     }
     let a2 = alpha * alpha;
-    let d = cos_h * cos_h * (a2 - 1.0) + 1.0;
+    let d = h.x * h.x + h.y * h.y + a2 * h.z * h.z;
     a2 / (PI * d * d)
 }
 

@@ -2,20 +2,51 @@
 #![allow(dead_code)]
 
 use rlpt::film::Film;
-use rlpt::gpu::{Context, ContextOptions};
+use rlpt::gpu::{Context, ContextOptions, ValidationCounter};
 use rlpt::image::Image;
 use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 use std::sync::Arc;
 
-/// A GPU context with the Khronos validation layer on (tests fail if it is missing).
-pub fn gpu() -> Arc<Context> {
+/// A GPU context with the Khronos validation layer on (tests fail if it is missing),
+/// synchronization validation included. Derefs to the `Arc<Context>`; when dropped it
+/// drops the context and fails the test if the layer reported anything, at the
+/// context's destruction included (leaked objects are reported there).
+pub fn gpu() -> Gpu {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    Context::new(&ContextOptions { gpu: None, validation: true, window: None })
-        .expect("a Vulkan device (lavapipe: apt install mesa-vulkan-drivers) and the validation layer")
+    let ctx = Context::new(&ContextOptions { gpu: None, validation: true, window: None })
+        .expect("a Vulkan device (lavapipe: apt install mesa-vulkan-drivers) and the validation layer");
+    let counter = ctx.validation_counter();
+    Gpu { ctx: Some(ctx), counter }
+}
+
+/// A test's GPU context; see [`gpu`].
+pub struct Gpu {
+    ctx: Option<Arc<Context>>,
+    counter: ValidationCounter,
+}
+
+impl std::ops::Deref for Gpu {
+    type Target = Arc<Context>;
+    fn deref(&self) -> &Arc<Context> {
+        self.ctx.as_ref().expect("context alive until drop")
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        let ctx = self.ctx.take().expect("dropped once");
+        let others = Arc::strong_count(&ctx) - 1;
+        drop(ctx);
+        if std::thread::panicking() {
+            return; // the test already failed; a second panic would abort the others
+        }
+        assert_eq!(others, 0, "a GPU resource outlives the test's context: its teardown is not checked");
+        assert_eq!(self.counter.get(), 0, "the validation layer reported problems, at teardown included (see stderr)");
+    }
 }
 
 /// The bytes of a device buffer (a probe kernel's output), copied back after a barrier.
