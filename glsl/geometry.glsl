@@ -558,7 +558,8 @@ float light_pdf(uint light_index, vec3 p, vec3 w) {
             float b = -dot(f, w);
             float l2 = length(f + b * w);
             float root = sqrt(max(0.0, (r - l2) * (r + l2)));
-            float t = (dc2 > r * r && b - root > hit_epsilon(p, 0.0)) ? b - root : b + root;
+            bool outside = sqrt(dc2) - r > hit_epsilon(p, sphere_scale(cr));
+            float t = outside ? b - root : b + root;
             if (!(t > 0.0)) return 0.0;
             vec3 n = (p + t * w - cr.xyz) / r;
             pdf_solid = t * t / (4.0 * PI * r * r * abs(dot(n, w)));

@@ -518,14 +518,15 @@ pub fn light_pdf(scene: &SceneArrays, light: u32, p: Vec3, w: Vec3) -> f32 {
             let sin2_max = r * r / dc2;
             1.0 / (2.0 * PI * one_minus_cos_max(sin2_max))
         } else {
-            // Sampled by area: the point w reaches first. From inside, or from a
-            // point on the sphere (a near root within its hit epsilon), the far
-            // root; from a point just outside, the near one.
+            // Sampled by area: the point w reaches first. From inside, or from the
+            // sphere's own surface (within a hit epsilon of it: grazing rays there
+            // would find a near root at p itself), the far root; from a point
+            // outside, the near one.
             let b = -f.dot(w);
             let l2 = (f + b * w).length();
             let root = ((r - l2) * (r + l2)).max(0.0).sqrt();
-            let near = b - root;
-            let t = if dc2 > r * r && near > hit_epsilon(p, 0.0) { near } else { b + root };
+            let outside = dc2.sqrt() - r > hit_epsilon(p, sphere_scale(s.center_radius));
+            let t = if outside { b - root } else { b + root };
             if !(t > 0.0) {
                 return 0.0;
             }

@@ -122,6 +122,25 @@ fn mb(bytes: u64) -> u64 {
 /// an error that says what would not fit and what to do, before anything is
 /// allocated. The storage buffers count; uploads and readbacks too where they
 /// take the same memory ([`DeviceInfo::unified_memory`](crate::gpu::DeviceInfo)).
+/// The size of the guiding table's sampling rows, the largest of its buffers, where
+/// one storage buffer can hold it (`fits_one_buffer`).
+fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<u64, GpuError> {
+    let entries = cfg.entries() as u64;
+    let size = entries * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64;
+    fits_one_buffer(
+        ctx,
+        &format!(
+            "the guiding table's sampling rows ({} cells x {} bins x {} orientations)",
+            cfg.grid.cells(),
+            cfg.bins.count(),
+            shared::NORMAL_CLASSES
+        ),
+        size,
+        "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
+    )?;
+    Ok(size)
+}
+
 fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuError> {
     let available = ctx.info.device_memory;
     let p = &scene.params;
@@ -383,6 +402,10 @@ impl GpuRenderer {
             (true, false) => "pathtrace_guided",
             (true, true) => "pathtrace_guided_partitioned",
         };
+        // A table no one buffer can hold is refused as such, before the memory it would take.
+        if let Some(cfg) = &scene.guide {
+            sampling_rows_fit(ctx, cfg)?;
+        }
         fits_device_memory(ctx, scene)?;
         let geometry = scene.geometry_specialization();
         let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
@@ -410,19 +433,7 @@ impl GpuRenderer {
                 let size = 4 * entries as u64;
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
-                // The sampling rows are the largest of the table's buffers.
-                let sampler_size = (entries * shared::NORMAL_CLASSES) as u64 * std::mem::size_of::<AliasBin>() as u64;
-                fits_one_buffer(
-                    ctx,
-                    &format!(
-                        "the guiding table's sampling rows ({} cells x {} bins x {} orientations)",
-                        cells,
-                        cfg.bins.count(),
-                        shared::NORMAL_CLASSES
-                    ),
-                    sampler_size,
-                    "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
-                )?;
+                let sampler_size = sampling_rows_fit(ctx, cfg)?;
                 let (rows_per_group, stage_words, staged) =
                     rebuild_layout(cfg.bins.count(), ctx.info.max_compute_shared_memory);
                 let bindings: Vec<(u32, Binding)> = (0..8).map(|i| (i, Binding::Storage)).collect();
