@@ -18,7 +18,6 @@
 //!   the files a command will write; [`stats`], [`plot`]: convergence statistics
 //!   and their plot;
 //! - [`bench`](mod@bench): per-pass GPU timings (`rlpt bench`);
-//! - [`chi2`]: the goodness-of-fit test used by the sampling tests.
 //!
 //! docs/ARCHITECTURE.md walks through the modules and a scene's path to the pixel.
 
@@ -29,7 +28,6 @@
 
 pub mod bench;
 pub mod camera;
-pub mod chi2;
 pub mod cpu;
 pub mod film;
 pub mod gpu;

@@ -1,11 +1,11 @@
 //! Sampling tests of the Rust BSDFs and light sampler: chi-square of every
 //! continuous `sample`/`pdf` pair, and exact checks of the delta lobes.
 
-use rlpt::chi2::{chi2_sphere, sidak, Chi2Options, Zoom};
 use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, fresnel_dielectric, Bsdf};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
 use rlpt::scene::MaterialKind;
+use rlpt_chi2::{chi2_sphere, sidak, Chi2Options, Zoom};
 
 fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
     let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());

@@ -4,7 +4,6 @@
 mod common;
 
 use common::readback;
-use rlpt::chi2::{chi2_sphere, sidak, Chi2Options, Zoom};
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
 use rlpt::layout::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
 use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
@@ -12,6 +11,7 @@ use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
 use rlpt::scene::MaterialKind;
 use rlpt::shared;
+use rlpt_chi2::{chi2_sphere, sidak, Chi2Options, Zoom};
 
 #[test]
 fn reduction_sums_64_samples_exactly_on_this_subgroup_size() {

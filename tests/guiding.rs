@@ -6,7 +6,6 @@ mod common;
 
 use common::*;
 use rlpt::camera::camera_ray;
-use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
 use rlpt::cpu::{trace_path, CpuRenderer, Guide};
 use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
@@ -21,6 +20,7 @@ use rlpt::math::Vec3;
 use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::render::GpuRenderer;
 use rlpt::scene::{MaterialKind, Scene};
+use rlpt_chi2::{chi2_sphere, sidak, Chi2Options};
 use std::sync::Arc;
 
 const K: f64 = 5.0;

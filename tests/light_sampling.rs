@@ -2,12 +2,12 @@
 //! directions seen from a shading point), for spheres seen from outside and from
 //! inside, for quads, and for the choice among several lights.
 
-use rlpt::chi2::{chi2_sphere, sidak, Chi2Options};
 use rlpt::math::geometry::{intersect, light_pdf, sample_light};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
 use rlpt::prepared::{PreparedScene, RenderOptions};
 use rlpt::scene::Scene;
+use rlpt_chi2::{chi2_sphere, sidak, Chi2Options};
 
 const SCENE: &str = r#"
 [camera]
