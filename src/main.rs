@@ -77,20 +77,6 @@ enum Command {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum GuidingArg {
-    Off,
-    Octant,
-    Sphere,
-}
-
-/// `--q-targets`: see `rlpt::guide::QTargets`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum QTargetsArg {
-    Mis,
-    Full,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum DeviceKind {
     Gpu,
     Cpu,
@@ -99,14 +85,6 @@ enum DeviceKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum OnOff {
     On,
-    Off,
-}
-
-/// `bench --counters`: `Counters::All`, `ZeroPaths` or `Off`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum CountersArg {
-    On,
-    Paths,
     Off,
 }
 
@@ -145,8 +123,8 @@ struct Settings {
     #[arg(long, value_enum)]
     mis: Option<Heuristic>,
     /// Learned guiding: off, octant (the seed's 8 octants) or sphere (finer bins, see --bins).
-    #[arg(long, value_enum, default_value_t = GuidingArg::Off)]
-    guiding: GuidingArg,
+    #[arg(long, value_enum, default_value_t = GuidingMode::Off)]
+    guiding: GuidingMode,
     /// Direction bins of --guiding sphere, ROWSxCOLS (rows uniform in cos theta, columns in
     /// phi) [default: 20x40 in scenes with Russian roulette, where every vertex records
     /// targets; 8x16 without].
@@ -189,7 +167,7 @@ struct Settings {
     /// misses; `full` is Dahm & Keller's target, the emission met in full. Without NEE
     /// the two are the same [default: mis].
     #[arg(long, value_enum)]
-    q_targets: Option<QTargetsArg>,
+    q_targets: Option<rlpt::guide::QTargets>,
 }
 
 impl Settings {
@@ -221,19 +199,12 @@ impl Settings {
         opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
         opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
         opts.learning_frames = self.learning_frames;
-        opts.q_targets = match self.q_targets.unwrap_or(QTargetsArg::Mis) {
-            QTargetsArg::Mis => rlpt::guide::QTargets::Mis,
-            QTargetsArg::Full => rlpt::guide::QTargets::Full,
-        };
+        opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
         opts
     }
 
     fn guiding_mode(&self) -> GuidingMode {
-        match self.guiding {
-            GuidingArg::Off => GuidingMode::Off,
-            GuidingArg::Octant => GuidingMode::Octant,
-            GuidingArg::Sphere => GuidingMode::Sphere,
-        }
+        self.guiding
     }
 
     /// The options given that the other settings leave without effect, as notes
@@ -241,10 +212,10 @@ impl Settings {
     fn ignored(&self) -> Vec<String> {
         let mut notes = Vec::new();
         let guiding = self.guiding_mode().name();
-        if self.bins.is_some() && self.guiding != GuidingArg::Sphere {
+        if self.bins.is_some() && self.guiding != GuidingMode::Sphere {
             notes.push(format!("--bins sets the bins of --guiding sphere; ignored with --guiding {guiding}"));
         }
-        if self.guiding == GuidingArg::Off {
+        if self.guiding == GuidingMode::Off {
             let given = [
                 ("--guided-fraction", self.guided_fraction.is_some()),
                 ("--guided-vertices", self.guided_vertices.is_some()),
@@ -260,7 +231,7 @@ impl Settings {
         if self.mis.is_some() && self.nee == OnOff::Off {
             notes.push("--mis weighs light sampling against BSDF sampling; ignored with --nee off".into());
         }
-        if self.q_targets.is_some() && self.nee == OnOff::Off && self.guiding != GuidingArg::Off {
+        if self.q_targets.is_some() && self.nee == OnOff::Off && self.guiding != GuidingMode::Off {
             notes.push(
                 "--q-targets weighs the light met against light sampling; the same either way with --nee off".into(),
             );
@@ -366,8 +337,8 @@ struct BenchArgs {
     /// (on, the default); the paths alone (paths: the kernel `render --stats` runs,
     /// which leaves the counting of rays out of its path loop); or nothing (off: the
     /// kernel that `render` and `view` run).
-    #[arg(long, value_enum, default_value_t = CountersArg::On)]
-    counters: CountersArg,
+    #[arg(long, value_enum, default_value_t = Counters::All)]
+    counters: Counters,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -1063,19 +1034,19 @@ fn bench(args: BenchArgs) -> Result<()> {
     if let (Some(json), Some(trace)) = (&args.json, &args.trace) {
         check_distinct(&[("--json", json), ("--trace", trace)])?;
     }
-    if !args.ablate.is_empty() && (args.settings.guiding == GuidingArg::Off || args.settings.device == DeviceKind::Cpu)
+    if !args.ablate.is_empty() && (args.settings.guiding == GuidingMode::Off || args.settings.device == DeviceKind::Cpu)
     {
         bail!("--ablate leaves parts of GPU guiding out: it needs --guiding octant or sphere and --device gpu");
     }
     if args.frames == 0 {
         bail!("--frames 0: bench needs at least one measured frame");
     }
-    if args.counters != CountersArg::On && args.settings.device == DeviceKind::Cpu {
+    if args.counters != Counters::All && args.settings.device == DeviceKind::Cpu {
         eprintln!(
             "note: --counters off and paths compile the GPU kernel's counters out; the CPU renderer counts always"
         );
     }
-    if args.settings.learning_frames.is_some() && args.settings.guiding != GuidingArg::Off {
+    if args.settings.learning_frames.is_some() && args.settings.guiding != GuidingMode::Off {
         eprintln!(
             "note: --learning-frames sets the frames an image leaves out; rlpt bench writes no image, and its \
              frames take the same time either way"
@@ -1084,11 +1055,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     let scene = Scene::load(&args.scene)?;
     warn_before_render(&args.settings, &scene);
     let mut opts = args.settings.options(&scene);
-    opts.counters = match args.counters {
-        CountersArg::On => Counters::All,
-        CountersArg::Paths => Counters::ZeroPaths,
-        CountersArg::Off => Counters::Off,
-    };
+    opts.counters = args.counters;
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
     warn_memory(&opts, args.settings.device);

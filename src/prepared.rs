@@ -86,16 +86,19 @@ pub struct RenderOptions {
 
 /// What the GPU kernel counts per frame; what it does not count it is compiled
 /// without, at no cost.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Counters {
     /// Nothing.
+    #[value(help = "nothing (the kernel render and view run)")]
     Off,
     /// The paths that carried no radiance (`FLAG_COUNTERS`): one sum per subgroup
     /// after its paths end. `render --stats` counts these.
+    #[value(name = "paths", help = "the paths that carried no radiance (the kernel render --stats runs)")]
     ZeroPaths,
     /// Also the rays traced and the lane utilization (`FLAG_COUNT_RAYS`), counted
     /// inside the path loop, which costs a frame measurably. `rlpt bench` counts
     /// these unless `--counters off` or `paths`.
+    #[value(name = "on", help = "also the rays traced and the lane utilization")]
     All,
 }
 

@@ -63,15 +63,18 @@ use crate::scene::GuidingSettings;
 use crate::shared;
 use std::f32::consts::PI;
 
-/// Which guiding, if any.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which guiding, if any (`--guiding`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum GuidingMode {
     /// Plain path tracing.
+    #[value(help = "plain path tracing")]
     Off,
     /// 2 x 4 bins: exactly the eight octants of the seed.
+    #[value(help = "the seed's eight octants (2x4 bins)")]
     Octant,
     /// Finer bins over the sphere (by default 8 x 16 = 128, or 20 x 40 = 800 in
     /// scenes with Russian roulette: [`default_bins`]).
+    #[value(help = "finer bins over the sphere (--bins)")]
     Sphere,
 }
 
@@ -96,12 +99,14 @@ pub enum GuidingMode {
 /// 2019), which takes from a sampler's density what its MIS partner covers. The
 /// image stays unbiased either way: the targets change what is learned, not how
 /// a sample is weighed. docs/guiding.md, "Targets", has the measured effect.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum QTargets {
     /// The emission met counted with its MIS weight, the light sample at the
     /// vertex met added: the light the mixture is there to find.
+    #[value(help = "the emission met as MIS weighs it, plus the light sample at the vertex met")]
     Mis,
     /// Dahm & Keller's: the emission met counted in full.
+    #[value(help = "Dahm & Keller's: the emission met in full")]
     Full,
 }
 
