@@ -1,0 +1,168 @@
+//! Recording Q-learning targets: which pixel rows record in which frame
+//! ([`RecordSchedule`]), and the per-frame sums of targets ([`FrameSums`], the
+//! CPU twin of `glsl/record.glsl`).
+
+use super::*;
+
+/// Recorded paths per table entry at which the recording stride first doubles
+/// ([`RecordSchedule`]); it doubles again at twice as many, and so on.
+pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
+
+/// Which pixel rows hand their paths' Q-learning targets to the table, frame by
+/// frame (counted from the first frame traced): all rows in the first
+/// `RECORD_ALL_FRAMES` frames, then one row in a stride, a different one each
+/// frame. The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
+/// `RECORD_MAX_STRIDE`, each time the paths recorded so far reach
+/// [`RECORD_PATHS_PER_ENTRY`] per table entry, then twice that, and so on: a large
+/// image over a small table gets there within a few frames, a thumbnail seldom.
+/// Each stride starts at a frame that is a multiple of it, so that every row
+/// records once per cycle of `stride` frames.
+///
+/// Q is a weighted mean of its targets ([`batch_rate`]), so recording fewer of
+/// them keeps it consistent. The rows that record run a slower kernel than the
+/// others (whole workgroups skip recording, since a group's pixels share a row),
+/// so fewer recording rows make shorter frames (docs/guiding.md, "The recording
+/// schedule"). On the GPU, `crate::render::frame_dispatches` gives the recording
+/// rows to the kernel that records; the CPU renderer follows the same schedule.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RecordSchedule {
+    /// The first frame of each doubled stride: `RECORD_ROW_STRIDE << (k + 1)` from
+    /// `doublings[k]` on.
+    doublings: Vec<u32>,
+}
+
+impl RecordSchedule {
+    /// The schedule of a render of `pixels` pixels (`SAMPLES_PER_FRAME` paths each
+    /// per frame) over a table of `entries` entries.
+    pub fn new(pixels: u64, entries: u64) -> RecordSchedule {
+        use shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
+        // In frames of every row: recorded so far, and needed for the next doubling.
+        let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries.max(1) as f64;
+        let mut recorded = RECORD_ALL_FRAMES as f64;
+        let mut needed = RECORD_PATHS_PER_ENTRY / per_entry.max(1e-12);
+        let (mut frame, mut stride) = (RECORD_ALL_FRAMES as u64, RECORD_ROW_STRIDE as u64);
+        let mut doublings = Vec::new();
+        while stride < RECORD_MAX_STRIDE as u64 && frame < u32::MAX as u64 {
+            let more = ((needed - recorded).max(0.0) * stride as f64).ceil().min(u32::MAX as f64) as u64;
+            let start = (frame + more).next_multiple_of(2 * stride);
+            recorded += (start - frame) as f64 / stride as f64;
+            frame = start;
+            doublings.push(frame.min(u32::MAX as u64) as u32);
+            stride *= 2;
+            needed *= 2.0;
+        }
+        RecordSchedule { doublings }
+    }
+
+    /// The schedule of a guided render of `width` x `height` pixels.
+    pub fn for_render(cfg: &GuideConfig, width: u32, height: u32) -> RecordSchedule {
+        RecordSchedule::new(width as u64 * height as u64, cfg.entries() as u64)
+    }
+
+    /// One pixel row in this many records in frame `frame`: 1 (every row) in the
+    /// first `RECORD_ALL_FRAMES` frames, then `RECORD_ROW_STRIDE` up to `RECORD_MAX_STRIDE`.
+    pub fn stride(&self, frame: u32) -> u32 {
+        if frame < shared::RECORD_ALL_FRAMES {
+            return 1;
+        }
+        shared::RECORD_ROW_STRIDE << self.doublings.iter().filter(|&&d| frame >= d).count()
+    }
+
+    /// Whether the paths of pixel row `y` record their targets in frame `frame`.
+    pub fn records(&self, frame: u32, y: u32) -> bool {
+        (y + frame).is_multiple_of(self.stride(frame))
+    }
+
+    /// Whether the table learns after frame `frame`: the targets recorded since
+    /// it last learned are folded into Q, and the sampling rows rebuilt from it
+    /// ([`QTable::learn`]). After each of the first `RECORD_ALL_FRAMES` frames,
+    /// while the table changes fast, then after the last frame of each cycle of
+    /// the recording rows, one frame in `stride`, when every row has recorded once.
+    /// In between, the targets are summed per entry, and paths read a table and
+    /// sample rows a few frames old; the densities they evaluate are those of the
+    /// same rows, so the estimate stays unbiased, and Q takes the same targets,
+    /// folded later. The rebuild is a sequential loop per row, and learning
+    /// once per cycle spares most frames its pass. Rows go staler as the stride
+    /// grows, but only once the table has seen many targets per entry and changes
+    /// little from frame to frame; that is why the stride follows the table's
+    /// fill, not the frame count (docs/guiding.md, "The recording schedule").
+    pub fn learns_after(&self, frame: u32) -> bool {
+        let stride = self.stride(frame);
+        frame % stride == stride - 1
+    }
+}
+
+/// What a path that records hands over: Q-learning targets, and where each
+/// cell learns its guided fraction, the gradient samples of its fraction.
+pub trait Recorder {
+    /// The target of the ray that left through table entry `key`.
+    fn target(&mut self, key: u32, target: f32);
+    /// A sample of the gradient of the KL divergence with respect to the logit
+    /// of `cell`'s fraction ([`FractionState`]).
+    fn fraction_gradient(&mut self, cell: u32, gradient: f32);
+    /// Sampling row `row` (its index, `cell * NORMAL_CLASSES + class`) was read by
+    /// a guided vertex ([`QTable::rows_read`]).
+    fn row_read(&mut self, row: usize);
+}
+
+/// Targets summed per entry, and fraction gradients per cell: a frame's, or
+/// those of the frames since the table last learned.
+#[derive(Clone, Debug)]
+pub struct FrameSums {
+    pub sums: Vec<f32>,
+    pub counts: Vec<u32>,
+    pub gradients: Vec<f32>,
+    pub gradient_counts: Vec<u32>,
+    /// Sampling rows read by guided vertices ([`QTable::rows_read`]).
+    pub rows_read: Vec<bool>,
+}
+
+impl Recorder for FrameSums {
+    fn target(&mut self, key: u32, target: f32) {
+        self.sums[key as usize] += target;
+        self.counts[key as usize] += 1;
+    }
+    fn fraction_gradient(&mut self, cell: u32, gradient: f32) {
+        self.gradients[cell as usize] += gradient;
+        self.gradient_counts[cell as usize] += 1;
+    }
+    fn row_read(&mut self, row: usize) {
+        self.rows_read[row] = true;
+    }
+}
+
+impl FrameSums {
+    /// Empty sums for `entries` table entries over `cells` cells.
+    pub fn new(entries: usize, cells: usize) -> FrameSums {
+        FrameSums {
+            sums: vec![0.0; entries],
+            counts: vec![0; entries],
+            gradients: vec![0.0; cells],
+            gradient_counts: vec![0; cells],
+            rows_read: vec![false; cells * NORMAL_CLASSES as usize],
+        }
+    }
+    /// Empty sums for a table of `cfg`'s shape.
+    pub fn for_config(cfg: &GuideConfig) -> FrameSums {
+        FrameSums::new(cfg.entries(), cfg.grid.cells() as usize)
+    }
+    /// Adds `other`'s sums and counts to these.
+    pub fn add_all(&mut self, other: &FrameSums) {
+        fn add<T: Copy + std::ops::AddAssign>(a: &mut [T], b: &[T]) {
+            for (a, &b) in a.iter_mut().zip(b) {
+                *a += b;
+            }
+        }
+        add(&mut self.sums, &other.sums);
+        add(&mut self.counts, &other.counts);
+        add(&mut self.gradients, &other.gradients);
+        add(&mut self.gradient_counts, &other.gradient_counts);
+        for (a, &b) in self.rows_read.iter_mut().zip(&other.rows_read) {
+            *a |= b;
+        }
+    }
+    pub fn merge(mut self, other: FrameSums) -> FrameSums {
+        self.add_all(&other);
+        self
+    }
+}
