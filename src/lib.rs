@@ -8,6 +8,7 @@
 //!   renderer, written to mirror `glsl/*.glsl` function by function;
 //! - [`camera`]: the primary rays, the same on both devices;
 //! - [`guide`]: learned guiding (docs/guiding.md);
+//! - [`options`]: what a render is asked to be, and its checks;
 //! - [`prepared`]: the scene flattened into the arrays both renderers trace;
 //! - [`cpu`]: the CPU renderer (all cores);
 //! - [`gpu`]: the only home of `unsafe` Vulkan: context, buffers, pipelines;
@@ -36,6 +37,7 @@ pub mod image;
 pub mod layout;
 pub mod math;
 pub mod metrics;
+pub mod options;
 pub mod output;
 pub mod plot;
 pub mod prepared;

@@ -9,7 +9,8 @@ use rlpt::gpu::{Context, ContextOptions};
 use rlpt::guide::{Bins, GuidingMode};
 use rlpt::image::Image;
 use rlpt::metrics;
-use rlpt::prepared::{Counters, PreparedScene, RenderOptions};
+use rlpt::options::{Counters, RenderOptions};
+use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 use rlpt::shared;
@@ -397,7 +398,7 @@ fn parse_fraction(s: &str) -> Result<FractionArg, String> {
         return Ok(FractionArg::Learned);
     }
     let v: f32 = s.parse().map_err(|_| format!("`{s}` is neither a number nor `learned`"))?;
-    rlpt::prepared::check_guided_fraction(v).map_err(|e| format!("`{s}`: expected {e}"))?;
+    rlpt::options::check_guided_fraction(v).map_err(|e| format!("`{s}`: expected {e}"))?;
     Ok(FractionArg::Fixed(v))
 }
 

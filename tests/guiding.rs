@@ -17,7 +17,8 @@ use rlpt::guide::{
 use rlpt::math::bsdf::Bsdf;
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
-use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::options::RenderOptions;
+use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::{MaterialKind, Scene};
 use rlpt_chi2::{chi2_sphere, sidak, Chi2Options};

@@ -5,7 +5,8 @@
 use rlpt::math::geometry::{intersect, light_pdf, sample_light};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
-use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::options::RenderOptions;
+use rlpt::prepared::PreparedScene;
 use rlpt::scene::Scene;
 use rlpt_chi2::{chi2_sphere, sidak, Chi2Options};
 

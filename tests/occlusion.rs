@@ -14,7 +14,8 @@ use rlpt::math::geometry::{
 use rlpt::math::rng::Rng;
 use rlpt::math::sampling::uniform_sphere;
 use rlpt::math::Vec3;
-use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::options::RenderOptions;
+use rlpt::prepared::PreparedScene;
 use rlpt::scene::Scene;
 
 /// The hit test against every primitive but the light the segment ends on.

@@ -9,7 +9,8 @@ use common::*;
 use rlpt::camera::camera_ray;
 use rlpt::film::Film;
 use rlpt::math::geometry::intersect_sphere;
-use rlpt::prepared::{Counters, PreparedScene, RenderOptions};
+use rlpt::options::{Counters, RenderOptions};
+use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 

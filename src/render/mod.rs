@@ -988,7 +988,7 @@ mod tests {
     fn guided_kernels_of_all_diffuse_scenes_take_the_small_groups() {
         for (name, guided) in [("door", 2), ("seed-exp1", 2), ("seed-exp2", 4), ("seed-exp3", 4)] {
             let s = crate::scene::Scene::load(format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap();
-            let p = crate::prepared::PreparedScene::new(&s, &crate::prepared::RenderOptions::from_scene(&s)).unwrap();
+            let p = crate::prepared::PreparedScene::new(&s, &crate::options::RenderOptions::from_scene(&s)).unwrap();
             assert_eq!(pixels_per_group(true, p.params.scene_kinds), guided, "{name}");
             assert_eq!(pixels_per_group(false, p.params.scene_kinds), 2, "{name}");
         }

@@ -4,7 +4,8 @@
 use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions, ValidationCounter};
 use rlpt::image::Image;
-use rlpt::prepared::{PreparedScene, RenderOptions};
+use rlpt::options::RenderOptions;
+use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 use std::sync::Arc;
