@@ -13,6 +13,7 @@
 //! - [`cpu`]: the CPU renderer (all cores);
 //! - [`gpu`]: the only home of `unsafe` Vulkan: context, buffers, pipelines;
 //! - [`render`]: the GPU renderer built on [`gpu`];
+//! - [`session`]: the frame loop both renderers share (`rlpt render`);
 //! - [`film`]: the accumulated result of either renderer;
 //! - [`viewer`]: the `rlpt view` window;
 //! - [`image`], [`metrics`]: image files and error metrics; [`output`]: checks on
@@ -43,6 +44,7 @@ pub mod plot;
 pub mod prepared;
 pub mod render;
 pub mod scene;
+pub mod session;
 pub mod stats;
 pub mod viewer;
 

@@ -2,9 +2,7 @@
 
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand, ValueEnum};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rlpt::cpu::CpuRenderer;
-use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions};
 use rlpt::guide::{Bins, GuidingMode};
 use rlpt::image::Image;
@@ -13,11 +11,12 @@ use rlpt::options::{Counters, RenderOptions};
 use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
+use rlpt::session::{Budget, Renderer, Session, Stop};
 use rlpt::shared;
-use rlpt::stats::{FrameStats, RenderStats};
+use rlpt::stats::RenderStats;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 #[derive(Parser)]
 #[command(name = "rlpt", version, about = "A Vulkan compute path tracer that learns where light comes from")]
@@ -361,27 +360,6 @@ fn parse_seconds(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Frames at which relMSE is measured against the reference: about 24 per decade
-/// (each readback and comparison costs host time, not GPU time), the last, and
-/// the first frame at or past each power of ten of elapsed time (`time_marks`).
-fn measure_at(frame: u32) -> bool {
-    let f = frame as f64;
-    frame <= 8 || (f.log10() * 24.0).floor() != ((f - 1.0).log10() * 24.0).floor()
-}
-
-/// Whether a frame that took the elapsed time from `before_ms` to `after_ms` is
-/// the first at or past a power of ten of milliseconds from 100 ms on (0.1 s,
-/// 1 s, 10 s...): relMSE is measured there, so that runs whose frames take
-/// different times are compared at equal time to within one frame, not at
-/// whichever of their geometric frames falls nearest.
-fn time_mark(before_ms: f64, after_ms: f64) -> bool {
-    let mut mark = 100.0;
-    while mark <= before_ms {
-        mark *= 10.0;
-    }
-    after_ms >= mark
-}
-
 fn parse_bins(s: &str) -> Result<Bins, String> {
     Bins::parse(s)
 }
@@ -498,16 +476,6 @@ enum Outcome {
     Complete,
     /// Ctrl-C stopped it before the frames asked for: the outputs hold fewer.
     Interrupted,
-}
-
-/// Why the frame loop of `rlpt render` stopped.
-enum Stop {
-    /// Every frame asked for, or --time ran out.
-    Finished,
-    /// Ctrl-C ([`INTERRUPTED`]) before the last frame.
-    Interrupted,
-    /// The GPU was lost (`VK_ERROR_DEVICE_LOST`); what it says of the call.
-    DeviceLost(String),
 }
 
 /// The sentence of a render whose device was lost after `frames` frames (the
@@ -641,10 +609,10 @@ fn render(args: RenderArgs) -> Result<Outcome> {
             2 * shared::SAMPLES_PER_FRAME
         );
     }
-    let mut spp = frames * shared::SAMPLES_PER_FRAME;
-    if spp != opts.spp && args.time.is_none() {
+    let rounded = frames * shared::SAMPLES_PER_FRAME;
+    if rounded != opts.spp && args.time.is_none() {
         eprintln!(
-            "note: {} samples per pixel rounded up to {spp}: rlpt renders frames of {} samples per pixel",
+            "note: {} samples per pixel rounded up to {rounded}: rlpt renders frames of {} samples per pixel",
             opts.spp,
             shared::SAMPLES_PER_FRAME
         );
@@ -656,25 +624,15 @@ fn render(args: RenderArgs) -> Result<Outcome> {
     let learning_frames = prepared.learning_frames();
     let traced_frames = frames + learning_frames;
 
-    let bar = ProgressBar::with_draw_target(Some(traced_frames as u64), ProgressDrawTarget::hidden());
-    bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} frames ({eta} left)")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
     let start = Instant::now();
-    let mut shown = false;
-    let mut renderer = match args.settings.device {
-        DeviceKind::Cpu => Renderer::Cpu(Box::new(CpuRenderer::new(&prepared))),
+    let renderer: Box<dyn Renderer> = match args.settings.device {
+        DeviceKind::Cpu => Box::new(CpuRenderer::new(&prepared)),
         DeviceKind::Gpu => {
             let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
-            Renderer::Gpu(Box::new(GpuRenderer::new(&ctx, &prepared)?))
+            Box::new(GpuRenderer::new(&ctx, &prepared)?)
         }
     };
-    let device_name = match &renderer {
-        Renderer::Cpu(_) => format!("CPU ({} threads)", rayon::current_num_threads()),
-        Renderer::Gpu(r) => r.context().info.name.clone(),
-    };
+    let device_name = renderer.device_name();
     let mut stats = RenderStats {
         label: format!(
             "{} guiding={}{}{}{}{} nee={}",
@@ -703,69 +661,15 @@ fn render(args: RenderArgs) -> Result<Outcome> {
         learning_frames: prepared.guide.as_ref().map(|g| g.learning_frames),
         frames: Vec::new(),
     };
-    let mut gpu_ms_total = 0.0;
     let paths_per_frame = (opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64) as f64;
-    let mut film = None;
-    let mut traced = 0;
-    let mut stop = Stop::Finished;
-    for f in 0..traced_frames {
-        let frame_start = Instant::now();
-        let (gpu_ms, zero_paths) = match &mut renderer {
-            Renderer::Cpu(r) => {
-                r.render_frame();
-                (None, Some(r.last_counters.zero_paths))
-            }
-            Renderer::Gpu(r) => match r.render_frames(1) {
-                Ok(t) => (r.context().info.timestamps.then_some(t.total_ms()), t.zero_paths),
-                Err(rlpt::gpu::GpuError::DeviceLost(detail)) => {
-                    spp = renderer.frames() * shared::SAMPLES_PER_FRAME;
-                    stop = Stop::DeviceLost(detail);
-                    break;
-                }
-                Err(e) => return Err(e.into()),
-            },
-        };
-        let frame_ms = gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
-        let mark = time_mark(gpu_ms_total, gpu_ms_total + frame_ms);
-        gpu_ms_total += frame_ms;
-        let out_of_time = args.time.is_some_and(|limit| gpu_ms_total >= limit * 1e3);
-        let interrupted = INTERRUPTED.load(Ordering::SeqCst) && f + 1 < traced_frames;
-        let last = f + 1 == traced_frames || out_of_time || interrupted;
-        traced = f + 1;
-        let errors = match &reference {
-            Some(r) if last || mark || measure_at(f + 1) => {
-                let current = renderer.film()?;
-                let e = r.compare(&current.mean()).map_err(anyhow::Error::msg)?;
-                if last {
-                    film = Some(current);
-                }
-                Some(e)
-            }
-            _ => None,
-        };
-        stats.frames.push(FrameStats {
-            frame: f + 1,
-            spp: renderer.frames() * shared::SAMPLES_PER_FRAME,
-            gpu_ms,
-            elapsed_ms: gpu_ms_total,
-            rel_mse: errors.map(|e| e.rel_mse),
-            rel_mse_debiased: errors.and_then(|e| e.rel_mse_debiased),
-            zero_fraction: zero_paths.map(|z| z as f64 / paths_per_frame),
-        });
-        if !shown && start.elapsed() > Duration::from_secs(1) {
-            bar.set_draw_target(ProgressDrawTarget::stderr());
-            shown = true;
-        }
-        bar.set_position(f as u64 + 1);
-        if out_of_time || interrupted {
-            spp = renderer.frames() * shared::SAMPLES_PER_FRAME;
-            if interrupted {
-                stop = Stop::Interrupted;
-            }
-            break;
-        }
-    }
-    bar.finish_and_clear();
+    let mut session = Session::new(renderer, reference.as_ref(), paths_per_frame);
+    let budget = Budget { frames: traced_frames, time_ms: args.time.map(|t| t * 1e3) };
+    let (stop, film) = session.run(budget, &INTERRUPTED)?;
+    let traced = session.traced();
+    let gpu_ms_total = session.elapsed_ms;
+    let spp = session.renderer.image_frames() * shared::SAMPLES_PER_FRAME;
+    stats.frames = std::mem::take(&mut session.frames);
+    let renderer = &session.renderer;
     let film = match (film, &stop) {
         (Some(f), _) => f,
         (None, Stop::DeviceLost(detail)) => match renderer.film() {
@@ -812,8 +716,8 @@ fn render(args: RenderArgs) -> Result<Outcome> {
     }
     // Samples traced, the learning frames' included.
     let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME) as f64;
-    let gpu = match &renderer {
-        Renderer::Gpu(r) if r.context().info.timestamps => {
+    let gpu = match renderer.timestamps() {
+        true => {
             format!(", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame", gpu_ms_total / traced as f64)
         }
         _ => String::new(),
@@ -854,29 +758,6 @@ fn render(args: RenderArgs) -> Result<Outcome> {
         Stop::Finished => Ok(Outcome::Complete),
         Stop::Interrupted => Ok(Outcome::Interrupted),
         Stop::DeviceLost(detail) => bail!(device_lost_message(&detail, traced, &args.output, Some(spp))),
-    }
-}
-
-/// The two renderers behind one face.
-enum Renderer {
-    Cpu(Box<CpuRenderer>),
-    Gpu(Box<GpuRenderer>),
-}
-
-impl Renderer {
-    /// Frames in the image (the learning frames left out once it starts).
-    fn frames(&self) -> u32 {
-        match self {
-            Renderer::Cpu(r) => r.film().frames,
-            Renderer::Gpu(r) => r.frames(),
-        }
-    }
-
-    fn film(&self) -> Result<Film> {
-        Ok(match self {
-            Renderer::Cpu(r) => r.film().clone(),
-            Renderer::Gpu(r) => r.film()?,
-        })
     }
 }
 
@@ -1194,31 +1075,5 @@ fn yes_no(b: bool) -> &'static str {
         "yes"
     } else {
         "no"
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::time_mark;
-
-    /// relMSE is measured at the first frame at or past 0.1 s, 1 s, 10 s... of
-    /// elapsed time, once each, whatever the frames' length.
-    #[test]
-    fn time_marks_fall_on_the_first_frame_past_each_power_of_ten() {
-        for dt in [0.37, 1.0, 7.3, 99.0] {
-            let (mut t, mut marks) = (0.0f64, Vec::new());
-            while t < 20000.0 {
-                if time_mark(t, t + dt) {
-                    marks.push((t, t + dt));
-                }
-                t += dt;
-            }
-            assert_eq!(marks.len(), 3, "frames of {dt} ms: {marks:?}");
-            for ((before, after), mark) in marks.into_iter().zip([100.0, 1000.0, 10000.0]) {
-                assert!(before < mark && after >= mark, "frames of {dt} ms: {before}..{after} for {mark}");
-            }
-        }
-        assert!(time_mark(50.0, 5000.0), "a frame past two marks");
-        assert!(!time_mark(100.0, 999.0) && time_mark(999.0, 1000.0));
     }
 }

@@ -1,0 +1,245 @@
+//! One render session: the frame loop both renderers share. A [`Session`] traces
+//! frames of 64 samples per pixel until its [`Budget`] of frames or time is spent,
+//! an interrupt is raised (Ctrl-C) or the device is lost; it shows a progress bar
+//! once a render passes a second, keeps each frame's statistics, and measures
+//! relMSE against a reference at the frames [`measure_at`] and [`time_mark`] name.
+//! `rlpt render` runs one.
+
+use crate::cpu::CpuRenderer;
+use crate::film::Film;
+use crate::gpu::GpuError;
+use crate::metrics::Reference;
+use crate::render::GpuRenderer;
+use crate::stats::FrameStats;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// What one frame reports to the session.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameReport {
+    /// GPU time of the frame, from timestamps; None where there are none (the CPU).
+    pub gpu_ms: Option<f64>,
+    /// Paths that carried zero radiance, where the renderer counts them.
+    pub zero_paths: Option<u64>,
+}
+
+/// What the frame loop needs of a renderer: [`GpuRenderer`] and [`CpuRenderer`]
+/// are both one.
+pub trait Renderer {
+    /// Traces one frame: a learning frame, or one of the image.
+    fn render_frame(&mut self) -> Result<FrameReport, GpuError>;
+    /// Frames in the image (the learning frames left out once it starts).
+    fn image_frames(&self) -> u32;
+    /// The image so far.
+    fn film(&self) -> Result<Film, GpuError>;
+    /// The device, in words: a GPU's name, or the CPU and its threads.
+    fn device_name(&self) -> String;
+    /// Whether frames report GPU time; the session times wall clock where not.
+    fn timestamps(&self) -> bool;
+}
+
+impl Renderer for CpuRenderer {
+    fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
+        CpuRenderer::render_frame(self);
+        Ok(FrameReport { gpu_ms: None, zero_paths: Some(self.last_counters.zero_paths) })
+    }
+    fn image_frames(&self) -> u32 {
+        CpuRenderer::film(self).frames
+    }
+    fn film(&self) -> Result<Film, GpuError> {
+        Ok(CpuRenderer::film(self).clone())
+    }
+    fn device_name(&self) -> String {
+        format!("CPU ({} threads)", rayon::current_num_threads())
+    }
+    fn timestamps(&self) -> bool {
+        false
+    }
+}
+
+impl Renderer for GpuRenderer {
+    fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
+        let t = self.render_frames(1)?;
+        Ok(FrameReport { gpu_ms: self.context().info.timestamps.then_some(t.total_ms()), zero_paths: t.zero_paths })
+    }
+    fn image_frames(&self) -> u32 {
+        self.frames()
+    }
+    fn film(&self) -> Result<Film, GpuError> {
+        GpuRenderer::film(self)
+    }
+    fn device_name(&self) -> String {
+        self.context().info.name.clone()
+    }
+    fn timestamps(&self) -> bool {
+        self.context().info.timestamps
+    }
+}
+
+/// How much a session may render: at most `frames` frames (the learning frames
+/// counted), and where `time_ms` is set, no frame after the one that reaches it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Budget {
+    pub frames: u32,
+    pub time_ms: Option<f64>,
+}
+
+/// Why a session stopped.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// Every frame of the budget, or its time ran out.
+    Finished,
+    /// The interrupt was raised before the last frame.
+    Interrupted,
+    /// The GPU was lost (`VK_ERROR_DEVICE_LOST`); what it said of the call.
+    DeviceLost(String),
+}
+
+/// A session's failure other than a lost device, which is a [`Stop`].
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// relMSE could not be measured against the reference: what the comparison said.
+    #[error("{0}")]
+    Measure(String),
+}
+
+/// A render in progress: its renderer, the reference it is measured against, and
+/// what its frames so far did.
+pub struct Session<'a> {
+    pub renderer: Box<dyn Renderer + 'a>,
+    reference: Option<&'a Reference>,
+    /// Paths a frame traces (pixels times 64), for the zero-radiance fraction.
+    paths_per_frame: f64,
+    /// Each frame traced, the learning frames included.
+    pub frames: Vec<FrameStats>,
+    /// Render time so far: GPU time where the renderer has timestamps, else wall clock.
+    pub elapsed_ms: f64,
+}
+
+impl<'a> Session<'a> {
+    pub fn new(renderer: Box<dyn Renderer + 'a>, reference: Option<&'a Reference>, paths_per_frame: f64) -> Self {
+        Session { renderer, reference, paths_per_frame, frames: Vec::new(), elapsed_ms: 0.0 }
+    }
+
+    /// Frames traced so far, the learning frames included.
+    pub fn traced(&self) -> u32 {
+        self.frames.len() as u32
+    }
+
+    /// Renders within `budget`, checking `interrupt` between frames. Returns why it
+    /// stopped and, where relMSE was measured at the last frame, the film read for
+    /// it (so that it is not read back twice).
+    pub fn run(&mut self, budget: Budget, interrupt: &AtomicBool) -> Result<(Stop, Option<Film>), SessionError> {
+        let bar = ProgressBar::with_draw_target(Some(budget.frames as u64), ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} frames ({eta} left)")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        let start = Instant::now();
+        let mut shown = false;
+        let mut film = None;
+        let mut stop = Stop::Finished;
+        for f in self.traced()..budget.frames {
+            let frame_start = Instant::now();
+            let report = match self.renderer.render_frame() {
+                Ok(r) => r,
+                Err(GpuError::DeviceLost(detail)) => {
+                    stop = Stop::DeviceLost(detail);
+                    break;
+                }
+                Err(e) => return Err(e.into()),
+            };
+            let frame_ms = report.gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
+            let mark = time_mark(self.elapsed_ms, self.elapsed_ms + frame_ms);
+            self.elapsed_ms += frame_ms;
+            let out_of_time = budget.time_ms.is_some_and(|limit| self.elapsed_ms >= limit);
+            let interrupted = interrupt.load(Ordering::SeqCst) && f + 1 < budget.frames;
+            let last = f + 1 == budget.frames || out_of_time || interrupted;
+            let errors = match self.reference {
+                Some(r) if last || mark || measure_at(f + 1) => {
+                    let current = self.renderer.film()?;
+                    let e = r.compare(&current.mean()).map_err(SessionError::Measure)?;
+                    if last {
+                        film = Some(current);
+                    }
+                    Some(e)
+                }
+                _ => None,
+            };
+            self.frames.push(FrameStats {
+                frame: f + 1,
+                spp: self.renderer.image_frames() * crate::shared::SAMPLES_PER_FRAME,
+                gpu_ms: report.gpu_ms,
+                elapsed_ms: self.elapsed_ms,
+                rel_mse: errors.map(|e| e.rel_mse),
+                rel_mse_debiased: errors.and_then(|e| e.rel_mse_debiased),
+                zero_fraction: report.zero_paths.map(|z| z as f64 / self.paths_per_frame),
+            });
+            if !shown && start.elapsed() > Duration::from_secs(1) {
+                bar.set_draw_target(ProgressDrawTarget::stderr());
+                shown = true;
+            }
+            bar.set_position(f as u64 + 1);
+            if interrupted {
+                stop = Stop::Interrupted;
+                break;
+            }
+            if out_of_time {
+                break;
+            }
+        }
+        bar.finish_and_clear();
+        Ok((stop, film))
+    }
+}
+
+/// Frames at which relMSE is measured against the reference: about 24 per decade
+/// (each readback and comparison costs host time, not GPU time), the last, and
+/// the first frame at or past each power of ten of elapsed time ([`time_mark`]).
+pub fn measure_at(frame: u32) -> bool {
+    let f = frame as f64;
+    frame <= 8 || (f.log10() * 24.0).floor() != ((f - 1.0).log10() * 24.0).floor()
+}
+
+/// Whether a frame that took the elapsed time from `before_ms` to `after_ms` is
+/// the first at or past a power of ten of milliseconds from 100 ms on (0.1 s,
+/// 1 s, 10 s...): relMSE is measured there, so that runs whose frames take
+/// different times are compared at equal time to within one frame, not at
+/// whichever of their geometric frames falls nearest.
+pub fn time_mark(before_ms: f64, after_ms: f64) -> bool {
+    let mut mark = 100.0;
+    while mark <= before_ms {
+        mark *= 10.0;
+    }
+    after_ms >= mark
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// relMSE is measured at the first frame at or past 0.1 s, 1 s, 10 s... of
+    /// elapsed time, once each, whatever the frames' length.
+    #[test]
+    fn time_marks_fall_on_the_first_frame_past_each_power_of_ten() {
+        for dt in [0.37, 1.0, 7.3, 99.0] {
+            let (mut t, mut marks) = (0.0f64, Vec::new());
+            while t < 20000.0 {
+                if time_mark(t, t + dt) {
+                    marks.push((t, t + dt));
+                }
+                t += dt;
+            }
+            assert_eq!(marks.len(), 3, "frames of {dt} ms: {marks:?}");
+            for ((before, after), mark) in marks.into_iter().zip([100.0, 1000.0, 10000.0]) {
+                assert!(before < mark && after >= mark, "frames of {dt} ms: {before}..{after} for {mark}");
+            }
+        }
+        assert!(time_mark(50.0, 5000.0), "a frame past two marks");
+        assert!(!time_mark(100.0, 999.0) && time_mark(999.0, 1000.0));
+    }
+}
