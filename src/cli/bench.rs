@@ -1,0 +1,159 @@
+//! `rlpt bench`: GPU timestamps of every pass of every frame.
+
+use crate::*;
+
+#[derive(clap::Args)]
+pub(crate) struct BenchArgs {
+    /// Scene file (TOML, see SCENE_FORMAT.md).
+    scene: PathBuf,
+    /// Frames (64 spp each) to measure.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    frames: u32,
+    /// Frames rendered first and not measured (warm-up: clocks, caches, and guiding's learning).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=100_000))]
+    warmup: u32,
+    #[command(flatten)]
+    settings: Settings,
+    /// Write the report (per-pass summary, every frame, pipeline statistics) as JSON.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write the frames as a Chrome trace-event file (Perfetto, chrome://tracing).
+    #[arg(long)]
+    trace: Option<PathBuf>,
+    /// Profiling: leave parts of guiding out of the measured frames (the warm-up
+    /// learns as usual), to see what each costs. The image is then not rlpt's.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    ablate: Vec<AblateArg>,
+    /// Count the rays traced, the lane utilization and the paths that carried nothing
+    /// (on, the default); the paths alone (paths: the kernel `render --stats` runs,
+    /// which leaves the counting of rays out of its path loop); or nothing (off: the
+    /// kernel that `render` and `view` run).
+    #[arg(long, value_enum, default_value_t = Counters::All)]
+    counters: Counters,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum AblateArg {
+    /// Recording Q-learning targets (the subgroup-aggregated atomics).
+    Record,
+    /// Guided sampling and the guided pdf (paths sample the BSDF only).
+    GuidedSampling,
+}
+
+pub(crate) fn bench(args: BenchArgs) -> Result<()> {
+    if let Some(p) = &args.json {
+        check_output("--json", p, None)?;
+    }
+    if let Some(p) = &args.trace {
+        if args.settings.device == DeviceKind::Cpu {
+            bail!("--trace needs GPU timestamps: it is not available with --device cpu");
+        }
+        check_output("--trace", p, None)?;
+    }
+    if let (Some(json), Some(trace)) = (&args.json, &args.trace) {
+        check_distinct(&[("--json", json), ("--trace", trace)])?;
+    }
+    if !args.ablate.is_empty() && (args.settings.guiding == GuidingMode::Off || args.settings.device == DeviceKind::Cpu)
+    {
+        bail!("--ablate leaves parts of GPU guiding out: it needs --guiding octant or sphere and --device gpu");
+    }
+    if args.frames == 0 {
+        bail!("--frames 0: bench needs at least one measured frame");
+    }
+    if args.counters != Counters::All && args.settings.device == DeviceKind::Cpu {
+        eprintln!(
+            "note: --counters off and paths compile the GPU kernel's counters out; the CPU renderer counts always"
+        );
+    }
+    if args.settings.learning_frames.is_some() && args.settings.guiding != GuidingMode::Off {
+        eprintln!(
+            "note: --learning-frames sets the frames an image leaves out; rlpt bench writes no image, and its \
+             frames take the same time either way"
+        );
+    }
+    let scene = Scene::load(&args.scene)?;
+    warn_before_render(&args.settings, &scene);
+    let mut opts = args.settings.options(&scene);
+    opts.counters = args.counters;
+    let prepared = PreparedScene::new(&scene, &opts)?;
+    warn_grid(&scene, &prepared);
+    warn_memory(&opts, args.settings.device);
+    let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
+    let mut times = Vec::with_capacity(args.frames as usize);
+    let (device, driver, clock, pipelines) = match args.settings.device {
+        DeviceKind::Gpu => {
+            let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
+            let mut r = GpuRenderer::new(&ctx, &prepared)?;
+            let ablate = args.ablate.iter().fold(0, |bits, a| {
+                bits | match a {
+                    AblateArg::Record => shared::ABLATE_RECORD,
+                    AblateArg::GuidedSampling => shared::ABLATE_GUIDED_SAMPLING,
+                }
+            });
+            for f in 0..args.warmup + args.frames {
+                r.ablate = if f >= args.warmup { ablate } else { 0 };
+                let t = r.render_frame_profiled()?;
+                if f >= args.warmup {
+                    times.push(t);
+                }
+            }
+            let pipelines = r
+                .pipeline_statistics()?
+                .into_iter()
+                .map(|(pipeline, statistics)| rlpt::bench::PipelineReport { pipeline, statistics })
+                .collect();
+            (ctx.info.name.clone(), ctx.info.driver.clone(), "GPU timestamps", pipelines)
+        }
+        DeviceKind::Cpu => {
+            let mut r = CpuRenderer::new(&prepared);
+            for f in 0..args.warmup + args.frames {
+                let start = Instant::now();
+                r.render_frame();
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                if f >= args.warmup {
+                    let c = r.last_counters;
+                    times.push(rlpt::render::PassTimes {
+                        start_ms: 0.0,
+                        pathtrace_ms: ms,
+                        zero_paths: Some(c.zero_paths),
+                        segments: Some(c.segments),
+                        ..Default::default()
+                    });
+                }
+            }
+            (
+                format!("CPU ({} threads)", rayon::current_num_threads()),
+                "rlpt CPU renderer".into(),
+                "wall clock",
+                Vec::new(),
+            )
+        }
+    };
+    let setup = rlpt::bench::BenchSetup {
+        scene: args.scene.display().to_string(),
+        device: device.clone(),
+        driver,
+        clock: clock.to_string(),
+        width: opts.width,
+        height: opts.height,
+        samples_per_frame,
+        guiding: opts.guiding.name().to_string(),
+        guided_fraction: opts.guided_fraction_name(),
+        learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        exploration_floor: opts.exploration_floor_if_guided(),
+        q_targets: opts.q_targets_if_guided().map(String::from),
+        nee: opts.nee,
+        warmup_frames: args.warmup,
+    };
+    let report = rlpt::bench::BenchReport::new(setup, &times, pipelines);
+    print!("{}", report.table());
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    if let Some(p) = &args.trace {
+        let trace = rlpt::bench::chrome_trace(&device, &times, args.warmup + 1);
+        std::fs::write(p, serde_json::to_string(&trace)?).with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,273 @@
+//! `rlpt render`: a scene to an image, by one render session.
+
+use crate::*;
+
+#[derive(clap::Args)]
+pub(crate) struct RenderArgs {
+    /// Scene file (TOML, see SCENE_FORMAT.md).
+    scene: PathBuf,
+    /// Output image: .png or .exr.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Samples per pixel, rounded up to a multiple of 64 (default: the scene's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::layout::MAX_SPP as i64))]
+    spp: Option<u32>,
+    #[command(flatten)]
+    settings: Settings,
+    /// Reference image (EXR) to measure relMSE against, frame by frame, for --stats.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// The reference's per-pixel variance (EXR, from `render --variance`): --stats then
+    /// also records the relMSE less the reference's own noise, the error against the
+    /// true image (`rel_mse_debiased`).
+    #[arg(long, requires = "reference")]
+    reference_variance: Option<PathBuf>,
+    /// Also write the variance of each pixel's estimate (linear EXR), from the spread of
+    /// its frames' 64-sample means (at least 2 frames): a reference's, for --reference-variance.
+    #[arg(long)]
+    variance: Option<PathBuf>,
+    /// Write per-frame statistics (time, relMSE, zero-radiance paths) as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Stop once this much render time has passed (GPU time from timestamps on the GPU,
+    /// wall clock on the CPU): equal-time comparisons. --spp is then the upper bound.
+    #[arg(long, value_parser = parse_seconds)]
+    time: Option<f64>,
+}
+
+/// The sentence of a render whose device was lost after `frames` frames (the
+/// learning frames counted): whether the image so far went to `output` (`written`:
+/// its spp), or why it could not.
+pub(crate) fn device_lost_message(detail: &str, frames: u32, output: &Path, written: Option<u32>) -> String {
+    let when = match frames {
+        0 => "before the first frame ended".to_string(),
+        1 => "after 1 frame".to_string(),
+        n => format!("after {n} frames"),
+    };
+    let outcome = match written {
+        Some(spp) => format!("the image so far ({spp} spp) was written to {}", output.display()),
+        None if frames == 0 => format!("nothing was rendered, and nothing written to {}", output.display()),
+        None => format!(
+            "what it rendered cannot be read back from a lost device, so nothing was written to {}",
+            output.display()
+        ),
+    };
+    format!(
+        "the GPU stopped responding (device lost: {detail}) {when}; {outcome}: render again, and if it recurs \
+         render a smaller image, update the GPU driver, or render on the CPU (--device cpu)"
+    )
+}
+
+pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
+    // Ctrl-C from here on stops the render after the frame in flight and writes what it
+    // has; during the set-up (scene, device, kernels) it stops after the first frame.
+    catch_interrupt();
+    check_output("output", &args.output, Some(&["png", "exr"]))?;
+    if let Some(stats) = &args.stats {
+        check_output("--stats", stats, None)?;
+    }
+    if let Some(variance) = &args.variance {
+        check_output("--variance", variance, Some(&["exr"]))?;
+    }
+    let mut outputs = vec![("--output", args.output.as_path())];
+    outputs.extend(args.stats.as_deref().map(|p| ("--stats", p)));
+    outputs.extend(args.variance.as_deref().map(|p| ("--variance", p)));
+    outputs.extend(args.reference.as_deref().map(|p| ("--reference", p)));
+    outputs.extend(args.reference_variance.as_deref().map(|p| ("--reference-variance", p)));
+    check_distinct(&outputs)?;
+    let scene = Scene::load(&args.scene)?;
+    warn_before_render(&args.settings, &scene);
+    let mut opts = args.settings.options(&scene);
+    if let Some(s) = args.spp {
+        opts.spp = s;
+    }
+    // The zero-radiance fraction of --stats comes from the kernel's counters;
+    // it counts no rays, which would cost time in the loop that --stats times.
+    opts.counters = if args.stats.is_some() { Counters::ZeroPaths } else { Counters::Off };
+    let reference = match &args.reference {
+        Some(path) => {
+            let r = load_exr(
+                path,
+                "the reference",
+                "reference",
+                "relMSE is measured against a linear EXR (render one with -o REF.exr)",
+            )?;
+            if (r.width, r.height) != (opts.width, opts.height) {
+                bail!(
+                    "reference {} is {}x{} but the render is {}x{}: render the reference at the same size",
+                    path.display(),
+                    r.width,
+                    r.height,
+                    opts.width,
+                    opts.height
+                );
+            }
+            let r = metrics::Reference::new(r).map_err(|m| {
+                anyhow::anyhow!("--reference {}: {m}: every relMSE against it would be NaN", path.display())
+            })?;
+            Some(match &args.reference_variance {
+                Some(v) => with_reference_variance(r, v)?,
+                None => r,
+            })
+        }
+        None => None,
+    };
+    let frames = opts.frames();
+    if args.variance.is_some() && frames < 2 {
+        bail!(
+            "--variance needs at least 2 frames ({} samples per pixel): a pixel's variance is measured \
+             from the spread of its frames",
+            2 * shared::SAMPLES_PER_FRAME
+        );
+    }
+    let rounded = frames * shared::SAMPLES_PER_FRAME;
+    if rounded != opts.spp && args.time.is_none() {
+        eprintln!(
+            "note: {} samples per pixel rounded up to {rounded}: rlpt renders frames of {} samples per pixel",
+            opts.spp,
+            shared::SAMPLES_PER_FRAME
+        );
+    }
+    let prepared = PreparedScene::new(&scene, &opts)?;
+    warn_grid(&scene, &prepared);
+    warn_memory(&opts, args.settings.device);
+    // The learning frames come first, and the image's frames after them.
+    let learning_frames = prepared.learning_frames();
+    let traced_frames = frames + learning_frames;
+
+    let start = Instant::now();
+    let renderer: Box<dyn Renderer> = match args.settings.device {
+        DeviceKind::Cpu => Box::new(CpuRenderer::new(&prepared)),
+        DeviceKind::Gpu => {
+            let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
+            Box::new(GpuRenderer::new(&ctx, &prepared)?)
+        }
+    };
+    let device_name = renderer.device_name();
+    let mut stats = RenderStats {
+        label: format!(
+            "{} guiding={}{}{}{}{} nee={}",
+            file_name(&args.scene),
+            opts.guiding.name(),
+            opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
+            opts.learning_rate_exponent_if_guided()
+                .filter(|&w| w != rlpt::guide::DEFAULT_RATE_EXPONENT)
+                .map_or(String::new(), |w| format!(" rate=1/i^{w}")),
+            opts.exploration_floor_if_guided()
+                .filter(|&f| f != rlpt::guide::DEFAULT_FLOOR)
+                .map_or(String::new(), |f| format!(" floor={f}")),
+            opts.q_targets_if_guided().filter(|&t| t != "mis").map_or(String::new(), |t| format!(" targets={t}")),
+            opts.nee
+        ),
+        scene: args.scene.display().to_string(),
+        device: device_name.clone(),
+        width: opts.width,
+        height: opts.height,
+        guiding: opts.guiding.name().into(),
+        guided_fraction: opts.guided_fraction_name(),
+        learning_rate_exponent: opts.learning_rate_exponent_if_guided(),
+        exploration_floor: opts.exploration_floor_if_guided(),
+        q_targets: opts.q_targets_if_guided().map(String::from),
+        nee: opts.nee,
+        learning_frames: prepared.guide.as_ref().map(|g| g.learning_frames),
+        frames: Vec::new(),
+    };
+    let paths_per_frame = (opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64) as f64;
+    let mut session = Session::new(renderer, reference.as_ref(), paths_per_frame);
+    let budget = Budget { frames: traced_frames, time_ms: args.time.map(|t| t * 1e3) };
+    let (stop, film) = session.run(budget, &INTERRUPTED)?;
+    let traced = session.traced();
+    let gpu_ms_total = session.elapsed_ms;
+    let spp = session.renderer.image_frames() * shared::SAMPLES_PER_FRAME;
+    stats.frames = std::mem::take(&mut session.frames);
+    let renderer = &session.renderer;
+    let film = match (film, &stop) {
+        (Some(f), _) => f,
+        (None, Stop::DeviceLost(detail)) => match renderer.film() {
+            Ok(f) => f,
+            Err(_) => bail!(device_lost_message(detail, traced, &args.output, None)),
+        },
+        (None, _) => renderer.film()?,
+    };
+    if traced == 0 {
+        // Lost at the first frame, and the film read back: nothing to write.
+        if let Stop::DeviceLost(detail) = &stop {
+            bail!(device_lost_message(detail, 0, &args.output, None));
+        }
+    }
+    let elapsed = start.elapsed().as_secs_f64();
+    let image = film.mean();
+    image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    if let Some(path) = &args.variance {
+        let v = film.variance_of_mean().ok_or_else(|| {
+            let why = match stop {
+                Stop::Finished => "give --time more",
+                Stop::Interrupted => "it was interrupted",
+                Stop::DeviceLost(_) => "the GPU stopped responding",
+            };
+            anyhow::anyhow!(
+                "--variance {}: the render stopped after {} frame(s), and a pixel's variance is measured from the \
+                 spread of at least 2 ({why}); the image was written to {}",
+                path.display(),
+                film.frames,
+                args.output.display()
+            )
+        })?;
+        v.save(path).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if image.pixels.iter().all(|p| *p == [0.0; 3]) && scene.emits_light() {
+        eprintln!(
+            "warning: every pixel of {} is black: no path found light (is the camera inside a closed object, \
+             or facing away from every lit surface? or were there too few samples for a dim scene?)",
+            args.output.display()
+        );
+    }
+    if let Some(path) = &args.stats {
+        stats.save(path)?;
+    }
+    // Samples traced, the learning frames' included.
+    let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME) as f64;
+    let gpu = match renderer.timestamps() {
+        true => {
+            format!(", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame", gpu_ms_total / traced as f64)
+        }
+        _ => String::new(),
+    };
+    // Whether the image started after the learning frames.
+    let learned = if learning_frames > 0 && traced > learning_frames {
+        format!(" after {learning_frames} learning frames")
+    } else {
+        String::new()
+    };
+    let last_frame = stats.frames.last();
+    let rel = last_frame.and_then(|f| f.rel_mse).map(|e| format!(", relMSE {e:.3e}")).unwrap_or_default();
+    let rel = match last_frame.and_then(|f| f.rel_mse_debiased) {
+        Some(d) => format!("{rel} ({d:.3e} less the reference's variance)"),
+        None => rel,
+    };
+    // The samples per pixel of an image cut short, and why, beside those asked for.
+    let asked = frames * shared::SAMPLES_PER_FRAME;
+    let cut = match stop {
+        Stop::Interrupted => format!(" (interrupted: {asked} asked)"),
+        Stop::DeviceLost(_) => format!(" (the GPU stopped responding: {asked} asked)"),
+        Stop::Finished => String::new(),
+    };
+    println!(
+        "{}: {}x{}, {} spp{cut}{learned}, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
+        args.scene.display(),
+        opts.width,
+        opts.height,
+        spp,
+        opts.guiding.name(),
+        if opts.nee { "on" } else { "off" },
+        elapsed,
+        device_name,
+        samples / elapsed / 1e6,
+        args.output.display()
+    );
+    match stop {
+        Stop::Finished => Ok(Outcome::Complete),
+        Stop::Interrupted => Ok(Outcome::Interrupted),
+        Stop::DeviceLost(detail) => bail!(device_lost_message(&detail, traced, &args.output, Some(spp))),
+    }
+}

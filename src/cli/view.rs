@@ -1,0 +1,53 @@
+//! `rlpt view`: the window on the GPU renderer.
+
+use crate::*;
+
+#[derive(clap::Args)]
+pub(crate) struct ViewArgs {
+    /// Scene file (TOML, see SCENE_FORMAT.md).
+    scene: PathBuf,
+    #[command(flatten)]
+    settings: Settings,
+    /// Scripted mode: render this many frames (64 spp each), save --screenshot, exit.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    frames: Option<u32>,
+    /// Scripted mode: where to save what the window shows (.png; the linear image is
+    /// written beside it as .exr).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Scripted mode: resize the window to WxH after the first frame (exercises
+    /// swapchain recreation).
+    #[arg(long, value_parser = parse_size)]
+    resize: Option<(u32, u32)>,
+}
+
+pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT, e.g. 800x600"))?;
+    let parse = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}`: `{v}` is not a size from 1 to 16384")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+pub(crate) fn view(args: ViewArgs) -> Result<()> {
+    if args.settings.device == DeviceKind::Cpu {
+        bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
+    }
+    let scene = Scene::load(&args.scene)?;
+    warn_before_render(&args.settings, &scene);
+    let render = args.settings.options(&scene);
+    // The viewer switches guiding on and off as it runs: the box is checked as
+    // for a guided render, whatever mode it starts in.
+    let guided = RenderOptions { guiding: GuidingMode::Sphere, ..render.clone() };
+    warn_grid(&scene, &PreparedScene::new(&scene, &guided)?);
+    rlpt::viewer::run(rlpt::viewer::ViewOptions {
+        scene_path: args.scene,
+        scene,
+        render,
+        context: ContextOptions::from_env(args.settings.gpu),
+        frames: args.frames,
+        screenshot: args.screenshot,
+        resize: args.resize,
+    })
+}
