@@ -73,16 +73,7 @@ impl Reference {
                 variance.width, variance.height, self.image.width, self.image.height
             ));
         }
-        check_finite("variance image", &variance)?;
-        let width = variance.width.max(1) as usize;
-        if let Some(i) = variance.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
-            return Err(format!(
-                "the variance image has a negative value at pixel ({}, {}) (column, row from the top left): \
-                 a variance is at least 0",
-                i % width,
-                i / width
-            ));
-        }
+        check_variance("variance image", &variance)?;
         Ok(Reference { variance: Some(variance), ..self })
     }
 
@@ -107,6 +98,22 @@ fn check_finite(which: &str, img: &Image) -> Result<(), String> {
         Some((x, y)) => {
             Err(format!("the {which} has a NaN or infinite value at pixel ({x}, {y}) (column, row from the top left)"))
         }
+        None => Ok(()),
+    }
+}
+
+/// A variance image's values are finite and at least 0: `Err` names the first
+/// pixel that is not.
+fn check_variance(which: &str, img: &Image) -> Result<(), String> {
+    check_finite(which, img)?;
+    let width = img.width.max(1) as usize;
+    match img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
+        Some(i) => Err(format!(
+            "the {which} has a negative value at pixel ({}, {}) (column, row from the top left): a variance is at \
+             least 0",
+            i % width,
+            i / width
+        )),
         None => Ok(()),
     }
 }
@@ -226,20 +233,10 @@ pub fn agreement(a: &Image, va: &Image, b: &Image, vb: &Image, floor: f64) -> Re
             return Err(format!("the first image is {w}x{h} but the {name} is {}x{}", img.width, img.height));
         }
     }
-    for (name, img) in
-        [("first image", a), ("second image", b), ("first image's variance", va), ("second image's variance", vb)]
-    {
-        check_finite(name, img)?;
-    }
-    for (name, img) in [("first image's variance", va), ("second image's variance", vb)] {
-        if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|&c| c < 0.0)) {
-            return Err(format!(
-                "the {name} has a negative value at pixel ({}, {}) (column, row from the top left): a variance is at least 0",
-                i % w.max(1) as usize,
-                i / w.max(1) as usize
-            ));
-        }
-    }
+    check_finite("first image", a)?;
+    check_finite("second image", b)?;
+    check_variance("first image's variance", va)?;
+    check_variance("second image's variance", vb)?;
     if w == 0 || h == 0 {
         return Err("the images are empty".to_string());
     }
