@@ -327,12 +327,8 @@ fn main() {
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
         Command::Compare { image, reference, reference_variance, image_variance, max_z, floor } => {
-            compare(&image, &reference, reference_variance.as_deref()).and_then(|()| {
-                match (image_variance, reference_variance) {
-                    (Some(iv), Some(rv)) => agree(&image, &iv, &reference, &rv, max_z, floor),
-                    _ => Ok(()),
-                }
-            })
+            let agreement = image_variance.as_deref().map(|v| (v, max_z, floor));
+            compare(&image, &reference, reference_variance.as_deref(), agreement)
         }
         Command::Plot { stats, output, debiased } => plot(&stats, &output, debiased),
     };

@@ -2,7 +2,20 @@
 
 use crate::*;
 
-pub(crate) fn compare(image: &Path, reference: &Path, reference_variance: Option<&Path>) -> Result<()> {
+/// `rlpt compare`: relMSE, RMSE and MAPE of `image` against `reference`; with
+/// `agreement` (the image's variance, `--max-z`, `--floor`), also whether the two
+/// renders' means agree ([`agree`]), from the images read once.
+pub(crate) fn compare(
+    image: &Path,
+    reference: &Path,
+    reference_variance: Option<&Path>,
+    agreement: Option<(&Path, Option<f64>, f64)>,
+) -> Result<()> {
+    if let Some((_, _, floor)) = agreement {
+        if !(0.0..1.0).contains(&floor) {
+            bail!("--floor {floor}: a relative difference in [0, 1)");
+        }
+    }
     let (a, fa) = Image::load_format(image).with_context(|| format!("reading {}", image.display()))?;
     let (b, fb) = Image::load_format(reference).with_context(|| format!("reading {}", reference.display()))?;
     if fa != fb {
@@ -21,37 +34,40 @@ pub(crate) fn compare(image: &Path, reference: &Path, reference_variance: Option
         );
     }
     let against = |m: String| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display());
-    let e = match reference_variance {
+    let (e, checked) = match reference_variance {
         Some(v) => {
-            let r = metrics::Reference::new(b).map_err(against)?;
-            with_reference_variance(r, v)?.compare(&a).map_err(against)?
+            let r = with_reference_variance(metrics::Reference::new(b).map_err(against)?, v)?;
+            (r.compare(&a).map_err(against)?, Some(r))
         }
-        None => metrics::compare(&a, &b).map_err(against)?,
+        None => (metrics::compare(&a, &b).map_err(against)?, None),
     };
     let debiased = e.rel_mse_debiased.map(|d| format!("  relMSE less the reference's variance {d:.6e}"));
     println!("relMSE {:.6e}  RMSE {:.6e}  MAPE {:.6e}{}", e.rel_mse, e.rmse, e.mape, debiased.unwrap_or_default());
-    Ok(())
+    match (agreement, checked.as_ref().and_then(|r| Some((r.image(), r.variance()?)))) {
+        (Some((image_variance, max_z, floor)), Some((b, vb))) => {
+            let hint = "a variance is a linear EXR (`rlpt render --variance VAR.exr`)";
+            let va = load_exr(image_variance, "the image's variance", "--image-variance", hint)?;
+            agree(image, &a, &va, reference, b, vb, max_z, floor)
+        }
+        (Some(_), None) => bail!("--image-variance needs the reference's too (--reference-variance)"),
+        (None, _) => Ok(()),
+    }
 }
 
 /// `compare --image-variance`: whether two independent renders' means agree
 /// (`metrics::agreement`), printed; with `max_z`, an error where one differs by more.
-pub(crate) fn agree(
+#[allow(clippy::too_many_arguments)]
+fn agree(
     image: &Path,
-    image_var: &Path,
+    a: &Image,
+    va: &Image,
     reference: &Path,
-    reference_var: &Path,
+    b: &Image,
+    vb: &Image,
     max_z: Option<f64>,
     floor: f64,
 ) -> Result<()> {
-    if !(0.0..1.0).contains(&floor) {
-        bail!("--floor {floor}: a relative difference in [0, 1)");
-    }
-    let hint = "a variance is a linear EXR (`rlpt render --variance VAR.exr`)";
-    let a = load_exr(image, "the image", "IMAGE", "agreement compares linear EXRs")?;
-    let b = load_exr(reference, "the reference", "REFERENCE", "agreement compares linear EXRs")?;
-    let va = load_exr(image_var, "the image's variance", "--image-variance", hint)?;
-    let vb = load_exr(reference_var, "the reference's variance", "--reference-variance", hint)?;
-    let ag = metrics::agreement(&a, &va, &b, &vb, floor)
+    let ag = metrics::agreement(a, va, b, vb, floor)
         .map_err(|m| anyhow::anyhow!("{} against {}: {m}", image.display(), reference.display()))?;
     let pct = |d: &metrics::MeanDiff| format!("{:+.4}%", 100.0 * d.relative());
     println!(
