@@ -433,7 +433,6 @@ float one_minus_cos_max(float sin2_max) {
 struct LightSample {
     vec3 wi;
     float dist;
-    vec3 p;
     vec3 end;
     uint skip_sphere;
     uint skip_quad;
@@ -535,7 +534,6 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     if (!(dist > 0.0)) return false;
     ls.wi = d / dist;
     ls.dist = dist;
-    ls.p = lp;
     ls.end = area_eps > 0.0 ? offset_origin(lp, ln, area_eps, -ls.wi) : lp;
     ls.le = emitted(mat, ln, -ls.wi);
     ls.pdf = pdf_solid * light.pmf;

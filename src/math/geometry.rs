@@ -356,8 +356,6 @@ pub struct LightSample {
     /// Unit direction from the shading point to the light point.
     pub wi: Vec3,
     pub dist: f32,
-    pub p: Vec3,
-    pub n: Vec3,
     /// Where the shadow ray ends. The light point itself, with the light's own
     /// primitive left out of the test (`skip_sphere`, `skip_quad`), where the light
     /// cannot hide its point from the shading point: a quad, and a sphere sampled
@@ -496,7 +494,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
         return None;
     }
     let end = if area_eps > 0.0 { offset_origin(lp, ln, area_eps, -wi) } else { lp };
-    Some(LightSample { wi, dist, p: lp, n: ln, end, skip_sphere, skip_quad, le, pdf })
+    Some(LightSample { wi, dist, end, skip_sphere, skip_quad, le, pdf })
 }
 
 /// The density with which `sample_light`, called at `p`, picks the direction `w`
