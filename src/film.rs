@@ -2,6 +2,7 @@
 
 use crate::image::Image;
 use crate::layout::AccumPixel;
+use crate::math::mean3;
 use crate::shared;
 use glam::Vec3;
 
@@ -27,7 +28,7 @@ pub struct Film {
 pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3]) {
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
     if frames == 0 {
-        let learned = if learned_frames > 0 { crate::math::mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
+        let learned = if learned_frames > 0 { mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
         *acc = AccumPixel { sum: [sum[0], sum[1], sum[2], learned], m2_frame_mean: [0.0; 4] };
         return;
     }

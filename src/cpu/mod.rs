@@ -11,7 +11,7 @@ use crate::math::geometry::{
 };
 use crate::math::rng::Rng;
 use crate::math::sampling::mis_weight;
-use crate::math::{max_component, Frame, Vec3};
+use crate::math::{max_component, mean3, Frame, Vec3};
 use crate::prepared::PreparedScene;
 use crate::scene::MaterialKind;
 use crate::shared;
@@ -95,14 +95,7 @@ pub fn trace_path(
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let env = xyz(p.environment);
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                record_to(
-                    &mut **learn,
-                    prev_key,
-                    crate::math::mean3(env),
-                    crate::math::mean3(env),
-                    prev_factor,
-                    bins_per_cell,
-                );
+                record_to(&mut **learn, prev_key, mean3(env), mean3(env), prev_factor, bins_per_cell);
             }
             radiance += beta * env;
             break;
@@ -120,10 +113,10 @@ pub fn trace_path(
                 mis_weight(prev_pdf, light_pdf(scene, hit.light, prev_p, d), power)
             };
             radiance += beta * le * w;
-            le_counted = crate::math::mean3(le) * w;
+            le_counted = mean3(le) * w;
         }
         // What the target of the ray that arrived here counts of that emission.
-        let le_target = if mis_targets { le_counted } else { crate::math::mean3(le) };
+        let le_target = if mis_targets { le_counted } else { mean3(le) };
         let bsdf = material_bsdf(scene, hit.material);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.kind == MaterialKind::Dielectric || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
@@ -180,7 +173,7 @@ pub fn trace_path(
             (pdf > 0.0 && f.max_element() > 0.0).then(|| {
                 let weight = f * (wi_local.z.abs() / pdf);
                 let factor = if learn_fraction {
-                    guide::fraction_gradient_factor(g_frac, row_fraction, pg, pb, pdf, crate::math::mean3(weight))
+                    guide::fraction_gradient_factor(g_frac, row_fraction, pg, pb, pdf, mean3(weight))
                 } else {
                     0.0
                 };
@@ -213,7 +206,7 @@ pub fn trace_path(
                         let w = mis_weight(ls.pdf, pdf, power);
                         radiance += beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                         if mis_targets {
-                            nee_here = crate::math::mean3(f * wi_local.z.abs() * ls.le * (w / ls.pdf));
+                            nee_here = mean3(f * wi_local.z.abs() * ls.le * (w / ls.pdf));
                         }
                     }
                 }
@@ -255,7 +248,7 @@ pub fn trace_path(
         if let (Some(g), Some(learn)) = (guide, learn.as_mut().filter(|_| wants_target)) {
             // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
             let reflected = match sampled {
-                Some((_, weight, _, _, bin, _)) => crate::math::mean3(weight) * g.q[(cell_key + bin) as usize],
+                Some((_, weight, _, _, bin, _)) => mean3(weight) * g.q[(cell_key + bin) as usize],
                 None => 0.0,
             };
             // With `mis_targets` the target is the light as the image counts it
@@ -284,7 +277,7 @@ pub fn trace_path(
             let q = match guide {
                 // The radiance learned for the ray about to be traced, times the throughput.
                 Some(g) if pixel_estimate > 0.0 => {
-                    guide::survival_probability(crate::math::mean3(beta) * g.q[prev_key as usize], pixel_estimate)
+                    guide::survival_probability(mean3(beta) * g.q[prev_key as usize], pixel_estimate)
                 }
                 _ => max_component(beta).min(0.95),
             };
