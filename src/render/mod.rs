@@ -118,15 +118,14 @@ fn mb(bytes: u64) -> u64 {
     bytes.div_ceil(1 << 20)
 }
 
-/// The device memory a render of `scene` takes, against what `ctx`'s device has:
-/// an error that says what would not fit and what to do, before anything is
-/// allocated. The storage buffers count; uploads and readbacks too where they
-/// take the same memory ([`DeviceInfo::unified_memory`](crate::gpu::DeviceInfo)).
-/// The size of the guiding table's sampling rows, the largest of its buffers, where
-/// one storage buffer can hold it (`fits_one_buffer`).
-fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<u64, GpuError> {
-    let entries = cfg.entries() as u64;
-    let size = entries * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64;
+/// Bytes of the guiding table's sampling rows, the largest of its buffers.
+fn sampling_rows_bytes(cfg: &crate::guide::GuideConfig) -> u64 {
+    cfg.entries() as u64 * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64
+}
+
+/// Whether one storage buffer can hold the guiding table's sampling rows
+/// (`fits_one_buffer`): a table past the device's buffer range is refused as such.
+fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<(), GpuError> {
     fits_one_buffer(
         ctx,
         &format!(
@@ -135,12 +134,15 @@ fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<u
             cfg.bins.count(),
             shared::NORMAL_CLASSES
         ),
-        size,
+        sampling_rows_bytes(cfg),
         "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
-    )?;
-    Ok(size)
+    )
 }
 
+/// The device memory a render of `scene` takes, against what `ctx`'s device has:
+/// an error that says what would not fit and what to do, before anything is
+/// allocated. The storage buffers count; uploads and readbacks too where they
+/// take the same memory ([`DeviceInfo::unified_memory`](crate::gpu::DeviceInfo)).
 fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuError> {
     let available = ctx.info.device_memory;
     let p = &scene.params;
@@ -153,7 +155,7 @@ fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuErr
             + 2 * 4 * (entries + cells)
             + 2 * 4 * rows
             + cells * std::mem::size_of::<crate::guide::FractionState>() as u64
-            + entries * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64
+            + sampling_rows_bytes(cfg)
     });
     let uploads = [
         std::mem::size_of_val(&scene.params),
@@ -433,7 +435,7 @@ impl GpuRenderer {
                 let size = 4 * entries as u64;
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
-                let sampler_size = sampling_rows_fit(ctx, cfg)?;
+                let sampler_size = sampling_rows_bytes(cfg);
                 let (rows_per_group, stage_words, staged) =
                     rebuild_layout(cfg.bins.count(), ctx.info.max_compute_shared_memory);
                 let bindings: Vec<(u32, Binding)> = (0..8).map(|i| (i, Binding::Storage)).collect();
