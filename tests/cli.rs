@@ -610,6 +610,46 @@ fn images_are_compared_like_with_like_and_only_when_finite() {
     assert!(!ok && err.contains("NaN or infinite value at pixel (1, 2)"), "{err}");
 }
 
+/// `compare --image-variance`: two images with their variances give the mean
+/// differences as z-scores (the worst a 2x1 region of an 8x4 image, a green pixel
+/// 0.1 darker over a variance of 0.01 per pixel: 0.05 / 0.1 = 0.5 deviations);
+/// `--max-z` fails below it and passes above; a floor outside [0, 1) and a variance
+/// without the reference's are refused.
+#[test]
+fn compare_says_whether_two_renders_agree() {
+    use rlpt::image::Image;
+    let mut a = Image::new(8, 4);
+    a.pixels.iter_mut().for_each(|p| *p = [1.0, 2.0, 3.0]);
+    let mut b = a.clone();
+    b.pixels[0][1] -= 0.1;
+    let mut v = Image::new(8, 4);
+    v.pixels.iter_mut().for_each(|p| *p = [0.01; 3]);
+    let (pa, pb, pv) = (tmp("agree-a.exr"), tmp("agree-b.exr"), tmp("agree-v.exr"));
+    a.save(&pa).unwrap();
+    b.save(&pb).unwrap();
+    v.save(&pv).unwrap();
+    let p = |x: &std::path::PathBuf| x.to_str().unwrap().to_owned();
+    let (a, b, v) = (p(&pa), p(&pb), p(&pv));
+    let agree = ["compare", &a, &b, "--image-variance", &v, "--reference-variance", &v];
+    let o = rlpt().args(agree).checked_output();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{out}{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("16 regions: worst z +0.50") && out.contains("in columns 0..2, rows 0..1, channel G"),
+        "{out}"
+    );
+    assert!(out.contains("worst |z| 0.50"), "{out}");
+    let with = |extra: &[&str]| run(&agree.iter().copied().chain(extra.iter().copied()).collect::<Vec<_>>());
+    let (ok, err) = with(&["--max-z", "0.4"]);
+    assert!(!ok && err.contains("disagree: a mean differs by 0.50 standard deviations"), "{err}");
+    let (ok, out) = with(&["--max-z", "0.6"]);
+    assert!(ok, "{out}");
+    let (ok, err) = with(&["--floor", "2"]);
+    assert!(!ok && err.contains("--floor 2: a relative difference in [0, 1)"), "{err}");
+    let (ok, err) = run(&["compare", &a, &b, "--image-variance", &v]);
+    assert!(!ok && err.contains("--reference-variance"), "{err}");
+}
+
 #[test]
 fn plot_says_what_it_cannot_draw() {
     // A bench report is not render statistics.
