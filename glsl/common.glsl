@@ -32,11 +32,29 @@
 // Light kinds and the "not a light" marker.
 #define LIGHT_SPHERE 0
 #define LIGHT_QUAD 1
+#define LIGHT_TRIANGLE 2
 #define NO_LIGHT 4294967295
 // A face of the room (src/math/geometry.rs `Room`) that no quad covers, and the
 // shadow test's "skip no primitive" (geometry.glsl `occluded`).
 #define NO_QUAD 4294967295
 #define NO_SPHERE 4294967295
+// A primitive reference (the BVH's leaves, prim_refs[]; src/math/bvh.rs):
+// its kind in the top two bits, its index in spheres, quads or triangles below.
+#define PRIM_TRIANGLE 0
+#define PRIM_SPHERE 1
+#define PRIM_QUAD 2
+#define PRIM_KIND_SHIFT 30
+#define PRIM_INDEX_MASK 1073741823
+// The shadow test's "skip no primitive" as a reference (no kind has it).
+#define NO_PRIM 4294967295
+// Triangle.normals of a flat triangle: it has no shading normals.
+#define NO_NORMALS 4294967295
+// BvhNode child words: bit 31 set for a leaf, whose first reference in
+// prim_refs is the rest and whose count is the child's count word; else the
+// index of an interior node. The traversal's stack holds at most BVH_STACK
+// entries; the builder keeps the depth below it (src/math/bvh.rs).
+#define BVH_LEAF 2147483648
+#define BVH_STACK 64
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
 // bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light, and bit
 // (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough
@@ -95,6 +113,12 @@
 // Learned guiding: per sampling row, 1 once a recording path's guided vertex
 // has read it (src/guide/mod.rs `QTable::rows_read`); learn.comp rebuilds those alone.
 #define BINDING_ROWS_READ 13
+// Triangle meshes and the BVH (geometry.glsl, bvh.glsl): the triangles, the
+// shading normals of the smooth ones, the nodes, and the leaves' primitive refs.
+#define BINDING_TRIANGLES 14
+#define BINDING_TRIANGLE_NORMALS 15
+#define BINDING_BVH_NODES 16
+#define BINDING_PRIM_REFS 17
 #define CONST_SPHERES 64
 #define CONST_QUADS 64
 // Specialization constants of pathtrace.comp (their constant_id): what a render
@@ -153,7 +177,12 @@
 #define SPEC_ROOM_BOUNDS 388
 #define SPEC_ROOM_FACES 394
 #define SPEC_ROOM_ENTERING 400
-#define NUM_SPEC_CONSTANTS 401
+// 1: every ray walks the BVH over all primitives (scenes with triangles, or
+// many spheres and quads: src/prepared `uses_bvh`); 0: the specialized walk.
+#define SPEC_BVH 401
+// 1: some triangle has shading normals (Triangle.normals != NO_NORMALS).
+#define SPEC_SMOOTH 402
+#define NUM_SPEC_CONSTANTS 403
 // Frame counters (pathtrace.comp): the paths without radiance (one word, at most
 // 64 per pixel); the rays traced and the subgroups' rays below (64-bit pairs, low
 // word first: glsl/counters.glsl).
@@ -263,9 +292,40 @@ struct Quad {
     uint pad1;
 };
 
+// A triangle in world space, front side counter-clockwise (v1 - v0) x (v2 - v0).
+struct Triangle {
+    vec3 v0;
+    uint material;
+    vec3 v1;
+    uint light;              // index into lights, or NO_LIGHT
+    vec3 v2;
+    uint normals;            // index into triangle_normals, or NO_NORMALS (flat)
+};
+
+// The unit shading normals at a smooth triangle's vertices (xyz; w unused).
+struct TriangleNormals {
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
+};
+
+// Two children of an interior node of the BVH, with their boxes, so that one
+// node read gives both boxes (src/math/bvh.rs `BvhNode`). child: BVH_LEAF | first
+// ref for a leaf (count refs), else a node index (count 0).
+struct BvhNode {
+    vec3 a_lo;
+    uint a_child;
+    vec3 a_hi;
+    uint a_count;
+    vec3 b_lo;
+    uint b_child;
+    vec3 b_hi;
+    uint b_count;
+};
+
 struct Light {
-    uint kind;               // LIGHT_SPHERE or LIGHT_QUAD
-    uint index;              // into spheres or quads
+    uint kind;               // LIGHT_SPHERE, LIGHT_QUAD or LIGHT_TRIANGLE
+    uint index;              // into spheres, quads or triangles
     float pmf;               // probability of choosing this light
     float cdf;               // sum of pmf up to and including this light
 };
@@ -298,6 +358,10 @@ struct RenderParams {
     uint guide_vertices;     // guided sampling at a path's first this many vertices
     uint occluding_quads;    // shadow rays test the first this many quads (src/prepared.rs `occluding_order`)
     uint scene_kinds;        // SCENE_KIND_* bits: the material and light kinds the scene has
+    uint num_triangles;
+    uint bvh_nodes;          // nodes of the BVH; 0 where the kernel walks the primitives itself
+    uint pad0;
+    uint pad1;
 };
 
 // The material and light kinds (SCENE_KIND_* bits) the including kernel is

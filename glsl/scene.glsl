@@ -8,5 +8,9 @@ layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials {
 layout(std430, set = 0, binding = BINDING_SPHERES) readonly buffer Spheres { Sphere spheres[]; };
 layout(std430, set = 0, binding = BINDING_QUADS) readonly buffer Quads { Quad quads[]; };
 layout(std430, set = 0, binding = BINDING_LIGHTS) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer Triangles { Triangle triangles[]; };
+layout(std430, set = 0, binding = BINDING_TRIANGLE_NORMALS) readonly buffer TriangleNormalsBuf { TriangleNormals triangle_normals[]; };
+layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+layout(std430, set = 0, binding = BINDING_PRIM_REFS) readonly buffer PrimRefs { uint prim_refs[]; };
 
 #endif

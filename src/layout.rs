@@ -85,6 +85,63 @@ pub struct GpuQuad {
     pub pad: [u32; 2],
 }
 
+/// A triangle in world space (`glsl/common.glsl` `Triangle`); its front side is
+/// the side of `(v1 - v0) x (v2 - v0)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuTriangle {
+    pub v0: [f32; 3],
+    pub material: u32,
+    pub v1: [f32; 3],
+    /// Index into the lights, or `shared::NO_LIGHT`.
+    pub light: u32,
+    pub v2: [f32; 3],
+    /// Index into [`SceneArrays::triangle_normals`], or `shared::NO_NORMALS` (flat).
+    pub normals: u32,
+}
+
+impl GpuTriangle {
+    pub fn vertices(&self) -> [Vec3; 3] {
+        [Vec3::from(self.v0), Vec3::from(self.v1), Vec3::from(self.v2)]
+    }
+}
+
+/// The unit shading normals at a smooth triangle's vertices (`TriangleNormals`; w unused).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuTriangleNormals {
+    pub n: [[f32; 4]; 3],
+}
+
+/// One interior node of the BVH with both children's boxes (`glsl/common.glsl`
+/// `BvhNode`; `crate::math::bvh` builds and walks it). A child word with
+/// `shared::BVH_LEAF` set is a leaf of `count` refs from `child & !BVH_LEAF` in
+/// [`SceneArrays::prim_refs`]; else it is the index of a node (count 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuBvhNode {
+    pub a_lo: [f32; 3],
+    pub a_child: u32,
+    pub a_hi: [f32; 3],
+    pub a_count: u32,
+    pub b_lo: [f32; 3],
+    pub b_child: u32,
+    pub b_hi: [f32; 3],
+    pub b_count: u32,
+}
+
+/// A primitive reference as the BVH's leaves hold it: kind (`shared::PRIM_*`) in
+/// the top two bits, the index in its array below.
+pub fn prim_ref(kind: u32, index: u32) -> u32 {
+    debug_assert!(index <= shared::PRIM_INDEX_MASK);
+    (kind << shared::PRIM_KIND_SHIFT) | index
+}
+
+/// The kind and index of a primitive reference ([`prim_ref`]).
+pub fn prim_kind_index(r: u32) -> (u32, u32) {
+    (r >> shared::PRIM_KIND_SHIFT, r & shared::PRIM_INDEX_MASK)
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuLight {
@@ -132,6 +189,10 @@ pub struct RenderParams {
     /// The material and light kinds of the scene ([`crate::prepared::scene_kinds`]): the kernel is
     /// specialized to them and leaves out the code of the others.
     pub scene_kinds: u32,
+    pub num_triangles: u32,
+    /// Nodes of the BVH; 0 where the kernel walks the primitives itself.
+    pub bvh_nodes: u32,
+    pub pad: [u32; 2],
 }
 
 impl RenderParams {
@@ -160,7 +221,10 @@ const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
-const _: () = assert!(std::mem::size_of::<RenderParams>() == 192);
+const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuTriangleNormals>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
+const _: () = assert!(std::mem::size_of::<RenderParams>() == 208);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 // The specialization constants' layout (glsl/common.glsl): the quads' slots
 // follow the scalar constants, the spheres' follow the quads', and nothing after.
@@ -175,7 +239,9 @@ const _: () = assert!(shared::SPEC_ROOM_QUADS == shared::SPEC_LIGHT_SPHERES + 1)
 const _: () = assert!(shared::SPEC_ROOM_BOUNDS == shared::SPEC_ROOM_QUADS + 1);
 const _: () = assert!(shared::SPEC_ROOM_FACES == shared::SPEC_ROOM_BOUNDS + 6);
 const _: () = assert!(shared::SPEC_ROOM_ENTERING == shared::SPEC_ROOM_FACES + 6);
-const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_ROOM_ENTERING + 1);
+const _: () = assert!(shared::SPEC_BVH == shared::SPEC_ROOM_ENTERING + 1);
+const _: () = assert!(shared::SPEC_SMOOTH == shared::SPEC_BVH + 1);
+const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_SMOOTH + 1);
 // geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
@@ -242,6 +308,15 @@ pub struct SceneArrays {
     pub spheres: Vec<GpuSphere>,
     pub quads: Vec<GpuQuad>,
     pub lights: Vec<GpuLight>,
+    /// The triangles of every mesh, in world space.
+    pub triangles: Vec<GpuTriangle>,
+    /// The shading normals of the smooth triangles.
+    pub triangle_normals: Vec<GpuTriangleNormals>,
+    /// The BVH over every primitive ([`GpuBvhNode`], root first); empty where the
+    /// renderers walk the spheres and quads themselves.
+    pub bvh_nodes: Vec<GpuBvhNode>,
+    /// The BVH leaves' primitive references ([`prim_ref`]).
+    pub prim_refs: Vec<u32>,
     /// The walls found by one slab test (`crate::prepared::room_walls`);
     /// [`Room::NONE`] where there are none.
     pub room: Room,

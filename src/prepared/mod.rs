@@ -279,11 +279,27 @@ impl PreparedScene {
             guide_vertices: 0,
             occluding_quads,
             scene_kinds: scene_kinds(&materials, &lights),
+            num_triangles: 0,
+            bvh_nodes: 0,
+            pad: [0; 2],
         };
         params.set_camera(&scene.camera);
         room.entering = room.camera_may_enter(&params);
-        let mut prepared =
-            PreparedScene { arrays: SceneArrays { params, materials, spheres, quads, lights, room }, guide: None };
+        let mut prepared = PreparedScene {
+            arrays: SceneArrays {
+                params,
+                materials,
+                spheres,
+                quads,
+                lights,
+                triangles: Vec::new(),
+                triangle_normals: Vec::new(),
+                bvh_nodes: Vec::new(),
+                prim_refs: Vec::new(),
+                room,
+            },
+            guide: None,
+        };
         let bins = match opts.guiding {
             GuidingMode::Off => None,
             GuidingMode::Octant => Some(Bins::OCTANT),
