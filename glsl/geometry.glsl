@@ -9,6 +9,7 @@ struct Hit {
     float t;
     vec3 p;
     vec3 n;       // front-side unit normal
+    vec3 ns;      // unit shading normal on the side of n (n itself but on smooth triangles)
     float eps;    // position error bound
     uint material;
     uint light;
@@ -154,6 +155,65 @@ float intersect_quad_inv(vec4 normal, vec3 origin, vec3 dual_u, vec3 dual_v, vec
 
 float intersect_quad(Quad q, vec3 o, vec3 d, float t_max) {
     return intersect_quad_at(q.normal, q.origin.xyz, q.dual_u.xyz, q.dual_v.xyz, o, d, t_max);
+}
+
+#include "bvh.glsl"
+
+// 1: every ray walks the BVH (params.bvh_nodes > 0; src/prepared `uses_bvh`).
+layout(constant_id = SPEC_BVH) const bool SCENE_BVH = false;
+// 1: some triangle has shading normals: hits interpolate them.
+layout(constant_id = SPEC_SMOOTH) const bool SCENE_SMOOTH = false;
+
+// src/math/geometry.rs `triangle_scale`: a triangle's largest coordinate.
+float triangle_scale(Triangle t) { return max(max_abs(t.v0), max(max_abs(t.v1), max_abs(t.v2))); }
+
+// src/math/geometry.rs `shading_normal`: the vertex normals interpolated at p,
+// on the side of the geometric normal n.
+vec3 shading_normal(TriangleNormals tn, Triangle t, vec3 p, vec3 n) {
+    vec3 e1 = t.v1 - t.v0, e2 = t.v2 - t.v0, ep = p - t.v0;
+    float d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2);
+    float d20 = dot(ep, e1), d21 = dot(ep, e2);
+    float denom = d00 * d11 - d01 * d01;
+    float b1 = clamp((d11 * d20 - d01 * d21) / denom, 0.0, 1.0);
+    float b2 = clamp((d00 * d21 - d01 * d20) / denom, 0.0, 1.0 - b1);
+    float b0 = 1.0 - b1 - b2;
+    vec3 ns = normalize(b0 * tn.n0.xyz + b1 * tn.n1.xyz + b2 * tn.n2.xyz);
+    if (any(isnan(ns)) || any(isinf(ns))) return n;
+    return dot(ns, n) < 0.0 ? -ns : ns;
+}
+
+// src/math/geometry.rs `prim_hit`: the hit at distance t on primitive r.
+Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
+    Hit hit;
+    hit.t = t;
+    hit.p = o + t * d;
+    uint kind = r >> PRIM_KIND_SHIFT;
+    uint i = r & PRIM_INDEX_MASK;
+    if (kind == PRIM_SPHERE) {
+        Sphere s = spheres[i];
+        hit.n = normalize((hit.p - s.center_radius.xyz) / s.center_radius.w);
+        hit.eps = hit_epsilon(hit.p, sphere_hit_scale(s));
+        hit.material = s.material;
+        hit.light = s.light;
+    } else if (kind == PRIM_QUAD) {
+        Quad q = quads[i];
+        hit.n = q.normal.xyz;
+        hit.eps = hit_epsilon(hit.p, quad_scale(q));
+        hit.material = q.material;
+        hit.light = q.light;
+    } else {
+        Triangle tr = triangles[i];
+        hit.n = normalize(cross(tr.v1 - tr.v0, tr.v2 - tr.v0));
+        hit.eps = hit_epsilon(hit.p, triangle_scale(tr));
+        hit.material = tr.material;
+        hit.light = tr.light;
+        if (SCENE_SMOOTH && tr.normals != NO_NORMALS) {
+            hit.ns = shading_normal(triangle_normals[tr.normals], tr, hit.p, hit.n);
+            return hit;
+        }
+    }
+    hit.ns = hit.n;
+    return hit;
 }
 
 // The first CONST_SPHERES spheres and CONST_QUADS quads, as far as the hit
@@ -306,6 +366,13 @@ bool room_hit(vec3 o, vec3 d, vec3 inv_d, float best, out float t, out uint q) {
 // loops: unrolled (the driver's choice once their length is known) they made
 // frames slower.
 bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
+    if (SCENE_BVH) {
+        float t;
+        uint r;
+        if (!bvh_closest(o, d, t_max, t, r)) return false;
+        hit = prim_hit(r, o, d, t);
+        return true;
+    }
     vec3 inv_d = 1.0 / d;
     float best = t_max;
     int found = -1;
@@ -346,21 +413,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
     if (found < 0) return false;
-    hit.t = best;
-    hit.p = o + best * d;
-    if (is_sphere) {
-        Sphere s = spheres[found];
-        hit.n = normalize((hit.p - s.center_radius.xyz) / s.center_radius.w);
-        hit.eps = hit_epsilon(hit.p, sphere_hit_scale(s));
-        hit.material = s.material;
-        hit.light = s.light;
-    } else {
-        Quad q = quads[found];
-        hit.n = q.normal.xyz;
-        hit.eps = hit_epsilon(hit.p, quad_scale(q));
-        hit.material = q.material;
-        hit.light = q.light;
-    }
+    hit = prim_hit((is_sphere ? uint(PRIM_SPHERE) : uint(PRIM_QUAD)) << PRIM_KIND_SHIFT | uint(found), o, d, best);
     return true;
 }
 
@@ -385,10 +438,14 @@ bool meets_light(vec3 o, vec3 d) {
     return false;
 }
 
-// src/math/geometry.rs `occluded`: whether anything but the sphere skip_sphere and
-// the quad skip_quad (the light a shadow ray ends on; NO_SPHERE / NO_QUAD for
-// none) blocks the segment; the quads that bound the scene are not tested.
-bool occluded(vec3 o, vec3 d, float t_max, uint skip_sphere, uint skip_quad) {
+// src/math/geometry.rs `occluded`: whether anything but the primitive skip (the
+// light a shadow ray ends on; NO_PRIM for none) blocks the segment; without a
+// BVH the quads that bound the scene are not tested.
+bool occluded(vec3 o, vec3 d, float t_max, uint skip) {
+    if (SCENE_BVH) return bvh_occluded(o, d, t_max, skip);
+    uint kind = skip >> PRIM_KIND_SHIFT;
+    uint skip_sphere = kind == PRIM_SPHERE && skip != NO_PRIM ? skip & PRIM_INDEX_MASK : NO_SPHERE;
+    uint skip_quad = kind == PRIM_QUAD ? skip & PRIM_INDEX_MASK : NO_QUAD;
     vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \
     if (i < spec_sphere_count() && i != skip_sphere && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
@@ -434,8 +491,7 @@ struct LightSample {
     vec3 wi;
     float dist;
     vec3 end;
-    uint skip_sphere;
-    uint skip_quad;
+    uint skip;    // the primitive the shadow ray leaves out (NO_PRIM: none)
     vec3 le;
     float pdf;
 };
@@ -449,12 +505,42 @@ void shadow_ray(vec3 p, vec3 n, float eps, LightSample ls, out vec3 origin, out 
     dir = seg / len;
 }
 
-// Whether a light is a sphere (else a quad); known where the kernel is
-// specialized to a scene with lights of one kind, so the other's code goes.
-bool is_sphere_light(Light l) {
-    if (!scene_has_light(LIGHT_QUAD)) return true;
-    if (!scene_has_light(LIGHT_SPHERE)) return false;
-    return l.kind == LIGHT_SPHERE;
+// A light's kind (LIGHT_*); known where the kernel is specialized to a scene
+// with lights of one kind, so the others' code goes.
+uint light_kind(Light l) {
+    if (!scene_has_light(LIGHT_QUAD) && !scene_has_light(LIGHT_TRIANGLE)) return LIGHT_SPHERE;
+    if (!scene_has_light(LIGHT_SPHERE) && !scene_has_light(LIGHT_TRIANGLE)) return LIGHT_QUAD;
+    if (!scene_has_light(LIGHT_SPHERE) && !scene_has_light(LIGHT_QUAD)) return LIGHT_TRIANGLE;
+    return l.kind;
+}
+
+// src/math/geometry.rs `choose_light`: the first light whose cdf exceeds u_sel
+// (the last where none does); a walk where there are few, else bisection.
+uint choose_light(uint n_lights, float u_sel) {
+    if (n_lights <= 8u) {
+        for (uint i = 0u; i < n_lights; ++i) {
+            if (u_sel < lights[i].cdf) return i;
+        }
+        return n_lights - 1u;
+    }
+    uint lo = 0u, hi = n_lights - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (u_sel < lights[mid].cdf) hi = mid; else lo = mid + 1u;
+    }
+    return lo;
+}
+
+// src/math/geometry.rs `sample_triangle`: a point uniform by area, the unit
+// geometric normal and the area.
+void sample_triangle(Triangle t, vec2 u, out vec3 p, out vec3 n, out float area) {
+    float su = sqrt(u.x);
+    float b0 = 1.0 - su, b1 = u.y * su;
+    p = b0 * t.v0 + b1 * t.v1 + (1.0 - b0 - b1) * t.v2;
+    vec3 c = cross(t.v1 - t.v0, t.v2 - t.v0);
+    float len = length(c);
+    n = c / len;
+    area = 0.5 * len;
 }
 
 // params.num_lights. A scene with one light has no choice to make and the kernel
@@ -465,20 +551,16 @@ layout(constant_id = SPEC_NUM_LIGHTS) const uint SCENE_LIGHTS = 0u;
 bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     uint n_lights = SCENE_LIGHTS == 1u ? 1u : params.num_lights;
     if (n_lights == 0u) return false;
-    uint li = n_lights - 1u;
-    for (uint i = 0u; i < n_lights; ++i) {
-        if (u_sel < lights[i].cdf) { li = i; break; }
-    }
-    Light light = lights[li];
+    Light light = lights[choose_light(n_lights, u_sel)];
     vec3 lp, ln;
     float pdf_solid;
     uint mat;
     // The shadow ray's end and what it skips: the point itself and the light's
     // primitive, unless a sphere is sampled by area (area_eps > 0).
-    ls.skip_sphere = NO_SPHERE;
-    ls.skip_quad = NO_QUAD;
+    ls.skip = NO_PRIM;
     float area_eps = 0.0;
-    if (is_sphere_light(light)) {
+    uint kind = light_kind(light);
+    if (kind == LIGHT_SPHERE) {
         Sphere s = spheres[light.index];
         vec3 c = s.center_radius.xyz;
         float r = s.center_radius.w;
@@ -505,7 +587,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             ln = -to_world(frame, vec3(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha));
             lp = c + r * ln;
             pdf_solid = 1.0 / (2.0 * PI * omc);
-            ls.skip_sphere = light.index;
+            ls.skip = uint(PRIM_SPHERE) << PRIM_KIND_SHIFT | light.index;
         } else {
             ln = uniform_sphere(u);
             lp = c + r * ln;
@@ -517,7 +599,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             area_eps = hit_epsilon(lp, sphere_scale(s.center_radius));
         }
         mat = s.material;
-    } else {
+    } else if (kind == LIGHT_QUAD) {
         Quad q = quads[light.index];
         lp = q.origin.xyz + u.x * q.edge_u.xyz + u.y * q.edge_v.xyz;
         ln = q.normal.xyz;
@@ -526,8 +608,19 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
         float cos_l = abs(dot(ln, d)) / sqrt(d2);
         if (cos_l <= 0.0) return false;
         pdf_solid = d2 / (q.origin.w * cos_l);
-        ls.skip_quad = light.index;
+        ls.skip = uint(PRIM_QUAD) << PRIM_KIND_SHIFT | light.index;
         mat = q.material;
+    } else {
+        Triangle t = triangles[light.index];
+        float area;
+        sample_triangle(t, u, lp, ln, area);
+        vec3 d = lp - p;
+        float d2 = dot(d, d);
+        float cos_l = abs(dot(ln, d)) / sqrt(d2);
+        if (!(cos_l > 0.0 && area > 0.0)) return false;
+        pdf_solid = d2 / (area * cos_l);
+        ls.skip = uint(PRIM_TRIANGLE) << PRIM_KIND_SHIFT | light.index;
+        mat = t.material;
     }
     vec3 d = lp - p;
     float dist = length(d);
@@ -544,7 +637,8 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
 float light_pdf(uint light_index, vec3 p, vec3 w) {
     Light l = lights[light_index];
     float pdf_solid;
-    if (is_sphere_light(l)) {
+    uint kind = light_kind(l);
+    if (kind == LIGHT_SPHERE) {
         vec4 cr = spheres[l.index].center_radius;
         float r = cr.w;
         vec3 f = p - cr.xyz;
@@ -562,12 +656,21 @@ float light_pdf(uint light_index, vec3 p, vec3 w) {
             vec3 n = (p + t * w - cr.xyz) / r;
             pdf_solid = t * t / (4.0 * PI * r * r * abs(dot(n, w)));
         }
-    } else {
+    } else if (kind == LIGHT_QUAD) {
         Quad q = quads[l.index];
         float cos_l = dot(q.normal.xyz, w);
         float t = (q.normal.w - dot(q.normal.xyz, p)) / cos_l;
         if (!(t > 0.0)) return 0.0;
         pdf_solid = t * t / (q.origin.w * abs(cos_l));
+    } else {
+        Triangle tr = triangles[l.index];
+        vec3 c = cross(tr.v1 - tr.v0, tr.v2 - tr.v0);
+        float len = length(c);
+        vec3 n = c / len;
+        float cos_l = dot(n, w);
+        float t = dot(n, tr.v0 - p) / cos_l;
+        if (!(t > 0.0)) return 0.0;
+        pdf_solid = t * t / (0.5 * len * abs(cos_l));
     }
     return pdf_solid * l.pmf;
 }

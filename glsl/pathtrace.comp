@@ -93,6 +93,19 @@ Bsdf material_bsdf(uint mat) {
     return b;
 }
 
+// src/cpu/mod.rs `shading_side`: the shading normal on the side of n, or n
+// where wo lies on one side of it and the other of the surface.
+vec3 shading_side(vec3 n, Hit hit, vec3 wo) {
+    vec3 ns = n == hit.n ? hit.ns : -hit.ns;
+    return dot(ns, wo) * dot(n, wo) < 0.0 ? n : ns;
+}
+
+// src/cpu/mod.rs `sides_agree`: w on the same side of the surface as of the
+// shading normal (always without smooth triangles).
+bool sides_agree(vec3 n, vec3 ns, vec3 w) {
+    return !SCENE_SMOOTH || !(dot(w, n) * dot(w, ns) < 0.0);
+}
+
 void camera_ray(uint x, uint y, vec2 u, out vec3 o, out vec3 d) {
     float tan_half = params.cam_forward_tan.w;
     float aspect = params.cam_right_aspect.w;
@@ -235,7 +248,8 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         }
         Bsdf bsdf = material_bsdf(hit.material);
         vec3 n = (is_kind(bsdf, MAT_DIELECTRIC) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
-        mat3 frame = make_frame(n);
+        vec3 ns = SCENE_SMOOTH ? shading_side(n, hit, wo) : n;
+        mat3 frame = make_frame(ns);
         vec3 wo_local = to_local(frame, wo);
 
 #if GUIDED
@@ -291,7 +305,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #endif
         if (nee && !last && !bsdf_is_delta(bsdf)) {
             LightSample ls;
-            if (sample_light(hit.p, u_sel, u_light, ls)) {
+            if (sample_light(hit.p, u_sel, u_light, ls) && sides_agree(n, ns, ls.wi)) {
                 vec3 wi_local = to_local(frame, ls.wi);
                 float pdf_bsdf;
                 vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
@@ -300,7 +314,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                     float len;
                     shadow_ray(hit.p, hit.n, hit.eps, ls, origin, dir, len);
                     COUNT_RAY();
-                    if (!occluded(origin, dir, len, ls.skip_sphere, ls.skip_quad)) {
+                    if (!occluded(origin, dir, len, ls.skip)) {
                         // MIS against the mixture's density where the vertex mixes
                         // (src/cpu/mod.rs `trace_path`, `mixture_sample`).
                         float pdf_mix = pdf_bsdf;
@@ -357,6 +371,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
                 delta = s.delta;
             }
         }
+        // A direction on one side of the shading normal and the other of the
+        // surface would leak light through it: dropped (src/cpu/mod.rs).
+        if (!sides_agree(n, ns, wi)) ok = false;
 #if GUIDED
         if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
         // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is

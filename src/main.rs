@@ -20,6 +20,7 @@ use std::time::Instant;
 
 mod cli;
 use cli::bench::*;
+use cli::info::*;
 use cli::render::*;
 use cli::tools::*;
 use cli::view::*;
@@ -45,6 +46,12 @@ enum Command {
     View(ViewArgs),
     /// List the Vulkan devices, their drivers and subgroup sizes, and what rlpt needs that they lack.
     Devices,
+    /// Print what a scene holds: meshes and their triangles, materials, lights, bounds,
+    /// the BVH's nodes and depth, and the device memory it takes.
+    Info {
+        /// Scene file (TOML, see SCENE_FORMAT.md).
+        scene: PathBuf,
+    },
     /// Print relMSE, RMSE and MAPE of an image against a reference (EXR or PNG).
     Compare {
         image: PathBuf,
@@ -326,6 +333,7 @@ fn main() {
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
+        Command::Info { scene } => info(&scene),
         Command::Compare { image, reference, reference_variance, image_variance, max_z, floor } => {
             let agreement = image_variance.as_deref().map(|v| (v, max_z, floor));
             compare(&image, &reference, reference_variance.as_deref(), agreement)

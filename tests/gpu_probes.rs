@@ -106,6 +106,9 @@ fn struct_layout_matches_the_rust_mirrors() {
         guide_vertices: 517,
         occluding_quads: 518,
         scene_kinds: 519,
+        num_triangles: 520,
+        bvh_nodes: 521,
+        pad: [0; 2],
     };
     let bufs = [
         Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),

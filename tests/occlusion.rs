@@ -8,6 +8,7 @@
 
 use rlpt::layout::{GpuQuad, GpuSphere};
 use rlpt::math::geometry::{
+    skip_sphere_quad,
     hit_epsilon, intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light, shadow_ray,
     sphere_blocks,
 };
@@ -19,7 +20,8 @@ use rlpt::prepared::PreparedScene;
 use rlpt::scene::Scene;
 
 /// The hit test against every primitive but the light the segment ends on.
-fn occluded_by_all(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip_sphere: u32, skip_quad: u32) -> bool {
+fn occluded_by_all(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip: u32) -> bool {
+    let (skip_sphere, skip_quad) = skip_sphere_quad(skip);
     let spheres = scene.spheres.iter().enumerate().filter(|&(i, _)| i as u32 != skip_sphere);
     let quads = scene.quads.iter().enumerate().filter(|&(i, _)| i as u32 != skip_quad);
     spheres.into_iter().any(|(_, s)| intersect_sphere(s, o, d, t_max).is_some())
@@ -59,8 +61,8 @@ fn shadow_rays_skip_only_quads_that_cannot_block_them() {
                     let (origin, dir, len) = shadow_ray(hit.p, hit.n, hit.eps, &ls);
                     let target = ls.end;
                     let (culled, full) = (
-                        occluded(&prepared, origin, dir, len, ls.skip_sphere, ls.skip_quad),
-                        occluded_by_all(&prepared, origin, dir, len, ls.skip_sphere, ls.skip_quad),
+                        occluded(&prepared, origin, dir, len, ls.skip),
+                        occluded_by_all(&prepared, origin, dir, len, ls.skip),
                     );
                     rays += 1;
                     blocked += full as u32;

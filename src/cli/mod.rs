@@ -3,6 +3,7 @@
 //! and notes they make before rendering.
 
 pub(crate) mod bench;
+pub(crate) mod info;
 pub(crate) mod render;
 pub(crate) mod tools;
 pub(crate) mod view;

@@ -120,7 +120,8 @@ pub fn trace_path(
         let bsdf = material_bsdf(scene, hit.material);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.kind == MaterialKind::Dielectric || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
-        let frame = Frame::from_normal(n);
+        let ns = shading_side(n, hit, wo);
+        let frame = Frame::from_normal(ns);
         let wo_local = frame.to_local(wo);
 
         // Guiding at this vertex: its cell's row of the table and sampling row.
@@ -189,13 +190,13 @@ pub fn trace_path(
         // found (`mis_targets`).
         let mut nee_here = 0.0f32;
         if nee && !last && !bsdf.is_delta() {
-            if let Some(ls) = sample_light(scene, hit.p, u_sel, u_light) {
+            if let Some(ls) = sample_light(scene, hit.p, u_sel, u_light).filter(|ls| sides_agree(n, ns, ls.wi)) {
                 let wi_local = frame.to_local(ls.wi);
                 let (f, pb) = bsdf_eval_pdf(&bsdf, wo_local, wi_local);
                 if ls.le.max_element() > 0.0 && f.max_element() > 0.0 {
                     let (origin, dir, len) = shadow_ray(hit.p, hit.n, hit.eps, &ls);
                     segments += 1;
-                    if !occluded(scene, origin, dir, len, ls.skip_sphere, ls.skip_quad) {
+                    if !occluded(scene, origin, dir, len, ls.skip) {
                         // MIS against the mixture's density where the vertex mixes
                         // (see `mixture_sample`).
                         let pdf = if g_frac > 0.0 {
@@ -245,6 +246,9 @@ pub fn trace_path(
                 None => None,
             }
         };
+        // A direction on one side of the shading normal and the other of the
+        // surface would leak light through it: dropped.
+        let sampled = sampled.filter(|s| sides_agree(n, ns, s.0));
         if let (Some(g), Some(learn)) = (guide, learn.as_mut().filter(|_| wants_target)) {
             // One-sample estimate of the expected-SARSA target (see src/guide/mod.rs).
             let reflected = match sampled {
@@ -291,6 +295,25 @@ pub fn trace_path(
         }
     }
     (radiance, segments)
+}
+
+/// The hit's shading normal on the side of `n` (the geometric normal as the
+/// vertex shades with it); `n` itself where `wo` lies on one side of the shading
+/// normal and the other of the surface, where the shading frame cannot describe
+/// the vertex. `glsl/pathtrace.comp` `shading_side`.
+pub fn shading_side(n: Vec3, hit: crate::math::geometry::Hit, wo: Vec3) -> Vec3 {
+    let ns = if n == hit.n { hit.ns } else { -hit.ns };
+    if ns.dot(wo) * n.dot(wo) < 0.0 {
+        n
+    } else {
+        ns
+    }
+}
+
+/// Whether `w` lies on the same side of the geometric normal `n` as of the
+/// shading normal `ns`: always where the two are one. `glsl/pathtrace.comp` `sides_agree`.
+pub fn sides_agree(n: Vec3, ns: Vec3, w: Vec3) -> bool {
+    !(w.dot(n) * w.dot(ns) < 0.0)
 }
 
 /// Hands the target of the ray that left through `key` to `r`, and where `factor`

@@ -39,8 +39,14 @@ impl Buffer {
     pub fn new(ctx: &Arc<Context>, name: &str, size: u64, usage: BufferUsage) -> Result<Buffer> {
         let size = size.max(16);
         let (flags, location) = match usage {
-            BufferUsage::Upload { uniform: true } => (vk::BufferUsageFlags::UNIFORM_BUFFER, MemoryLocation::CpuToGpu),
-            BufferUsage::Upload { uniform: false } => (vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::CpuToGpu),
+            BufferUsage::Upload { uniform: true } => (
+                vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            ),
+            BufferUsage::Upload { uniform: false } => (
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            ),
             BufferUsage::Storage => (
                 vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_SRC
@@ -96,6 +102,16 @@ impl Buffer {
         let mut b = Buffer::new(ctx, name, data.len() as u64, BufferUsage::Upload { uniform })?;
         b.write(data);
         Ok(b)
+    }
+
+    /// A device-local storage buffer holding `data`, copied there through a
+    /// host-visible one: large scene data (meshes, the BVH) read from host memory
+    /// would cross the bus at every read.
+    pub fn device_with_data(ctx: &Arc<Context>, name: &str, data: &[u8]) -> Result<Buffer> {
+        let buffer = Buffer::new(ctx, name, data.len() as u64, BufferUsage::Storage)?;
+        let staging = Buffer::with_data(ctx, &format!("{name} upload"), data, false)?;
+        ctx.run_commands(&format!("upload {name}"), |cmd| staging.cmd_copy_to(cmd, &buffer))?;
+        Ok(buffer)
     }
 
     /// Copies `data` to the start of a host-visible buffer.

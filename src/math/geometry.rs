@@ -2,7 +2,7 @@
 //! `glsl/geometry.glsl` is the same code.
 
 use super::Vec3;
-use crate::layout::{GpuQuad, GpuSphere, RenderParams, Room, SceneArrays};
+use crate::layout::{prim_kind_index, prim_ref, GpuQuad, GpuSphere, GpuTriangle, RenderParams, Room, SceneArrays};
 use crate::shared;
 use std::f32::consts::PI;
 
@@ -11,8 +11,11 @@ use std::f32::consts::PI;
 pub struct Hit {
     pub t: f32,
     pub p: Vec3,
-    /// Unit geometric normal on the front side (outward for spheres, edge_u x edge_v for quads).
+    /// Unit geometric normal on the front side (outward for spheres, edge_u x edge_v
+    /// for quads, (v1 - v0) x (v2 - v0) for triangles).
     pub n: Vec3,
+    /// Unit shading normal, on the side of `n`: interpolated on smooth triangles, else `n`.
+    pub ns: Vec3,
     /// Bound on the position error of `p`: origins of new rays move this far off the surface.
     pub eps: f32,
     pub material: u32,
@@ -286,6 +289,10 @@ impl Room {
 /// Nearest hit along the unit direction `d` closer than `t_max`: the spheres,
 /// the room's walls ([`Room::hit`]), then the other quads.
 pub fn intersect(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
+    if !scene.bvh_nodes.is_empty() {
+        let (t, r) = super::bvh::closest_hit(scene, o, d, t_max)?;
+        return Some(prim_hit(scene, r, o, d, t));
+    }
     let mut best = t_max;
     let mut found: Option<(bool, usize)> = None;
     for (i, s) in scene.spheres.iter().enumerate() {
@@ -306,24 +313,80 @@ pub fn intersect(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32) -> Option<Hi
         }
     }
     let (is_sphere, i) = found?;
-    let p = o + best * d;
-    Some(if is_sphere {
-        let s = &scene.spheres[i];
-        let n = ((p - xyz(s.center_radius)) / s.center_radius[3]).normalize();
-        Hit { t: best, p, n, eps: hit_epsilon(p, sphere_hit_scale(s)), material: s.material, light: s.light }
+    let kind = if is_sphere { shared::PRIM_SPHERE } else { shared::PRIM_QUAD };
+    Some(prim_hit(scene, prim_ref(kind, i as u32), o, d, best))
+}
+
+/// The hit at distance `t` along the ray on primitive `r` (a [`prim_ref`]);
+/// `glsl/geometry.glsl` `prim_hit` is its twin.
+pub fn prim_hit(scene: &SceneArrays, r: u32, o: Vec3, d: Vec3, t: f32) -> Hit {
+    let p = o + t * d;
+    let (kind, i) = prim_kind_index(r);
+    let i = i as usize;
+    match kind {
+        shared::PRIM_SPHERE => {
+            let s = &scene.spheres[i];
+            let n = ((p - xyz(s.center_radius)) / s.center_radius[3]).normalize();
+            Hit { t, p, n, ns: n, eps: hit_epsilon(p, sphere_hit_scale(s)), material: s.material, light: s.light }
+        }
+        shared::PRIM_QUAD => {
+            let q = &scene.quads[i];
+            let n = xyz(q.normal);
+            Hit { t, p, n, ns: n, eps: hit_epsilon(p, quad_scale(q)), material: q.material, light: q.light }
+        }
+        _ => {
+            let tri = &scene.triangles[i];
+            let [v0, v1, v2] = tri.vertices();
+            let n = (v1 - v0).cross(v2 - v0).normalize();
+            let ns = if tri.normals == shared::NO_NORMALS {
+                n
+            } else {
+                shading_normal(&scene.triangle_normals[tri.normals as usize].n, [v0, v1, v2], p, n)
+            };
+            Hit { t, p, n, ns, eps: hit_epsilon(p, triangle_scale(tri)), material: tri.material, light: tri.light }
+        }
+    }
+}
+
+/// The scale of a triangle's points for hit offsets: its largest coordinate.
+pub fn triangle_scale(tri: &GpuTriangle) -> f32 {
+    let [a, b, c] = tri.vertices();
+    max_abs(a).max(max_abs(b)).max(max_abs(c))
+}
+
+/// The shading normal at `p` on a smooth triangle: its vertex normals
+/// interpolated by the barycentrics of `p`, turned to the side of the geometric
+/// normal `n` (the winding decides which side is the front; a file's normals
+/// may disagree). `glsl/geometry.glsl` `shading_normal`.
+pub fn shading_normal(normals: &[[f32; 4]; 3], v: [Vec3; 3], p: Vec3, n: Vec3) -> Vec3 {
+    let (e1, e2, ep) = (v[1] - v[0], v[2] - v[0], p - v[0]);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d20, d21) = (ep.dot(e1), ep.dot(e2));
+    let denom = d00 * d11 - d01 * d01;
+    let b1 = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
+    let b2 = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - b1);
+    let b0 = 1.0 - b1 - b2;
+    let ns = (b0 * xyz(normals[0]) + b1 * xyz(normals[1]) + b2 * xyz(normals[2])).normalize();
+    if !ns.is_finite() {
+        n
+    } else if ns.dot(n) < 0.0 {
+        -ns
     } else {
-        let q = &scene.quads[i];
-        Hit { t: best, p, n: xyz(q.normal), eps: hit_epsilon(p, quad_scale(q)), material: q.material, light: q.light }
-    })
+        ns
+    }
 }
 
 /// True if anything blocks the segment from `o` along unit `d` up to `t_max`,
-/// both ends on the scene's surfaces (a shadow ray), leaving out the sphere
-/// `skip_sphere` and the quad `skip_quad` (the light the segment ends on, see
-/// [`LightSample::end`]; `shared::NO_SPHERE` / `NO_QUAD` for none). The quads that
-/// bound the scene cannot block, and are not tested (`crate::prepared::occluding_order`).
+/// both ends on the scene's surfaces (a shadow ray), leaving out the primitive
+/// `skip` (a [`prim_ref`]: the light the segment ends on, see [`LightSample::end`];
+/// `shared::NO_PRIM` for none). Without a BVH the quads that bound the scene
+/// cannot block, and are not tested (`crate::prepared::occluding_order`).
 /// `glsl/geometry.glsl` `occluded`.
-pub fn occluded(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip_sphere: u32, skip_quad: u32) -> bool {
+pub fn occluded(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip: u32) -> bool {
+    if !scene.bvh_nodes.is_empty() {
+        return super::bvh::occluded(scene, o, d, t_max, skip);
+    }
+    let (skip_sphere, skip_quad) = skip_sphere_quad(skip);
     let quads = &scene.quads[..scene.params.occluding_quads as usize];
     scene.spheres.iter().enumerate().any(|(i, s)| i as u32 != skip_sphere && sphere_blocks(s, o, d, t_max))
         || quads.iter().enumerate().any(|(i, q)| i as u32 != skip_quad && intersect_quad(q, o, d, t_max).is_some())
@@ -337,8 +400,40 @@ pub fn occluded(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip_sphere: 
 pub fn meets_light(scene: &SceneArrays, o: Vec3, d: Vec3) -> bool {
     scene.lights.iter().any(|l| match l.kind {
         shared::LIGHT_SPHERE => intersect_sphere(&scene.spheres[l.index as usize], o, d, f32::INFINITY).is_some(),
-        _ => intersect_quad(&scene.quads[l.index as usize], o, d, f32::INFINITY).is_some(),
+        shared::LIGHT_QUAD => intersect_quad(&scene.quads[l.index as usize], o, d, f32::INFINITY).is_some(),
+        _ => {
+            let [a, b, c] = scene.triangles[l.index as usize].vertices();
+            super::triangle::intersect_triangle(a, b, c, o, d, f32::INFINITY).is_some()
+        }
     })
+}
+
+/// The sphere and the quad a shadow ray skips, from the primitive reference
+/// [`LightSample::skip`]: `shared::NO_SPHERE` / `shared::NO_QUAD` where it is of
+/// another kind. `glsl/geometry.glsl` `skip_sphere_quad`.
+pub fn skip_sphere_quad(skip: u32) -> (u32, u32) {
+    let (kind, i) = prim_kind_index(skip);
+    match kind {
+        shared::PRIM_SPHERE if skip != shared::NO_PRIM => (i, shared::NO_QUAD),
+        shared::PRIM_QUAD => (shared::NO_SPHERE, i),
+        _ => (shared::NO_SPHERE, shared::NO_QUAD),
+    }
+}
+
+/// The index of the light `u_sel` in [0, 1) picks: the first whose cdf exceeds
+/// it (the last where rounding leaves none), by bisection.
+/// `glsl/geometry.glsl` `choose_light`.
+pub fn choose_light(scene: &SceneArrays, u_sel: f32) -> usize {
+    let (mut lo, mut hi) = (0usize, scene.lights.len() - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if u_sel < scene.lights[mid].cdf {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
 }
 
 /// Moves `p` off its surface (normal `n`, error bound `eps`) to the side `w` points to.
@@ -357,8 +452,8 @@ pub struct LightSample {
     pub wi: Vec3,
     pub dist: f32,
     /// Where the shadow ray ends. The light point itself, with the light's own
-    /// primitive left out of the test (`skip_sphere`, `skip_quad`), where the light
-    /// cannot hide its point from the shading point: a quad, and a sphere sampled
+    /// primitive left out of the test (`skip`), where the light cannot hide its
+    /// point from the shading point: a quad, a triangle, and a sphere sampled
     /// by its cone from outside (the point is on the near side). An end moved off
     /// the light instead would let the shadow ray pass every surface that crosses
     /// the light within that distance of the point: smallpt's ceiling cuts its lamp
@@ -367,8 +462,8 @@ pub struct LightSample {
     /// pick its far side, which the sphere itself must block: there the end is
     /// moved off the surface towards the shading point and the sphere is tested.
     pub end: Vec3,
-    pub skip_sphere: u32,
-    pub skip_quad: u32,
+    /// The primitive the shadow ray leaves out ([`prim_ref`]), `shared::NO_PRIM` for none.
+    pub skip: u32,
     /// Emitted radiance towards the shading point (zero if it sees the back of a one-sided light).
     pub le: Vec3,
     /// Solid-angle density at the shading point, including the choice of the light.
@@ -377,7 +472,7 @@ pub struct LightSample {
 
 /// The shadow ray of a light sample from a shading point (`p`, geometric normal
 /// `n`, hit epsilon `eps`): origin, unit direction and length, for [`occluded`]
-/// with the sample's `skip_sphere` and `skip_quad`. `glsl/geometry.glsl` `shadow_ray`.
+/// with the sample's `skip`. `glsl/geometry.glsl` `shadow_ray`.
 pub fn shadow_ray(p: Vec3, n: Vec3, eps: f32, ls: &LightSample) -> (Vec3, Vec3, f32) {
     let origin = offset_origin(p, n, eps, ls.wi);
     let seg = ls.end - origin;
@@ -409,23 +504,16 @@ pub fn emitted(scene: &SceneArrays, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
 
 /// Chooses a light by power with `u_sel` and samples a point on it with `u`:
 /// spheres seen from outside by the cone of directions they subtend, spheres
-/// from inside and quads uniformly by area.
+/// from inside, quads and triangles uniformly by area.
 pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
     let n_lights = scene.lights.len();
     if n_lights == 0 {
         return None;
     }
-    let mut li = n_lights - 1;
-    for (i, l) in scene.lights.iter().enumerate() {
-        if u_sel < l.cdf {
-            li = i;
-            break;
-        }
-    }
-    let light = &scene.lights[li];
+    let light = &scene.lights[choose_light(scene, u_sel)];
     // The shadow ray's end and what it skips (see `LightSample::end`): the point
     // itself and the light's primitive, unless a sphere is sampled by area.
-    let (mut skip_sphere, mut skip_quad, mut area_eps) = (shared::NO_SPHERE, shared::NO_QUAD, 0.0f32);
+    let (mut skip, mut area_eps) = (shared::NO_PRIM, 0.0f32);
     let (lp, ln, mat, pdf_solid) = if light.kind == shared::LIGHT_SPHERE {
         let s = &scene.spheres[light.index as usize];
         let c = xyz(s.center_radius);
@@ -453,7 +541,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
             let w = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
             let n = -frame.to_world(w);
             let lp = c + r * n;
-            skip_sphere = light.index;
+            skip = prim_ref(shared::PRIM_SPHERE, light.index);
             (lp, n, s.material, 1.0 / (2.0 * PI * omc))
         } else {
             // Inside (or on) the sphere: uniform by area.
@@ -469,7 +557,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
             area_eps = hit_epsilon(lp, sphere_scale(s.center_radius));
             (lp, n, s.material, d2 / (area * cos_l))
         }
-    } else {
+    } else if light.kind == shared::LIGHT_QUAD {
         let q = &scene.quads[light.index as usize];
         let lp = xyz(q.origin) + u[0] * xyz(q.edge_u) + u[1] * xyz(q.edge_v);
         let n = xyz(q.normal);
@@ -479,8 +567,20 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
         if cos_l <= 0.0 {
             return None;
         }
-        skip_quad = light.index;
+        skip = prim_ref(shared::PRIM_QUAD, light.index);
         (lp, n, q.material, d2 / (q.origin[3] * cos_l))
+    } else {
+        let tri = &scene.triangles[light.index as usize];
+        let [v0, v1, v2] = tri.vertices();
+        let (lp, n, area) = sample_triangle(v0, v1, v2, u);
+        let d = lp - p;
+        let d2 = d.length_squared();
+        let cos_l = n.dot(d).abs() / d2.sqrt();
+        if !(cos_l > 0.0 && area > 0.0) {
+            return None;
+        }
+        skip = prim_ref(shared::PRIM_TRIANGLE, light.index);
+        (lp, n, tri.material, d2 / (area * cos_l))
     };
     let d = lp - p;
     let dist = d.length();
@@ -494,7 +594,19 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
         return None;
     }
     let end = if area_eps > 0.0 { offset_origin(lp, ln, area_eps, -wi) } else { lp };
-    Some(LightSample { wi, dist, end, skip_sphere, skip_quad, le, pdf })
+    Some(LightSample { wi, dist, end, skip, le, pdf })
+}
+
+/// A point uniform by area on the triangle (v0, v1, v2) from `u` (the square
+/// root warp, pbrt's `SampleUniformTriangle`), its unit geometric normal and the
+/// triangle's area. `glsl/geometry.glsl` `sample_triangle`.
+pub fn sample_triangle(v0: Vec3, v1: Vec3, v2: Vec3, u: [f32; 2]) -> (Vec3, Vec3, f32) {
+    let su = u[0].sqrt();
+    let (b0, b1) = (1.0 - su, u[1] * su);
+    let p = b0 * v0 + b1 * v1 + (1.0 - b0 - b1) * v2;
+    let c = (v1 - v0).cross(v2 - v0);
+    let len = c.length();
+    (p, c / len, 0.5 * len)
 }
 
 /// The density with which `sample_light`, called at `p`, picks the direction `w`
@@ -531,7 +643,7 @@ pub fn light_pdf(scene: &SceneArrays, light: u32, p: Vec3, w: Vec3) -> f32 {
             let n = (p + t * w - c) / r;
             t * t / (4.0 * PI * r * r * n.dot(w).abs())
         }
-    } else {
+    } else if l.kind == shared::LIGHT_QUAD {
         let q = &scene.quads[l.index as usize];
         let n = xyz(q.normal);
         let cos = n.dot(w);
@@ -540,6 +652,17 @@ pub fn light_pdf(scene: &SceneArrays, light: u32, p: Vec3, w: Vec3) -> f32 {
             return 0.0;
         }
         t * t / (q.origin[3] * cos.abs())
+    } else {
+        let [v0, v1, v2] = scene.triangles[l.index as usize].vertices();
+        let c = (v1 - v0).cross(v2 - v0);
+        let len = c.length();
+        let n = c / len;
+        let cos = n.dot(w);
+        let t = n.dot(v0 - p) / cos;
+        if !(t > 0.0) {
+            return 0.0;
+        }
+        t * t / (0.5 * len * cos.abs())
     };
     pdf_solid * l.pmf
 }

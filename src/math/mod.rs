@@ -3,9 +3,11 @@
 //! (chi-square probes, GPU-vs-CPU renders), so change them together.
 
 pub mod bsdf;
+pub mod bvh;
 pub mod geometry;
 pub mod rng;
 pub mod sampling;
+pub mod triangle;
 
 pub use glam::Vec3;
 

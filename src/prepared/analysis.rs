@@ -36,7 +36,8 @@ pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
 pub fn last_ray_to_lights(environment: Vec3, lights: &[GpuLight], roulette: bool) -> bool {
     let in_slot = |l: &GpuLight| match l.kind {
         shared::LIGHT_SPHERE => l.index < shared::SPEC_SPHERES,
-        _ => l.index < shared::SPEC_QUADS,
+        shared::LIGHT_QUAD => l.index < shared::SPEC_QUADS,
+        _ => false,
     };
     !roulette && environment == Vec3::ZERO && lights.iter().all(in_slot)
 }

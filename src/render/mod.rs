@@ -143,6 +143,14 @@ fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<(
 /// an error that says what would not fit and what to do, before anything is
 /// allocated. The storage buffers count; uploads and readbacks too where they
 /// take the same memory ([`DeviceInfo::unified_memory`](crate::gpu::DeviceInfo)).
+/// Bytes of the device-local scene geometry: triangles, shading normals, BVH nodes and refs.
+pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
+    (std::mem::size_of_val(scene.triangles.as_slice())
+        + std::mem::size_of_val(scene.triangle_normals.as_slice())
+        + std::mem::size_of_val(scene.bvh_nodes.as_slice())
+        + std::mem::size_of_val(scene.prim_refs.as_slice())) as u64
+}
+
 fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuError> {
     let available = ctx.info.device_memory;
     let p = &scene.params;
@@ -167,12 +175,16 @@ fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuErr
     .iter()
     .map(|&b| b as u64)
     .sum::<u64>();
+    let geometry = scene_geometry_bytes(scene);
     let unified = ctx.info.unified_memory;
-    let needed = accum + table + if unified { accum + uploads } else { 0 };
+    let needed = accum + table + geometry + if unified { accum + uploads } else { 0 };
     if available == 0 || needed <= available {
         return Ok(());
     }
     let mut parts = vec![format!("{} MB for the {}x{} image", mb(accum), p.width, p.height)];
+    if geometry > 0 {
+        parts.push(format!("{} MB for the meshes and the BVH", mb(geometry)));
+    }
     if unified {
         parts.push(format!("{} MB to read it back", mb(accum)));
     }
@@ -336,6 +348,8 @@ pub struct GpuRenderer {
     /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
     /// lights, in the order of the pipeline's first bindings.
     scene_buffers: Vec<Buffer>,
+    /// Triangles, their normals, the BVH's nodes and refs (device-local), in binding order.
+    geometry_buffers: Vec<Buffer>,
     /// The first primitives as the hit tests read them (uniform).
     scene_constants: Buffer,
     /// The scene's hit-test data as specialization constants (`PreparedScene::geometry_specialization`).
@@ -409,6 +423,12 @@ impl GpuRenderer {
             sampling_rows_fit(ctx, cfg)?;
         }
         fits_device_memory(ctx, scene)?;
+        for (what, size) in [
+            ("the triangles", std::mem::size_of_val(scene.triangles.as_slice())),
+            ("the BVH's nodes", std::mem::size_of_val(scene.bvh_nodes.as_slice())),
+        ] {
+            fits_one_buffer(ctx, what, size as u64, "split the scene's meshes or render on the CPU (--device cpu)")?;
+        }
         let geometry = scene.geometry_specialization();
         let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
         let mut scene_buffers = vec![
@@ -417,6 +437,13 @@ impl GpuRenderer {
             Buffer::with_data(ctx, "spheres", bytes(&scene.spheres), false)?,
             Buffer::with_data(ctx, "quads", bytes(&scene.quads), false)?,
             Buffer::with_data(ctx, "lights", bytes(&scene.lights), false)?,
+        ];
+        // The meshes and the BVH: device-local, as they are large and read at every ray.
+        let geometry_buffers = vec![
+            Buffer::device_with_data(ctx, "triangles", bytes(&scene.triangles))?,
+            Buffer::device_with_data(ctx, "triangle normals", bytes(&scene.triangle_normals))?,
+            Buffer::device_with_data(ctx, "BVH nodes", bytes(&scene.bvh_nodes))?,
+            Buffer::device_with_data(ctx, "primitive refs", bytes(&scene.prim_refs))?,
         ];
         let scene_constants = Buffer::with_data(ctx, "scene constants", bytes(&scene.scene_constants()), true)?;
         let accum_size = (p.width as u64) * (p.height as u64) * std::mem::size_of::<AccumPixel>() as u64;
@@ -496,6 +523,7 @@ impl GpuRenderer {
             recording,
             learning,
             scene_buffers,
+            geometry_buffers,
             scene_constants,
             geometry,
             room: scene.room,
@@ -530,6 +558,7 @@ impl GpuRenderer {
         if let Some(l) = &self.learning {
             all.extend([&l.fractions, &l.rows_read]);
         }
+        all.extend(self.geometry_buffers.iter());
         self.pipeline.bind(&all);
         if let Some(r) = &self.recording {
             r.bind(&all);
@@ -907,6 +936,14 @@ fn path_pipeline(
     if guided {
         bindings.push((shared::BINDING_FRACTIONS, Binding::Storage));
         bindings.push((shared::BINDING_ROWS_READ, Binding::Storage));
+    }
+    for b in [
+        shared::BINDING_TRIANGLES,
+        shared::BINDING_TRIANGLE_NORMALS,
+        shared::BINDING_BVH_NODES,
+        shared::BINDING_PRIM_REFS,
+    ] {
+        bindings.push((b, Binding::Storage));
     }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;

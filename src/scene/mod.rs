@@ -97,6 +97,19 @@ pub struct Quad {
     pub material: u32,
 }
 
+/// A triangle mesh of a `[[mesh]]` table, in world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// The file it came from (for messages and `rlpt info`).
+    pub source: PathBuf,
+    pub positions: Vec<Vec3>,
+    /// Unit shading normals per vertex, where the mesh is smooth.
+    pub normals: Option<Vec<Vec3>>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle, the index into `Scene::materials`.
+    pub materials: Vec<u32>,
+}
+
 /// The optional `[guiding]` table: where the guiding grid lies and how fine it is.
 /// Every field is optional; `None` means "choose automatically" (see `rlpt::guide`).
 ///
@@ -122,6 +135,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
     pub quads: Vec<Quad>,
+    pub meshes: Vec<Mesh>,
+    /// What the mesh files asked for that rlpt does not do, one line per file.
+    pub notes: Vec<String>,
     /// The optional `[guiding]` table (all `None` when absent).
     pub guiding: GuidingSettings,
 }

@@ -1,0 +1,140 @@
+//! `rlpt info`: what a scene holds once loaded and prepared, without rendering it.
+
+use crate::*;
+use rlpt::layout::{GpuBvhNode, SceneArrays};
+use rlpt::options::RenderOptions;
+use rlpt::prepared::PreparedScene;
+use rlpt::shared;
+
+/// The depth of the BVH below node `i` (a leaf counts 1).
+fn bvh_depth(nodes: &[GpuBvhNode]) -> u32 {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 1u32)];
+    while let Some((i, depth)) = stack.pop() {
+        let n = &nodes[i];
+        deepest = deepest.max(depth + 1);
+        for child in [n.a_child, n.b_child] {
+            if child & shared::BVH_LEAF == 0 {
+                stack.push((child as usize, depth + 1));
+            }
+        }
+    }
+    deepest
+}
+
+fn megabytes(bytes: u64) -> String {
+    format!("{:.1} MB", bytes as f64 / (1 << 20) as f64)
+}
+
+fn bounds(s: &SceneArrays) -> Option<(glam::Vec3, glam::Vec3)> {
+    let mut lo = glam::Vec3::INFINITY;
+    let mut hi = glam::Vec3::NEG_INFINITY;
+    for sp in &s.spheres {
+        let c = glam::Vec3::new(sp.center_radius[0], sp.center_radius[1], sp.center_radius[2]);
+        lo = lo.min(c - sp.center_radius[3]);
+        hi = hi.max(c + sp.center_radius[3]);
+    }
+    for q in &s.quads {
+        let o = glam::Vec3::new(q.origin[0], q.origin[1], q.origin[2]);
+        let (u, v) = (glam::Vec3::from_slice(&q.edge_u[..3]), glam::Vec3::from_slice(&q.edge_v[..3]));
+        for c in [o, o + u, o + v, o + u + v] {
+            lo = lo.min(c);
+            hi = hi.max(c);
+        }
+    }
+    for t in &s.triangles {
+        for v in t.vertices() {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    (lo.x <= hi.x).then_some((lo, hi))
+}
+
+pub(crate) fn info(path: &Path) -> Result<()> {
+    let start = std::time::Instant::now();
+    let scene = Scene::load(path)?;
+    let loaded = start.elapsed();
+    let start = std::time::Instant::now();
+    let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene))?;
+    let prepare_time = start.elapsed();
+    let v = |p: glam::Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
+    println!("{}", path.display());
+    println!(
+        "  image {}x{}, {} spp, {} bounces; loaded in {:.3} s, prepared (BVH built) in {:.3} s",
+        scene.render.width,
+        scene.render.height,
+        scene.render.spp,
+        scene.render.max_bounces,
+        loaded.as_secs_f64(),
+        prepare_time.as_secs_f64()
+    );
+    println!("  {} spheres, {} quads, {} meshes", scene.spheres.len(), scene.quads.len(), scene.meshes.len());
+    for m in &scene.meshes {
+        println!(
+            "    {}: {} triangles, {} vertices, {}",
+            m.source.display(),
+            m.triangles.len(),
+            m.positions.len(),
+            if m.normals.is_some() { "smooth" } else { "flat" }
+        );
+    }
+    println!("  materials:");
+    for (i, m) in scene.materials.iter().enumerate() {
+        let a = m.albedo;
+        let e = m.emission;
+        let mut line = format!("    [{i}] {}: {:?}, albedo {}", m.name, m.kind, v(a));
+        if m.kind == rlpt::scene::MaterialKind::Glossy {
+            line += &format!(", roughness {}", m.roughness);
+        }
+        if m.kind == rlpt::scene::MaterialKind::Dielectric {
+            line += &format!(", ior {}", m.ior);
+        }
+        if m.emits() {
+            line += &format!(", emission {}{}", v(e), if m.two_sided { " (two-sided)" } else { "" });
+        }
+        println!("{line}");
+    }
+    for note in &scene.notes {
+        println!("  note: {note}");
+    }
+    let count = |k: u32| prepared.lights.iter().filter(|l| l.kind == k).count();
+    println!(
+        "  lights: {} ({} spheres, {} quads, {} triangles); environment {}",
+        prepared.lights.len(),
+        count(shared::LIGHT_SPHERE),
+        count(shared::LIGHT_QUAD),
+        count(shared::LIGHT_TRIANGLE),
+        v(scene.environment)
+    );
+    if let Some((lo, hi)) = bounds(&prepared) {
+        println!("  bounds {} to {}", v(lo), v(hi));
+    }
+    if prepared.bvh_nodes.is_empty() {
+        println!("  no BVH: the kernel walks the {} primitives itself", scene.spheres.len() + scene.quads.len());
+    } else {
+        println!(
+            "  BVH: {} nodes, depth {}, {} primitive refs",
+            prepared.bvh_nodes.len(),
+            bvh_depth(&prepared.bvh_nodes),
+            prepared.prim_refs.len()
+        );
+    }
+    let geometry = rlpt::render::scene_geometry_bytes(&prepared);
+    let small = [
+        std::mem::size_of_val(prepared.materials.as_slice()),
+        std::mem::size_of_val(prepared.spheres.as_slice()),
+        std::mem::size_of_val(prepared.quads.as_slice()),
+        std::mem::size_of_val(prepared.lights.as_slice()),
+    ]
+    .iter()
+    .sum::<usize>() as u64;
+    let accum = scene.render.width as u64 * scene.render.height as u64 * 32;
+    println!(
+        "  device memory: {} scene geometry (triangles, normals, BVH), {} other scene data, {} image",
+        megabytes(geometry),
+        megabytes(small),
+        megabytes(accum)
+    );
+    Ok(())
+}
