@@ -8,9 +8,8 @@
 
 use rlpt::layout::{GpuQuad, GpuSphere};
 use rlpt::math::geometry::{
-    skip_sphere_quad,
     hit_epsilon, intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light, shadow_ray,
-    sphere_blocks,
+    skip_sphere_quad, sphere_blocks,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::sampling::uniform_sphere;

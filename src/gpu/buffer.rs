@@ -39,14 +39,12 @@ impl Buffer {
     pub fn new(ctx: &Arc<Context>, name: &str, size: u64, usage: BufferUsage) -> Result<Buffer> {
         let size = size.max(16);
         let (flags, location) = match usage {
-            BufferUsage::Upload { uniform: true } => (
-                vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::CpuToGpu,
-            ),
-            BufferUsage::Upload { uniform: false } => (
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::CpuToGpu,
-            ),
+            BufferUsage::Upload { uniform: true } => {
+                (vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)
+            }
+            BufferUsage::Upload { uniform: false } => {
+                (vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)
+            }
             BufferUsage::Storage => (
                 vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_SRC

@@ -423,7 +423,11 @@ fn prim_boxes(spheres: &[GpuSphere], quads: &[GpuQuad], triangles: &[GpuTriangle
     }
     for (i, t) in triangles.iter().enumerate() {
         let [a, b, c] = t.vertices();
-        boxes.push(bvh::PrimBox { prim: prim_ref(shared::PRIM_TRIANGLE, i as u32), lo: a.min(b).min(c), hi: a.max(b).max(c) });
+        boxes.push(bvh::PrimBox {
+            prim: prim_ref(shared::PRIM_TRIANGLE, i as u32),
+            lo: a.min(b).min(c),
+            hi: a.max(b).max(c),
+        });
     }
     boxes
 }

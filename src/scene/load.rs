@@ -503,7 +503,18 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
         );
     }
 
-    Ok(Scene { source: PathBuf::from("<string>"), camera, render, environment, materials, spheres, quads, meshes: Vec::new(), notes: Vec::new(), guiding })
+    Ok(Scene {
+        source: PathBuf::from("<string>"),
+        camera,
+        render,
+        environment,
+        materials,
+        spheres,
+        quads,
+        meshes: Vec::new(),
+        notes: Vec::new(),
+        guiding,
+    })
 }
 
 /// `[name]`: one table (a header table or an inline table), not an array of tables.
