@@ -250,6 +250,14 @@
 #define ROWS_ALL 0
 #define ROWS_PHASE 1
 #define ROWS_NOT_PHASE 2
+// raycast.comp (`rlpt bench --rays`): invocations per group, its modes, and
+// its two buffers' bindings (after the scene's).
+#define RAYCAST_GROUP 64
+#define RAYCAST_CAMERA 0
+#define RAYCAST_BOUNCE 1
+#define RAYCAST_SHADOW 2
+#define BINDING_RAYCAST_HITS 18
+#define BINDING_RAYCAST_COUNT 19
 // tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16

@@ -11,6 +11,7 @@
 #include "rng.glsl"
 #include "bsdf.glsl"
 #include "geometry.glsl"
+#include "camera.glsl"
 #include "reduce.glsl"
 #ifdef RLPT_GUIDING
 #include "guide.glsl"
@@ -106,14 +107,6 @@ bool sides_agree(vec3 n, vec3 ns, vec3 w) {
     return !SCENE_SMOOTH || !(dot(w, n) * dot(w, ns) < 0.0);
 }
 
-void camera_ray(uint x, uint y, vec2 u, out vec3 o, out vec3 d) {
-    float tan_half = params.cam_forward_tan.w;
-    float aspect = params.cam_right_aspect.w;
-    float sx = (2.0 * (float(x) + u.x) / float(params.width) - 1.0) * tan_half * aspect;
-    float sy = (1.0 - 2.0 * (float(y) + u.y) / float(params.height)) * tan_half;
-    d = normalize(params.cam_forward_tan.xyz + sx * params.cam_right_aspect.xyz + sy * params.cam_up.xyz);
-    o = params.cam_position_near.xyz + params.cam_position_near.w * d;
-}
 
 #ifdef RLPT_GUIDING
 // src/cpu/mod.rs `survival_probability`.

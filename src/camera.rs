@@ -18,7 +18,7 @@ pub fn pixel_jitter(sample: u32, j: [f32; 2]) -> [f32; 2] {
     [((sample % sx) as f32 + j[0]) / sx as f32, ((sample / sx) as f32 + j[1]) / sy as f32]
 }
 
-/// The primary ray through pixel (x, y) jittered by `u`; `glsl/pathtrace.comp` `camera_ray`.
+/// The primary ray through pixel (x, y) jittered by `u`; `glsl/camera.glsl` `camera_ray`.
 pub fn camera_ray(p: &RenderParams, x: u32, y: u32, u: [f32; 2]) -> (Vec3, Vec3) {
     let tan = p.cam_forward_tan[3];
     let aspect = p.cam_right_aspect[3];

@@ -30,6 +30,11 @@ pub(crate) struct BenchArgs {
     /// kernel that `render` and `view` run).
     #[arg(long, value_enum, default_value_t = Counters::All)]
     counters: Counters,
+    /// Time the traversal alone instead of frames: a camera ray per pixel, a diffuse
+    /// bounce ray from each hit, and an any-hit ray along it, each kind N times
+    /// (the median's rays per second; GPU only).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    rays: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -78,6 +83,39 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
     let prepared = PreparedScene::new(&scene, &opts)?;
     warn_grid(&scene, &prepared);
     warn_memory(&opts, args.settings.device);
+    if let Some(repeats) = args.rays {
+        if args.settings.device == DeviceKind::Cpu {
+            bail!("--rays times GPU dispatches: it needs --device gpu");
+        }
+        let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
+        let r = rlpt::render::raycast::measure_ray_rates(&ctx, &prepared, repeats)?;
+        println!(
+            "{} on {} ({}x{}), median of {repeats}:",
+            args.scene.display(),
+            ctx.info.name,
+            opts.width,
+            opts.height
+        );
+        println!("  camera rays {:>10}: {:8.3} ms, {:8.1} Mrays/s", r.camera_rays, r.camera_ms, r.camera_mrays_per_s);
+        println!(
+            "  bounce rays {:>10}: {:8.3} ms, {:8.1} Mrays/s ({:.0} % hit)",
+            r.bounce_rays,
+            r.bounce_ms,
+            r.bounce_mrays_per_s,
+            100.0 * r.bounce_hit_share
+        );
+        println!(
+            "  any-hit rays {:>9}: {:8.3} ms, {:8.1} Mrays/s ({:.0} % blocked)",
+            r.bounce_rays,
+            r.shadow_ms,
+            r.shadow_mrays_per_s,
+            100.0 * r.shadow_blocked_share
+        );
+        if let Some(p) = &args.json {
+            std::fs::write(p, serde_json::to_string_pretty(&r)?).with_context(|| format!("writing {}", p.display()))?;
+        }
+        return Ok(());
+    }
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
     let mut times = Vec::with_capacity(args.frames as usize);
     let (device, driver, clock, pipelines) = match args.settings.device {

@@ -11,6 +11,7 @@ use crate::shared;
 use std::sync::Arc;
 
 pub mod display;
+pub mod raycast;
 
 /// What one submission of frames measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
