@@ -29,7 +29,7 @@ fn every_scene_in_the_scenes_directory_loads() {
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(scene.source, path);
         assert!(!scene.materials.is_empty());
-        assert!(!scene.spheres.is_empty() || !scene.quads.is_empty());
+        assert!(!scene.spheres.is_empty() || !scene.quads.is_empty() || !scene.meshes.is_empty());
         assert!((scene.camera.forward.length() - 1.0).abs() < 1e-6);
         let n = scene.materials.len() as u32;
         assert!(scene.spheres.iter().all(|s| s.material < n));
