@@ -241,9 +241,11 @@ fn rays_from_inside_a_closed_mesh_at_its_vertices_and_edges_never_escape() {
         );
         // The centre and random points inside (up to half the radius out).
         let mut origins = vec![center];
-        origins.extend((0..3).map(|_| {
-            center + rlpt::math::sampling::uniform_sphere(rng.next_2d()) * (0.5 * radius * rng.next_f32())
-        }));
+        origins.extend(
+            (0..3).map(|_| {
+                center + rlpt::math::sampling::uniform_sphere(rng.next_2d()) * (0.5 * radius * rng.next_f32())
+            }),
+        );
         // Every vertex; every edge's midpoint and a random point of it.
         let mut targets = v.clone();
         for &(a, b) in &edges {
@@ -296,9 +298,8 @@ fn measure_build_and_walk() {
             })
             .collect()
     };
-    let flat = |ply: &Ply| -> Vec<[Vec3; 3]> {
-        ply.triangles.iter().map(|t| t.map(|i| ply.positions[i as usize])).collect()
-    };
+    let flat =
+        |ply: &Ply| -> Vec<[Vec3; 3]> { ply.triangles.iter().map(|t| t.map(|i| ply.positions[i as usize])).collect() };
     let bunny_tris = flat(&read_ply(&asset("stanford_bunny/bun_zipper.ply")));
     let mut bmw_tris = Vec::new();
     let mut files: Vec<_> = std::fs::read_dir(asset("bmw_m6_pbrt/geometry"))

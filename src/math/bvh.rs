@@ -308,11 +308,10 @@ pub fn build(prims: &[PrimBox]) -> Bvh {
     if prims.is_empty() {
         return Bvh::default();
     }
-    let mut items: Vec<Item> = prims
-        .par_iter()
-        .map(|p| Item { b: Aabb { lo: p.lo, hi: p.hi }, c: p.lo + p.hi, prim: p.prim })
-        .collect();
-    let bounds = items.par_iter().fold(|| Aabb::EMPTY, |a, it| a.union(&it.b)).reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
+    let mut items: Vec<Item> =
+        prims.par_iter().map(|p| Item { b: Aabb { lo: p.lo, hi: p.hi }, c: p.lo + p.hi, prim: p.prim }).collect();
+    let bounds =
+        items.par_iter().fold(|| Aabb::EMPTY, |a, it| a.union(&it.b)).reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
     let tree = build_node(&mut items, 0, bounds, 1);
     let children = match tree {
         Tree::Inner(c) => c,
@@ -337,7 +336,17 @@ struct WalkRay {
 
 impl WalkRay {
     fn new(o: Vec3, d: Vec3) -> WalkRay {
-        let safe = |x: f32| if x.abs() < MIN_DIR { if x < 0.0 { -MIN_DIR } else { MIN_DIR } } else { x };
+        let safe = |x: f32| {
+            if x.abs() < MIN_DIR {
+                if x < 0.0 {
+                    -MIN_DIR
+                } else {
+                    MIN_DIR
+                }
+            } else {
+                x
+            }
+        };
         let inv_d = Vec3::ONE / Vec3::new(safe(d.x), safe(d.y), safe(d.z));
         WalkRay { o, d, inv_d, tri: TriangleRay::new(o, d) }
     }
@@ -528,9 +537,7 @@ mod tests {
     fn check(bvh: &Bvh, prims: &[PrimBox]) {
         let mut seen = vec![0u32; prims.len()];
         let by_ref: std::collections::HashMap<u32, &PrimBox> = prims.iter().map(|p| (p.prim, p)).collect();
-        let inside = |lo: [f32; 3], hi: [f32; 3], p: &PrimBox| {
-            (0..3).all(|k| lo[k] <= p.lo[k] && p.hi[k] <= hi[k])
-        };
+        let inside = |lo: [f32; 3], hi: [f32; 3], p: &PrimBox| (0..3).all(|k| lo[k] <= p.lo[k] && p.hi[k] <= hi[k]);
         // (node, depth, the box it was reached through)
         let mut todo = vec![(0u32, 1u32)];
         let mut max_depth = 0;
@@ -539,7 +546,9 @@ mod tests {
             reached += 1;
             max_depth = max_depth.max(depth);
             let n = &bvh.nodes[node as usize];
-            for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
+            for (child, count, lo, hi) in
+                [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)]
+            {
                 if child & shared::BVH_LEAF != 0 {
                     let first = (child & !shared::BVH_LEAF) as usize;
                     for &r in &bvh.prim_refs[first..first + count as usize] {

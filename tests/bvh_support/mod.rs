@@ -129,7 +129,13 @@ fn base_scene() -> Scene {
 }
 
 fn mesh(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
-    Mesh { source: PathBuf::from("test mesh"), positions, normals: None, materials: vec![0; triangles.len()], triangles }
+    Mesh {
+        source: PathBuf::from("test mesh"),
+        positions,
+        normals: None,
+        materials: vec![0; triangles.len()],
+        triangles,
+    }
 }
 
 fn prepare(scene: &Scene) -> PreparedScene {
