@@ -138,7 +138,8 @@ bool bvh_prim_blocks(WalkRay r, uint ref, float t_max) {
 // src/math/bvh.rs `closest_hit`: the nearest primitive in (0, t_max), its
 // distance t and reference prim. Each node is read once; the leaves the ray
 // enters are tested there, the nearer first; of the interior children it enters,
-// the walk descends into the nearer and pushes the farther.
+// the walk descends into the nearer and pushes the farther. The BVH has a node
+// at least (callers walk it where params.bvh_nodes > 0).
 bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
     WalkRay r = walk_ray(o, d);
     float best = t_max;
@@ -151,7 +152,8 @@ bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
         float ta = box_enter(r, n.a_lo, n.a_hi, best);
         float tb = box_enter(r, n.b_lo, n.b_hi, best);
         bool b_first = tb >= 0.0 && (ta < 0.0 || tb < ta);
-        uint next[2];
+        // The interior children entered, nearer first (no array: registers).
+        uint near_child = 0u, far_child = 0u;
         uint inner = 0u;
         for (uint k = 0u; k < 2u; ++k) {
             bool is_b = (k == 0u) == b_first;
@@ -168,14 +170,15 @@ bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
                     if (h > 0.0) { best = h; prim = ref; }
                 }
             } else {
-                next[inner++] = child;
+                if (inner == 0u) near_child = child; else far_child = child;
+                ++inner;
             }
         }
         if (inner == 2u) {
-            stack[sp++] = next[1];
-            node = next[0];
+            stack[sp++] = far_child;
+            node = near_child;
         } else if (inner == 1u) {
-            node = next[0];
+            node = near_child;
         } else if (sp == 0u) {
             break;
         } else {
@@ -199,7 +202,8 @@ bool bvh_occluded(vec3 o, vec3 d, float t_max, uint skip) {
         float ta = box_enter(r, n.a_lo, n.a_hi, t_max);
         float tb = box_enter(r, n.b_lo, n.b_hi, t_max);
         bool b_first = tb >= 0.0 && (ta < 0.0 || tb < ta);
-        uint next[2];
+        // The interior children entered, nearer first (no array: registers).
+        uint near_child = 0u, far_child = 0u;
         uint inner = 0u;
         for (uint k = 0u; k < 2u; ++k) {
             bool is_b = (k == 0u) == b_first;
@@ -214,14 +218,15 @@ bool bvh_occluded(vec3 o, vec3 d, float t_max, uint skip) {
                     if (ref != skip && bvh_prim_blocks(r, ref, t_max)) return true;
                 }
             } else {
-                next[inner++] = child;
+                if (inner == 0u) near_child = child; else far_child = child;
+                ++inner;
             }
         }
         if (inner == 2u) {
-            stack[sp++] = next[1];
-            node = next[0];
+            stack[sp++] = far_child;
+            node = near_child;
         } else if (inner == 1u) {
-            node = next[0];
+            node = near_child;
         } else if (sp == 0u) {
             break;
         } else {
