@@ -185,8 +185,8 @@ fn best_split(bins: &Bins) -> Option<(f32, usize, usize, Aabb, Aabb)> {
     best
 }
 
-/// Builds the subtree of `items`, which start at `first` in the final order, lie
-/// in `bounds`, and hang `depth` nodes below the root.
+/// Builds the subtree of `items`, which start at `first` in the final order and
+/// lie in `bounds`; its node is at level `depth` (the root's is 1).
 fn build_node(items: &mut [Item], first: usize, bounds: Aabb, depth: u32) -> Tree {
     let n = items.len();
     let leaf = Tree::Leaf { first: first as u32, count: n as u32 };
