@@ -1,47 +1,239 @@
-// PLACEHOLDER (replaced by the bvh branch): every primitive of the one leaf.
+// The BVH walk and the watertight triangle test: src/math/bvh.rs and
+// src/math/triangle.rs, the same algorithm, child order and tests.
 #ifndef RLPT_BVH_GLSL
 #define RLPT_BVH_GLSL
-float intersect_triangle(vec3 v0, vec3 v1, vec3 v2, vec3 o, vec3 d, float t_max) {
-    vec3 e1 = v1 - v0, e2 = v2 - v0;
-    vec3 p = cross(d, e2);
-    float det = dot(e1, p);
+#include "scene.glsl"
+#include "primitives.glsl"
+
+// src/math/bvh.rs `EXIT_SCALE` (a box's exit distance, scaled so that rounding,
+// the reciprocal's 2.5 ulp included, never culls a box the ray meets; Ize 2013)
+// and `MIN_DIR` (direction components below it are taken as it before 1 / d).
+const float BVH_EXIT_SCALE = 1.0 + 1.0 / 524288.0;
+const float BVH_MIN_DIR = 1e-30;
+
+// src/math/triangle.rs `TriangleRay`: the ray of the watertight test (Woop,
+// Benthin, Wald 2013), its axes permuted so that d's largest component is z
+// (kz; kx, ky follow cyclically) and its shear. Two-sided, so the paper's swap
+// of kx and ky where d[kz] < 0 is left out.
+struct TriangleRay {
+    uint kz;
+    vec3 o;      // the origin, permuted
+    vec3 s;      // d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]
+};
+
+vec3 wt_permute(vec3 v, uint kz) { return kz == 0u ? v.yzx : (kz == 1u ? v.zxy : v); }
+
+TriangleRay triangle_ray(vec3 o, vec3 d) {
+    vec3 a = abs(d);
+    uint kz = (a.x >= a.y && a.x >= a.z) ? 0u : (a.y >= a.z ? 1u : 2u);
+    vec3 dp = wt_permute(d, kz);
+    TriangleRay r;
+    r.kz = kz;
+    r.o = wt_permute(o, kz);
+    r.s = vec3(dp.x / dp.z, dp.y / dp.z, 1.0 / dp.z);
+    return r;
+}
+
+// a * b - round(a * b), exactly: Dekker's product with Veltkamp's split, which
+// needs only correctly rounded * and - (Vulkan lets fma() round twice).
+float product_error(float a, float b) {
+    precise float p = a * b;
+    precise float ca = 4097.0 * a;
+    precise float cb = 4097.0 * b;
+    precise float ah = ca - (ca - a);
+    precise float bh = cb - (cb - b);
+    precise float al = a - ah;
+    precise float bl = b - bh;
+    precise float e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    return e;
+}
+
+// src/math/triangle.rs `edge_function`: a.x b.y - a.y b.x, recomputed where it
+// rounds to 0. The two products then round to the same float, so the exact
+// value is the difference of their rounding errors: rounded once, it is the
+// f64 result the Rust rounds to f32. precise: no fusing, so the function of an
+// edge is exactly the negation of its neighbour's (watertightness).
+float edge_function(vec2 a, vec2 b) {
+    precise float e = a.x * b.y - a.y * b.x;
+    if (e != 0.0) return e;
+    precise float x = product_error(a.x, b.y) - product_error(a.y, b.x);
+    return x;
+}
+
+// src/math/triangle.rs `TriangleRay::intersect`: t in (0, t_max) of a hit from
+// either side, or -1.
+float triangle_hit(TriangleRay r, vec3 v0, vec3 v1, vec3 v2, float t_max) {
+    vec3 a = wt_permute(v0, r.kz) - r.o;
+    vec3 b = wt_permute(v1, r.kz) - r.o;
+    vec3 c = wt_permute(v2, r.kz) - r.o;
+    // The sheared vertices: the same bits for a vertex in every triangle.
+    precise vec2 sa = vec2(a.x - r.s.x * a.z, a.y - r.s.y * a.z);
+    precise vec2 sb = vec2(b.x - r.s.x * b.z, b.y - r.s.y * b.z);
+    precise vec2 sc = vec2(c.x - r.s.x * c.z, c.y - r.s.y * c.z);
+    float u = edge_function(sc, sb);
+    float v = edge_function(sa, sc);
+    float w = edge_function(sb, sa);
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return -1.0;
+    float det = u + v + w;
     if (det == 0.0) return -1.0;
-    float inv = 1.0 / det;
-    vec3 s = o - v0;
-    float u = dot(s, p) * inv;
-    if (u < 0.0 || u > 1.0) return -1.0;
-    vec3 q = cross(s, e1);
-    float v = dot(d, q) * inv;
-    if (v < 0.0 || u + v > 1.0) return -1.0;
-    float t = dot(e2, q) * inv;
+    float t = (u * (r.s.z * a.z) + v * (r.s.z * b.z) + w * (r.s.z * c.z)) / det;
     return (t > 0.0 && t < t_max) ? t : -1.0;
 }
-float leaf_prim_t(uint r, vec3 o, vec3 d, float t_max) {
-    uint k = r >> PRIM_KIND_SHIFT, i = r & PRIM_INDEX_MASK;
-    if (k == PRIM_TRIANGLE) { Triangle tr = triangles[i]; return intersect_triangle(tr.v0, tr.v1, tr.v2, o, d, t_max); }
-    if (k == PRIM_SPHERE) return intersect_sphere(spheres[i], o, d, t_max);
-    return intersect_quad(quads[i], o, d, t_max);
+
+// src/math/triangle.rs `intersect_triangle`: -1 on a miss, as the sphere and quad tests.
+float intersect_triangle(vec3 v0, vec3 v1, vec3 v2, vec3 o, vec3 d, float t_max) {
+    return triangle_hit(triangle_ray(o, d), v0, v1, v2, t_max);
 }
+
+// src/math/bvh.rs `WalkRay`.
+struct WalkRay {
+    vec3 o;
+    vec3 d;
+    vec3 inv_d;
+    TriangleRay tri;
+};
+
+WalkRay walk_ray(vec3 o, vec3 d) {
+    WalkRay r;
+    r.o = o;
+    r.d = d;
+    vec3 safe = mix(d, mix(vec3(BVH_MIN_DIR), vec3(-BVH_MIN_DIR), lessThan(d, vec3(0.0))),
+                    lessThan(abs(d), vec3(BVH_MIN_DIR)));
+    r.inv_d = 1.0 / safe;
+    r.tri = triangle_ray(o, d);
+    return r;
+}
+
+// src/math/bvh.rs `WalkRay::enters`: the slab test; the entry distance, or -1
+// where the ray misses the box within (0, t_max).
+float box_enter(WalkRay r, vec3 lo, vec3 hi, float t_max) {
+    vec3 t0 = (lo - r.o) * r.inv_d;
+    vec3 t1 = (hi - r.o) * r.inv_d;
+    vec3 near = min(t0, t1);
+    vec3 far = max(t0, t1);
+    float enter = max(max(near.x, near.y), max(near.z, 0.0));
+    float exit = min(min(far.x, far.y), min(far.z, t_max)) * BVH_EXIT_SCALE;
+    return enter <= exit ? enter : -1.0;
+}
+
+// src/math/bvh.rs `WalkRay::prim_t`: the distance to primitive ref in (0, t_max), or -1.
+float bvh_prim_t(WalkRay r, uint ref, float t_max) {
+    uint kind = ref >> PRIM_KIND_SHIFT;
+    uint i = ref & PRIM_INDEX_MASK;
+    if (kind == PRIM_TRIANGLE) {
+        Triangle tr = triangles[i];
+        return triangle_hit(r.tri, tr.v0, tr.v1, tr.v2, t_max);
+    }
+    if (kind == PRIM_SPHERE) return intersect_sphere(spheres[i], r.o, r.d, t_max);
+    return intersect_quad(quads[i], r.o, r.d, t_max);
+}
+
+// src/math/bvh.rs `WalkRay::prim_blocks`: spheres by sphere_blocks.
+bool bvh_prim_blocks(WalkRay r, uint ref, float t_max) {
+    uint kind = ref >> PRIM_KIND_SHIFT;
+    if (kind == PRIM_SPHERE) return sphere_blocks(spheres[ref & PRIM_INDEX_MASK], r.o, r.d, t_max);
+    return bvh_prim_t(r, ref, t_max) > 0.0;
+}
+
+// src/math/bvh.rs `closest_hit`: the nearest primitive in (0, t_max), its
+// distance t and reference prim. Each node is read once; the leaves the ray
+// enters are tested there, the nearer first; of the interior children it enters,
+// the walk descends into the nearer and pushes the farther. The BVH has a node
+// at least (callers walk it where params.bvh_nodes > 0).
 bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
-    float best = t_max; prim = NO_PRIM;
-    uint n = bvh_nodes[0].a_count;
-    for (uint j = 0u; j < n; ++j) {
-        uint r = prim_refs[j];
-        float h = leaf_prim_t(r, o, d, best);
-        if (h > 0.0) { best = h; prim = r; }
+    WalkRay r = walk_ray(o, d);
+    float best = t_max;
+    prim = NO_PRIM;
+    uint stack[BVH_STACK];
+    uint sp = 0u;
+    uint node = 0u;
+    while (true) {
+        BvhNode n = bvh_nodes[node];
+        float ta = box_enter(r, n.a_lo, n.a_hi, best);
+        float tb = box_enter(r, n.b_lo, n.b_hi, best);
+        bool b_first = tb >= 0.0 && (ta < 0.0 || tb < ta);
+        // The interior children entered, nearer first (no array: registers).
+        uint near_child = 0u, far_child = 0u;
+        uint inner = 0u;
+        for (uint k = 0u; k < 2u; ++k) {
+            bool is_b = (k == 0u) == b_first;
+            float te = is_b ? tb : ta;
+            uint child = is_b ? n.b_child : n.a_child;
+            // A leaf before may have brought best nearer than this child.
+            if (te < 0.0 || te > best * BVH_EXIT_SCALE) continue;
+            if ((child & BVH_LEAF) != 0u) {
+                uint first = child & ~BVH_LEAF;
+                uint end = first + (is_b ? n.b_count : n.a_count);
+                for (uint j = first; j < end; ++j) {
+                    uint ref = prim_refs[j];
+                    float h = bvh_prim_t(r, ref, best);
+                    if (h > 0.0) { best = h; prim = ref; }
+                }
+            } else {
+                if (inner == 0u) near_child = child; else far_child = child;
+                ++inner;
+            }
+        }
+        if (inner == 2u) {
+            stack[sp++] = far_child;
+            node = near_child;
+        } else if (inner == 1u) {
+            node = near_child;
+        } else if (sp == 0u) {
+            break;
+        } else {
+            node = stack[--sp];
+        }
     }
     t = best;
     return prim != NO_PRIM;
 }
+
+// src/math/bvh.rs `occluded`: whether anything but the primitive skip (a
+// reference, or NO_PRIM) blocks the segment (0, t_max); the first blocker ends
+// the walk, which is bvh_closest's with t_max fixed.
 bool bvh_occluded(vec3 o, vec3 d, float t_max, uint skip) {
-    uint n = bvh_nodes[0].a_count;
-    for (uint j = 0u; j < n; ++j) {
-        uint r = prim_refs[j];
-        if (r == skip) continue;
-        uint k = r >> PRIM_KIND_SHIFT, i = r & PRIM_INDEX_MASK;
-        if (k == PRIM_SPHERE) { if (sphere_blocks(spheres[i], o, d, t_max)) return true; }
-        else if (leaf_prim_t(r, o, d, t_max) > 0.0) return true;
+    WalkRay r = walk_ray(o, d);
+    uint stack[BVH_STACK];
+    uint sp = 0u;
+    uint node = 0u;
+    while (true) {
+        BvhNode n = bvh_nodes[node];
+        float ta = box_enter(r, n.a_lo, n.a_hi, t_max);
+        float tb = box_enter(r, n.b_lo, n.b_hi, t_max);
+        bool b_first = tb >= 0.0 && (ta < 0.0 || tb < ta);
+        // The interior children entered, nearer first (no array: registers).
+        uint near_child = 0u, far_child = 0u;
+        uint inner = 0u;
+        for (uint k = 0u; k < 2u; ++k) {
+            bool is_b = (k == 0u) == b_first;
+            float te = is_b ? tb : ta;
+            uint child = is_b ? n.b_child : n.a_child;
+            if (te < 0.0) continue;
+            if ((child & BVH_LEAF) != 0u) {
+                uint first = child & ~BVH_LEAF;
+                uint end = first + (is_b ? n.b_count : n.a_count);
+                for (uint j = first; j < end; ++j) {
+                    uint ref = prim_refs[j];
+                    if (ref != skip && bvh_prim_blocks(r, ref, t_max)) return true;
+                }
+            } else {
+                if (inner == 0u) near_child = child; else far_child = child;
+                ++inner;
+            }
+        }
+        if (inner == 2u) {
+            stack[sp++] = far_child;
+            node = near_child;
+        } else if (inner == 1u) {
+            node = near_child;
+        } else if (sp == 0u) {
+            break;
+        } else {
+            node = stack[--sp];
+        }
     }
     return false;
 }
+
 #endif

@@ -31,4 +31,16 @@ void main() {
     put4(params.guide_min); put4(params.guide_inv_cell);
     put(params.guide_res_x); put(params.guide_res_y); put(params.guide_res_z); put(params.guide_cells);
     putf(params.guide_floor); put(params.guide_vertices); put(params.occluding_quads); put(params.scene_kinds);
+    put(params.num_triangles); put(params.bvh_nodes);
+    Triangle t = triangles[1];
+    putf(t.v0.x); putf(t.v0.y); putf(t.v0.z); put(t.material);
+    putf(t.v1.x); putf(t.v1.y); putf(t.v1.z); put(t.light);
+    putf(t.v2.x); putf(t.v2.y); putf(t.v2.z); put(t.normals);
+    TriangleNormals tn = triangle_normals[1];
+    put4(tn.n0); put4(tn.n1); put4(tn.n2);
+    BvhNode b = bvh_nodes[1];
+    putf(b.a_lo.x); putf(b.a_lo.y); putf(b.a_lo.z); put(b.a_child);
+    putf(b.a_hi.x); putf(b.a_hi.y); putf(b.a_hi.z); put(b.a_count);
+    putf(b.b_lo.x); putf(b.b_lo.y); putf(b.b_lo.z); put(b.b_child);
+    putf(b.b_hi.x); putf(b.b_hi.y); putf(b.b_hi.z); put(b.b_count);
 }

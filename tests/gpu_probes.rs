@@ -5,7 +5,9 @@ mod common;
 
 use common::readback;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
-use rlpt::layout::{GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams};
+use rlpt::layout::{
+    GpuBvhNode, GpuLight, GpuMaterial, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals, RenderParams,
+};
 use rlpt::math::bsdf::{bsdf_eval, bsdf_pdf, bsdf_sample, Bsdf};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -110,23 +112,53 @@ fn struct_layout_matches_the_rust_mirrors() {
         bvh_nodes: 521,
         pad: [0; 2],
     };
+    let mut v3 = || [next(), next(), next()];
+    let tri = GpuTriangle { v0: v3(), material: 601, v1: v3(), light: 602, v2: v3(), normals: 603 };
+    let mut v4 = || [next(), next(), next(), next()];
+    let normals = GpuTriangleNormals { n: [v4(), v4(), v4()] };
+    let mut v3 = || [next(), next(), next()];
+    let node = GpuBvhNode {
+        a_lo: v3(),
+        a_child: 701,
+        a_hi: v3(),
+        a_count: 702,
+        b_lo: v3(),
+        b_child: 703,
+        b_hi: v3(),
+        b_count: 704,
+    };
     let bufs = [
         Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),
         Buffer::with_data(&ctx, "materials", bytemuck::cast_slice(&[GpuMaterial::default(), mat]), false).unwrap(),
         Buffer::with_data(&ctx, "spheres", bytemuck::cast_slice(&[GpuSphere::default(), sph]), false).unwrap(),
         Buffer::with_data(&ctx, "quads", bytemuck::cast_slice(&[GpuQuad::default(), quad]), false).unwrap(),
         Buffer::with_data(&ctx, "lights", bytemuck::cast_slice(&[GpuLight::default(), light]), false).unwrap(),
+        Buffer::with_data(&ctx, "triangles", bytemuck::cast_slice(&[GpuTriangle::default(), tri]), false).unwrap(),
+        Buffer::with_data(&ctx, "normals", bytemuck::cast_slice(&[GpuTriangleNormals::default(), normals]), false)
+            .unwrap(),
+        Buffer::with_data(&ctx, "bvh nodes", bytemuck::cast_slice(&[GpuBvhNode::default(), node]), false).unwrap(),
     ];
-    let out = Buffer::new(&ctx, "layout out", 4 * 128, BufferUsage::Storage).unwrap();
-    let p = Pipeline::new(
+    let out = Buffer::new(&ctx, "layout out", 4 * 256, BufferUsage::Storage).unwrap();
+    let storage = |b: u32| (b, Binding::Storage);
+    let p = Pipeline::new_with_numbers(
         &ctx,
         "probe_layout",
         shader("probe_layout"),
-        &[Binding::Uniform, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage, Binding::Storage],
+        &[
+            (shared::BINDING_PARAMS, Binding::Uniform),
+            storage(shared::BINDING_MATERIALS),
+            storage(shared::BINDING_SPHERES),
+            storage(shared::BINDING_QUADS),
+            storage(shared::BINDING_LIGHTS),
+            storage(5),
+            storage(shared::BINDING_TRIANGLES),
+            storage(shared::BINDING_TRIANGLE_NORMALS),
+            storage(shared::BINDING_BVH_NODES),
+        ],
         0,
     )
     .unwrap();
-    p.bind(&[&bufs[0], &bufs[1], &bufs[2], &bufs[3], &bufs[4], &out]);
+    p.bind(&[&bufs[0], &bufs[1], &bufs[2], &bufs[3], &bufs[4], &out, &bufs[5], &bufs[6], &bufs[7]]);
     ctx.run_commands("probe layout", |cmd| p.cmd_dispatch(cmd, [1, 1, 1], &[])).unwrap();
     let got: Vec<u32> = bytemuck::pod_collect_to_vec(&readback(&ctx, &out));
 
@@ -174,7 +206,23 @@ fn struct_layout_matches_the_rust_mirrors() {
         params.guide_vertices,
         params.occluding_quads,
         params.scene_kinds,
+        params.num_triangles,
+        params.bvh_nodes,
     ]);
+    let f3 = |v: [f32; 3]| v.map(f32::to_bits).to_vec();
+    for (v, w) in [(tri.v0, tri.material), (tri.v1, tri.light), (tri.v2, tri.normals)] {
+        want.extend(f3(v));
+        want.push(w);
+    }
+    for v in normals.n {
+        want.extend(f(v));
+    }
+    for (v, w) in
+        [(node.a_lo, node.a_child), (node.a_hi, node.a_count), (node.b_lo, node.b_child), (node.b_hi, node.b_count)]
+    {
+        want.extend(f3(v));
+        want.push(w);
+    }
     assert_eq!(&got[..want.len()], &want[..]);
     common::assert_no_validation_messages(&ctx);
 }
