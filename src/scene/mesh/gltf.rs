@@ -28,8 +28,9 @@ use crate::scene::{Material, MaterialKind};
 const MAX_DEPTH: usize = 1024;
 
 pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
-    let bytes = read_file(path, Location::File, "the mesh file")?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| document_error(path, e))?;
+    let bytes = read_file(path, path, Location::File, "the mesh file")?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| document_error(path, e))?;
+    validate(path, gltf.document.as_json())?;
     let mut reader = GltfReader {
         path,
         dir: path.parent().unwrap_or(Path::new("")),
@@ -64,6 +65,41 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
     }
     builder.ignored = ignored;
     builder.finish(path)
+}
+
+/// The crate's validation of the document, after the one check it needs
+/// before it (gltf-json 1.4.1 indexes the POSITION accessor unchecked, and
+/// panics where it does not exist).
+fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), MeshError> {
+    use gltf::json::validation::{Checked, Validate};
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &primitive.attributes {
+                if index.value() >= root.accessors.len() {
+                    let name = match semantic {
+                        Checked::Valid(s) => s.to_string(),
+                        Checked::Invalid => "?".to_string(),
+                    };
+                    return Err(MeshError::Malformed {
+                        path: path.to_path_buf(),
+                        location: Location::Json(format!("meshes[{m}].primitives[{p}].attributes.{name}")),
+                        message: format!(
+                            "accessor {} does not exist (the file has {} accessors); expected the index of an existing accessor",
+                            index.value(),
+                            root.accessors.len()
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |json, error| errors.push((json(), error)));
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(document_error(path, gltf::Error::Validation(errors)))
+    }
 }
 
 /// A parse or validation error of the document, with its JSON path where the
@@ -325,6 +361,7 @@ impl GltfReader<'_> {
                     }
                     let file = self.dir.join(percent_decode(uri));
                     let data = read_file(
+                        &file,
                         self.path,
                         Location::Json(format!("{json}.uri")),
                         &format!("the buffer `{uri}` ({})", file.display()),
@@ -371,7 +408,12 @@ impl GltfReader<'_> {
         let size = accessor.size();
         let stride = view.stride().unwrap_or(size);
         let count = accessor.count();
-        let needed = if count == 0 { 0 } else { accessor.offset() + stride * (count - 1) + size };
+        // Saturating: a count or offset of absurd size is out of bounds, not an overflow.
+        let needed = if count == 0 {
+            0
+        } else {
+            accessor.offset().saturating_add(stride.saturating_mul(count - 1)).saturating_add(size)
+        };
         if needed > view.length() {
             return Err(out_of_bounds(format!(
                 "{count} elements of {size} bytes from byteOffset {} with stride {stride} need {needed} bytes \
@@ -383,13 +425,13 @@ impl GltfReader<'_> {
         }
         let buffer_index = view.buffer().index();
         let declared = view.buffer().length();
-        if view.offset() + view.length() > declared {
+        if view.offset().saturating_add(view.length()) > declared {
             return Err(out_of_bounds(format!(
                 "bufferViews[{}] spans bytes {} to {} of buffers[{buffer_index}], whose byteLength is {declared}; \
                  expected the view within its buffer",
                 view.index(),
                 view.offset(),
-                view.offset() + view.length()
+                view.offset().saturating_add(view.length())
             )));
         }
         let start = view.offset() + accessor.offset();
@@ -408,10 +450,10 @@ impl GltfReader<'_> {
             return Err(self.error_at(
                 json,
                 format!(
-                    "accessors[{}] is {:?} of {:?}; expected VEC3 of FLOAT",
+                    "accessors[{}] is {} of {}; expected VEC3 of FLOAT",
                     accessor.index(),
-                    accessor.dimensions(),
-                    accessor.data_type()
+                    dimensions_name(accessor.dimensions()),
+                    type_name(accessor.data_type())
                 ),
             ));
         }
@@ -441,13 +483,17 @@ impl GltfReader<'_> {
             (Dimensions::Scalar, DataType::U8) => 1,
             (Dimensions::Scalar, DataType::U16) => 2,
             (Dimensions::Scalar, DataType::U32) => 4,
-            (d, t) => return Err(self.error_at(
-                json,
-                format!(
-                    "accessors[{}] is {d:?} of {t:?}; expected SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT",
-                    accessor.index()
-                ),
-            )),
+            (d, t) => {
+                return Err(self.error_at(
+                    json,
+                    format!(
+                        "accessors[{}] is {} of {}; expected SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT",
+                        accessor.index(),
+                        dimensions_name(d),
+                        type_name(t)
+                    ),
+                ))
+            }
         };
         let bytes = self.elements(accessor, json)?;
         let mut out = Vec::with_capacity(accessor.count());
@@ -569,6 +615,31 @@ fn map_material(m: &gltf::Material<'_>, index: usize, ignored: &mut Ignored) -> 
         }
     }
     FileMaterial { name, material, mapping: format!("glTF {who}: {mapping}") }
+}
+
+/// An accessor's `type` as glTF writes it.
+fn dimensions_name(d: Dimensions) -> &'static str {
+    match d {
+        Dimensions::Scalar => "SCALAR",
+        Dimensions::Vec2 => "VEC2",
+        Dimensions::Vec3 => "VEC3",
+        Dimensions::Vec4 => "VEC4",
+        Dimensions::Mat2 => "MAT2",
+        Dimensions::Mat3 => "MAT3",
+        Dimensions::Mat4 => "MAT4",
+    }
+}
+
+/// An accessor's `componentType` as glTF names it.
+fn type_name(t: DataType) -> &'static str {
+    match t {
+        DataType::I8 => "BYTE",
+        DataType::U8 => "UNSIGNED_BYTE",
+        DataType::I16 => "SHORT",
+        DataType::U16 => "UNSIGNED_SHORT",
+        DataType::U32 => "UNSIGNED_INT",
+        DataType::F32 => "FLOAT",
+    }
 }
 
 /// `%20` and the like in a relative URI.

@@ -118,7 +118,10 @@ pub enum MeshError {
     #[error("{}: {what} is {value}; expected a finite number", at(path, location))]
     NotFinite { path: PathBuf, location: Location, what: String, value: String },
     /// A PLY property of a type rlpt does not read where it is.
-    #[error("{}: property `{property}` of element `{element}` is {found}; expected {expected}", at(path, location))]
+    #[error(
+        "{}: property `{property}` of element `{element}` has type {found}; expected {expected}",
+        at(path, location)
+    )]
     UnsupportedProperty {
         path: PathBuf,
         location: Location,
@@ -190,9 +193,10 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFile, MeshError> {
     }
 }
 
-/// The whole file, or [`MeshError::Io`] naming it.
-fn read_file(path: &Path, location: Location, what: &str) -> Result<Vec<u8>, MeshError> {
-    std::fs::read(path).map_err(|error| MeshError::Io {
+/// The whole of `file`, or [`MeshError::Io`] at `location` of `path` (the
+/// mesh file itself, or the one that names `file`), saying `what` it is.
+fn read_file(file: &Path, path: &Path, location: Location, what: &str) -> Result<Vec<u8>, MeshError> {
+    std::fs::read(file).map_err(|error| MeshError::Io {
         path: path.to_path_buf(),
         location,
         what: what.to_string(),
@@ -200,10 +204,12 @@ fn read_file(path: &Path, location: Location, what: &str) -> Result<Vec<u8>, Mes
     })
 }
 
-/// A number for messages: `0.5`, `1e30`, `NaN`.
+/// A number for messages: `0.5`, `1e300`, `NaN`.
 fn number(x: f64) -> String {
     if x.is_nan() {
         "NaN".to_string()
+    } else if x.is_finite() && x != 0.0 && !(1e-4..1e7).contains(&x.abs()) {
+        format!("{x:e}")
     } else {
         format!("{x}")
     }

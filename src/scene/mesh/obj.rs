@@ -33,7 +33,7 @@ struct Faces {
 }
 
 pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
-    let bytes = read_file(path, Location::File, "the mesh file")?;
+    let bytes = read_file(path, path, Location::File, "the mesh file")?;
     let text = String::from_utf8_lossy(&bytes);
     let dir = path.parent().unwrap_or(Path::new(""));
 
@@ -106,7 +106,7 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
                 for name in list {
                     let mtl_path = dir.join(name);
                     let what = format!("the material library `{name}` ({})", mtl_path.display());
-                    let bytes = read_file(path, Location::Line(line), &what)?;
+                    let bytes = read_file(&mtl_path, path, Location::Line(line), &what)?;
                     for m in mtl::parse(&mtl_path, &String::from_utf8_lossy(&bytes))? {
                         if library.iter().any(|l| l.name == m.name) {
                             ignored
@@ -266,12 +266,19 @@ fn index(path: &Path, line: usize, token: &str, word: &str, count: usize, what: 
                     expected: match count {
                         0 => format!("a {what} defined before it (there is none by this line)"),
                         1 => format!("-1 (the file has 1 {what} by this line)"),
-                        n => format!("-1 to -{n} (the file has {n} {what}s by this line)"),
+                        n => format!("-1 to -{n} (the file has {n} {} by this line)", plural(what)),
                     },
                 });
             }
             Ok(resolved as u64)
         }
+    }
+}
+
+fn plural(what: &str) -> &str {
+    match what {
+        "vertex" => "vertices",
+        _ => "normals",
     }
 }
 
@@ -292,7 +299,7 @@ fn check_indices(path: &Path, faces: &Faces, vertices: usize, normals: usize) ->
                         expected: match count {
                             0 => format!("a defined {what} (the file has none)"),
                             1 => format!("1 (the file has 1 {what})"),
-                            n => format!("1 to {n} (the file has {n} {what}s)"),
+                            n => format!("1 to {n} (the file has {n} {})", plural(what)),
                         },
                     });
                 }

@@ -98,7 +98,7 @@ impl PropertyAccess for Skip {
     }
 }
 
-/// The type as the header writes it: "float", "a list of float".
+/// The type as the header writes it: "float", "list of float (counted by uchar)".
 fn type_text(t: &PropertyType) -> String {
     let scalar = |s: &ScalarType| {
         match s {
@@ -114,8 +114,8 @@ fn type_text(t: &PropertyType) -> String {
         .to_string()
     };
     match t {
-        PropertyType::Scalar(s) => format!("a {}", scalar(s)),
-        PropertyType::List(count, item) => format!("a list of {} (counted by {})", scalar(item), scalar(count)),
+        PropertyType::Scalar(s) => scalar(s),
+        PropertyType::List(count, item) => format!("list of {} (counted by {})", scalar(item), scalar(count)),
     }
 }
 
@@ -155,7 +155,7 @@ fn check_header(path: &Path, header: &Header, ignored: &mut Ignored) -> Result<L
                 )))
             }
             Some(p) if !is_float(&p.data_type) => {
-                return Err(unsupported("vertex", axis, type_text(&p.data_type), "a float or a double"))
+                return Err(unsupported("vertex", axis, type_text(&p.data_type), "float or double"))
             }
             Some(_) => {}
         }
@@ -163,7 +163,7 @@ fn check_header(path: &Path, header: &Header, ignored: &mut Ignored) -> Result<L
     let normal_props: Vec<_> = ["nx", "ny", "nz"].iter().filter_map(|n| vertex.properties.get(*n)).collect();
     for p in &normal_props {
         if !is_float(&p.data_type) {
-            return Err(unsupported("vertex", &p.name, type_text(&p.data_type), "a float or a double"));
+            return Err(unsupported("vertex", &p.name, type_text(&p.data_type), "float or double"));
         }
     }
     let normals = normal_props.len() == 3;
@@ -192,7 +192,12 @@ fn check_header(path: &Path, header: &Header, ignored: &mut Ignored) -> Result<L
                 Some(p) => match &p.data_type {
                     PropertyType::List(count, item) if is_integer(count) && is_integer(item) => Some(p.name.clone()),
                     other => {
-                        return Err(unsupported("face", &p.name, type_text(other), "a list of integers"));
+                        return Err(unsupported(
+                            "face",
+                            &p.name,
+                            type_text(other),
+                            "a list of integers counted by an integer",
+                        ));
                     }
                 },
             }
@@ -386,7 +391,7 @@ fn ascii_error(path: &Path, location: Location, def: &ElementDef, text: &str) ->
         .values()
         .map(|p| match p.data_type {
             PropertyType::Scalar(_) => p.name.clone(),
-            PropertyType::List(..) => format!("a count and a list of {}", p.name),
+            PropertyType::List(..) => format!("the count of {} and that many values", p.name),
         })
         .collect();
     let shown: String = line.chars().take(60).collect();
@@ -394,7 +399,7 @@ fn ascii_error(path: &Path, location: Location, def: &ElementDef, text: &str) ->
     MeshError::Malformed {
         path: path.to_path_buf(),
         location,
-        message: format!("expected the numbers {} on one line, found `{shown}`", expected.join(", ")),
+        message: format!("expected {} on one line, as numbers, found `{shown}`", expected.join(", ")),
     }
 }
 
