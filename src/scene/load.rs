@@ -42,7 +42,7 @@ pub enum SceneError {
     /// (its `file` value), the table ("[[mesh]] #2"), and the file's error,
     /// which names the mesh file and where in it.
     #[error("{}: {table}: {error}", location(file, *position))]
-    Mesh { file: String, position: Option<(usize, usize)>, table: String, error: MeshError },
+    Mesh { file: String, position: Option<(usize, usize)>, table: String, error: Box<MeshError> },
 }
 
 impl SceneError {

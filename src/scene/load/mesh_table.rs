@@ -62,7 +62,7 @@ fn parse_mesh(
             file: t.src.file.to_string(),
             position: Some(t.src.line_col(file_value.span().start)),
             table: t.label.clone(),
-            error,
+            error: Box::new(error),
         })?;
         notes.extend(loaded.notes.iter().map(|note| format!("{}: {note}", path.display())));
         files.insert(path.clone(), loaded);

@@ -263,7 +263,7 @@ impl GltfReader<'_> {
                 (1..corners.len().saturating_sub(1)).map(|i| [corners[0], corners[i], corners[i + 1]]).collect()
             }
             _ => {
-                if corners.len() % 3 != 0 {
+                if !corners.len().is_multiple_of(3) {
                     return Err(self.error_at(
                         &json,
                         format!("{} vertices in TRIANGLES mode; expected a multiple of 3", corners.len()),
@@ -507,7 +507,7 @@ impl GltfReader<'_> {
                 return Err(MeshError::IndexOutOfRange {
                     path: self.path.to_path_buf(),
                     location: Location::Json(format!("{json}[{k}]")),
-                    what: "vertex index".to_string(),
+                    what: "vertex index",
                     index: i64::from(i),
                     expected: format!("0 to {} (the primitive has {vertices} vertices)", vertices.saturating_sub(1)),
                 });

@@ -113,23 +113,16 @@ pub enum MeshError {
     Malformed { path: PathBuf, location: Location, message: String },
     /// A vertex (or normal) index outside the vertices the file has.
     #[error("{}: {what} {index} is out of range: expected {expected}", at(path, location))]
-    IndexOutOfRange { path: PathBuf, location: Location, what: String, index: i64, expected: String },
+    IndexOutOfRange { path: PathBuf, location: Location, what: &'static str, index: i64, expected: String },
     /// A coordinate or normal that is NaN or infinite (or beyond a 32-bit float).
     #[error("{}: {what} is {value}; expected a finite number", at(path, location))]
     NotFinite { path: PathBuf, location: Location, what: String, value: String },
     /// A PLY property of a type rlpt does not read where it is.
     #[error(
         "{}: property `{property}` of element `{element}` has type {found}; expected {expected}",
-        at(path, location)
+        path.display()
     )]
-    UnsupportedProperty {
-        path: PathBuf,
-        location: Location,
-        element: String,
-        property: String,
-        found: String,
-        expected: String,
-    },
+    UnsupportedProperty { path: PathBuf, element: String, property: String, found: String, expected: String },
     /// A glTF buffer that is not there (a missing `.bin`, a GLB without its BIN
     /// chunk, a `uri` that is no file) or shorter than it says.
     #[error("{}: {message}", at(path, location))]
@@ -173,10 +166,11 @@ impl MeshError {
             | MeshError::Malformed { location, .. }
             | MeshError::IndexOutOfRange { location, .. }
             | MeshError::NotFinite { location, .. }
-            | MeshError::UnsupportedProperty { location, .. }
             | MeshError::MissingBuffer { location, .. }
             | MeshError::AccessorOutOfBounds { location, .. } => location.clone(),
-            MeshError::UnknownFormat { .. } | MeshError::Empty { .. } => Location::File,
+            MeshError::UnknownFormat { .. } | MeshError::UnsupportedProperty { .. } | MeshError::Empty { .. } => {
+                Location::File
+            }
         }
     }
 }

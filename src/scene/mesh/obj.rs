@@ -261,7 +261,7 @@ fn index(path: &Path, line: usize, token: &str, word: &str, count: usize, what: 
                 return Err(MeshError::IndexOutOfRange {
                     path: path.to_path_buf(),
                     location: Location::Line(line),
-                    what: format!("relative {what} index"),
+                    what: if what == "vertex" { "relative vertex index" } else { "relative normal index" },
                     index: i,
                     expected: match count {
                         0 => format!("a {what} defined before it (there is none by this line)"),
@@ -294,7 +294,7 @@ fn check_indices(path: &Path, faces: &Faces, vertices: usize, normals: usize) ->
                     return Err(MeshError::IndexOutOfRange {
                         path: path.to_path_buf(),
                         location: Location::Line(faces.line[f]),
-                        what: format!("{what} index"),
+                        what: if what == "vertex" { "vertex index" } else { "normal index" },
                         index: index as i64 + 1,
                         expected: match count {
                             0 => format!("a defined {what} (the file has none)"),

@@ -136,7 +136,6 @@ struct Layout {
 fn check_header(path: &Path, header: &Header, ignored: &mut Ignored) -> Result<Layout, MeshError> {
     let unsupported = |element: &str, property: &str, found: String, expected: &str| MeshError::UnsupportedProperty {
         path: path.to_path_buf(),
-        location: Location::File,
         element: element.to_string(),
         property: property.to_string(),
         found,
@@ -334,7 +333,7 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
                 return Err(MeshError::IndexOutOfRange {
                     path: path.to_path_buf(),
                     location,
-                    what: "vertex index".to_string(),
+                    what: "vertex index",
                     index: i,
                     expected: match count {
                         0 => "a vertex (the file has none)".to_string(),
