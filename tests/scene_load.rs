@@ -34,6 +34,11 @@ fn every_scene_in_the_scenes_directory_loads() {
         let n = scene.materials.len() as u32;
         assert!(scene.spheres.iter().all(|s| s.material < n));
         assert!(scene.quads.iter().all(|q| q.material < n));
+        for mesh in &scene.meshes {
+            assert_eq!(mesh.materials.len(), mesh.triangles.len());
+            assert!(mesh.materials.iter().all(|&m| m < n));
+            assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < mesh.positions.len()));
+        }
         // A [guiding] table, where a scene has one, keeps its promises.
         let g = &scene.guiding;
         assert_eq!(g.bounds_min.is_some(), g.bounds_max.is_some());

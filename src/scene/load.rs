@@ -15,7 +15,10 @@ use glam::Vec3;
 use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
+use super::mesh::MeshError;
 use super::{Camera, GuidingSettings, Material, MaterialKind, Quad, RenderSettings, Scene, Sphere};
+
+mod mesh_table;
 
 /// Why a scene was refused. The `Display` text is the whole message: the file,
 /// where in it (`line:column`, 1-based, when known), and what was expected.
@@ -35,6 +38,11 @@ pub enum SceneError {
         position: Option<(usize, usize)>,
         message: String,
     },
+    /// A `[[mesh]]` whose file was refused: where the scene names the file
+    /// (its `file` value), the table ("[[mesh]] #2"), and the file's error,
+    /// which names the mesh file and where in it.
+    #[error("{}: {table}: {error}", location(file, *position))]
+    Mesh { file: String, position: Option<(usize, usize)>, table: String, error: Box<MeshError> },
 }
 
 impl SceneError {
@@ -43,7 +51,7 @@ impl SceneError {
         match self {
             SceneError::Io { .. } => None,
             SceneError::Syntax { line, column, .. } => Some((*line, *column)),
-            SceneError::Invalid { position, .. } => *position,
+            SceneError::Invalid { position, .. } | SceneError::Mesh { position, .. } => *position,
         }
     }
 }
@@ -66,14 +74,16 @@ pub(super) fn load_file(path: &Path) -> Result<Scene, SceneError> {
         };
         SceneError::Io { path: path.to_path_buf(), error }
     })?;
-    let mut scene = parse_named(&text, &path.display().to_string())?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let mut scene = parse_named(&text, &path.display().to_string(), base)?;
     scene.source = path.to_path_buf();
     Ok(scene)
 }
 
 /// Parses and validates scene text; `name` stands for the file in messages.
+/// Mesh files are found relative to the current directory.
 pub(super) fn parse_str(text: &str, name: &str) -> Result<Scene, SceneError> {
-    parse_named(text, name)
+    parse_named(text, name, Path::new(""))
 }
 
 // ---------------------------------------------------------------------------
@@ -99,7 +109,7 @@ const MAX_GUIDING_CELLS_PER_AXIS: i64 = 256;
 /// Largest accepted guiding-grid cell count in all (64^3).
 const MAX_GUIDING_CELLS: u64 = 262_144;
 
-const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "guiding", "material", "sphere", "quad"];
+const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "guiding", "material", "sphere", "quad", "mesh"];
 const CAMERA_KEYS: &[&str] = &["position", "look_at", "direction", "up", "vfov", "near"];
 const RENDER_KEYS: &[&str] = &["width", "height", "spp", "max_bounces", "russian_roulette_depth"];
 const ENVIRONMENT_KEYS: &[&str] = &["radiance"];
@@ -429,7 +439,8 @@ fn format_vec(v: [f64; 3]) -> String {
 // ---------------------------------------------------------------------------
 // The scene.
 
-fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
+/// `base`: the directory that mesh files' relative paths start from.
+fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError> {
     let src = Source::new(name, text);
     let root = DeTable::parse(text).map_err(|e| {
         let (line, column) = src.line_col(e.span().map_or(0, |s| s.start));
@@ -451,7 +462,7 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
                 Some(key.span()),
                 format!(
                     "{what}; expected the tables [camera], [render], [environment], \
-                     [guiding], [[material]], [[sphere]] and [[quad]]"
+                     [guiding], [[material]], [[sphere]], [[quad]] and [[mesh]]"
                 ),
             ));
         }
@@ -485,7 +496,8 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
         name_lines.push(src.line_col(name_span.start).0);
         materials.push(material);
     }
-    if materials.is_empty() {
+    // A scene of meshes may take every material from the mesh files.
+    if materials.is_empty() && root.get("mesh").is_none() {
         return Err(src.error(None, "the scene defines no material; add at least one [[material]] table".to_string()));
     }
 
@@ -497,10 +509,12 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
     for table in table_array(&src, "quad", root.get("quad"))? {
         quads.push(parse_quad(&table, &materials)?);
     }
-    if spheres.is_empty() && quads.is_empty() {
-        return Err(
-            src.error(None, "the scene has no geometry; add at least one [[sphere]] or [[quad]] table".to_string())
-        );
+    let (meshes, notes) = mesh_table::parse_meshes(&src, root.get("mesh"), &mut materials, base)?;
+    if spheres.is_empty() && quads.is_empty() && meshes.is_empty() {
+        return Err(src.error(
+            None,
+            "the scene has no geometry; add at least one [[sphere]] or [[quad]] table, or a [[mesh]] table".to_string(),
+        ));
     }
 
     Ok(Scene {
@@ -511,8 +525,8 @@ fn parse_named(text: &str, name: &str) -> Result<Scene, SceneError> {
         materials,
         spheres,
         quads,
-        meshes: Vec::new(),
-        notes: Vec::new(),
+        meshes,
+        notes,
         guiding,
     })
 }

@@ -5,6 +5,7 @@
 //! (finite numbers, values in range, material indices in bounds).
 
 mod load;
+pub mod mesh;
 
 use glam::Vec3;
 use std::path::PathBuf;
@@ -97,14 +98,19 @@ pub struct Quad {
     pub material: u32,
 }
 
-/// A triangle mesh of a `[[mesh]]` table, in world space.
+/// A triangle mesh of a `[[mesh]]` table, in world space (the file's vertices
+/// by the table's transform, every one finite and within the scene's limits).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
-    /// The file it came from (for messages and `rlpt info`).
+    /// The file it came from, resolved against the scene file's directory (for
+    /// messages and `rlpt info`).
     pub source: PathBuf,
     pub positions: Vec<Vec3>,
-    /// Unit shading normals per vertex, where the mesh is smooth.
+    /// Unit shading normals per vertex, where the mesh is smooth: the file's,
+    /// transformed by the inverse transpose, else computed (area-weighted).
     pub normals: Option<Vec<Vec3>>,
+    /// Vertex indices, none of zero area; front side = direction of
+    /// `(p1 - p0) x (p2 - p0)`.
     pub triangles: Vec<[u32; 3]>,
     /// Per triangle, the index into `Scene::materials`.
     pub materials: Vec<u32>,
@@ -136,7 +142,9 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     pub quads: Vec<Quad>,
     pub meshes: Vec<Mesh>,
-    /// What the mesh files asked for that rlpt does not do, one line per file.
+    /// Notes on the mesh files, each prefixed by the file: what a file asked for
+    /// that rlpt does not render (one line per file), and the zero-area
+    /// triangles skipped. For the command line to print; nothing is wrong.
     pub notes: Vec<String>,
     /// The optional `[guiding]` table (all `None` when absent).
     pub guiding: GuidingSettings,
@@ -153,19 +161,20 @@ impl Scene {
         load::parse_str(text, name)
     }
 
-    /// Whether material `m` emits ([`Material::emits`]): a sphere or quad made of
-    /// it is one of the scene's lights.
+    /// Whether material `m` emits ([`Material::emits`]): a sphere, quad or mesh
+    /// triangle made of it is one of the scene's lights.
     pub fn material_emits(&self, m: u32) -> bool {
         self.materials[m as usize].emits()
     }
 
-    /// Whether anything gives light: a sphere or quad whose material emits, or
-    /// the environment. A scene without renders black, which a loader cannot
-    /// call wrong (a test may want it) but a user should hear about.
+    /// Whether anything gives light: a sphere, quad or mesh triangle whose
+    /// material emits, or the environment. A scene without renders black, which
+    /// a loader cannot call wrong (a test may want it) but a user should hear about.
     pub fn emits_light(&self) -> bool {
         self.environment.max_element() > 0.0
             || self.spheres.iter().any(|s| self.material_emits(s.material))
             || self.quads.iter().any(|q| self.material_emits(q.material))
+            || self.meshes.iter().any(|m| m.materials.iter().any(|&i| self.material_emits(i)))
     }
 }
 
@@ -173,7 +182,7 @@ impl Scene {
 pub fn no_light_warning(scene: &Scene) -> Option<String> {
     (!scene.emits_light()).then(|| {
         format!(
-            "{}: no sphere or quad emits light and the environment is black: the image will be black",
+            "{}: no sphere, quad or mesh triangle emits light and the environment is black: the image will be black",
             scene.source.display()
         )
     })

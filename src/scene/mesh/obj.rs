@@ -1,0 +1,310 @@
+//! Wavefront OBJ, read by hand: `v` (with optional `w` or colour), `vn`, `vt`,
+//! `f` (n-gons fan-triangulated from their first corner; `v`, `v/vt`, `v//vn`,
+//! `v/vt/vn`; negative indices count back from the last vertex so far),
+//! `usemtl`, `mtllib` (MTL files relative to the OBJ, `mtl.rs`), `o`, `g`, `s`.
+//!
+//! Not `tobj`: its errors carry no line, it finds an out-of-range index only
+//! when an object ends (so no line can be named), it panics on `Kd 1 1`, and it
+//! loads NaN coordinates and a `usemtl` of an undefined material without a word.
+//! The tests check this reader against `tobj` on the valid files.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::mtl::{self, MtlMaterial};
+use super::{number, read_file, Builder, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
+
+/// A corner's normal where the face gives none.
+const NO_NORMAL: u64 = u64::MAX;
+
+/// The faces as written: corners flat, each face's first corner, line and `usemtl`.
+#[derive(Default)]
+struct Faces {
+    /// 0-based vertex index of each corner (positive indices are checked at
+    /// the end, so faces may come before their vertices).
+    corner_v: Vec<u64>,
+    corner_n: Vec<u64>,
+    start: Vec<usize>,
+    line: Vec<usize>,
+    /// Index into the `usemtl` names, or NO_MATERIAL.
+    usemtl: Vec<u32>,
+}
+
+pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
+    let bytes = read_file(path, path, Location::File, "the mesh file")?;
+    let text = String::from_utf8_lossy(&bytes);
+    let dir = path.parent().unwrap_or(Path::new(""));
+
+    let mut positions: Vec<Vec3> = Vec::new();
+    let mut normals: Vec<Vec3> = Vec::new();
+    let mut faces = Faces::default();
+    let mut usemtl_names: Vec<(String, usize)> = Vec::new();
+    let mut current_usemtl = NO_MATERIAL;
+    let mut library: Vec<MtlMaterial> = Vec::new();
+    let mut ignored = Ignored::default();
+
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let content = raw.split('#').next().unwrap_or("");
+        let mut words = content.split_whitespace();
+        let Some(keyword) = words.next() else { continue };
+        let rest: Vec<&str> = words.collect();
+        let malformed = |message: String| MeshError::Malformed {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            message,
+        };
+        match keyword {
+            "v" => {
+                if !matches!(rest.len(), 3 | 4 | 6 | 7) {
+                    return Err(malformed(format!(
+                        "expected `v x y z` (with an optional w, or r g b), found {} values",
+                        rest.len()
+                    )));
+                }
+                let c = |k: usize, axis: &str| coordinate(path, line, rest[k], &format!("vertex coordinate {axis}"));
+                positions.push(Vec3::new(c(0, "x")?, c(1, "y")?, c(2, "z")?));
+                if rest.len() >= 6 {
+                    ignored.add("vertex colours", "");
+                }
+            }
+            "vn" => {
+                if rest.len() != 3 {
+                    return Err(malformed(format!("expected `vn x y z`, found {} values", rest.len())));
+                }
+                let c = |k: usize, axis: &str| coordinate(path, line, rest[k], &format!("normal component {axis}"));
+                normals.push(Vec3::new(c(0, "x")?, c(1, "y")?, c(2, "z")?));
+            }
+            // Texture coordinates (only textures use them) and free-form
+            // parameter vertices; groups and smoothing groups (`smooth` in the
+            // scene decides the shading).
+            "vt" | "vp" | "o" | "g" | "s" => {}
+            "f" | "fo" => {
+                if rest.len() < 3 {
+                    return Err(malformed(format!("a face needs at least 3 vertices, found {}", rest.len())));
+                }
+                faces.start.push(faces.corner_v.len());
+                faces.line.push(line);
+                faces.usemtl.push(current_usemtl);
+                for token in &rest {
+                    let (v, n) = corner(path, line, token, positions.len(), normals.len())?;
+                    faces.corner_v.push(v);
+                    faces.corner_n.push(n);
+                }
+            }
+            "l" | "p" => ignored.add("lines and points (l, p)", format!("line {line}")),
+            "mtllib" => {
+                let names = content.trim_start()["mtllib".len()..].trim();
+                if names.is_empty() {
+                    return Err(malformed("`mtllib` without a file name; expected `mtllib FILE.mtl`".to_string()));
+                }
+                // One name with spaces, or several names.
+                let list: Vec<&str> =
+                    if dir.join(names).is_file() { vec![names] } else { names.split_whitespace().collect() };
+                for name in list {
+                    let mtl_path = dir.join(name);
+                    let what = format!("the material library `{name}` ({})", mtl_path.display());
+                    let bytes = read_file(&mtl_path, path, Location::Line(line), &what)?;
+                    for m in mtl::parse(&mtl_path, &String::from_utf8_lossy(&bytes))? {
+                        if library.iter().any(|l| l.name == m.name) {
+                            ignored
+                                .add("second definitions of a material (the first is used)", format!("`{}`", m.name));
+                        } else {
+                            library.push(m);
+                        }
+                    }
+                }
+            }
+            "usemtl" => {
+                let name = content.trim_start()["usemtl".len()..].trim();
+                if name.is_empty() {
+                    return Err(malformed("`usemtl` without a name; expected `usemtl NAME`".to_string()));
+                }
+                current_usemtl = match usemtl_names.iter().position(|(n, _)| n == name) {
+                    Some(k) => k as u32,
+                    None => {
+                        usemtl_names.push((name.to_string(), line));
+                        (usemtl_names.len() - 1) as u32
+                    }
+                };
+            }
+            other => ignored.add("OBJ statements rlpt does not read", format!("`{other}`")),
+        }
+    }
+
+    check_indices(path, &faces, positions.len(), normals.len())?;
+
+    // Per-vertex normals where every corner has one: a vertex per (v, vn) pair.
+    let with_normals = faces.corner_n.iter().filter(|&&n| n != NO_NORMAL).count();
+    let (corners, positions, normals) = if with_normals > 0 && with_normals == faces.corner_n.len() {
+        let mut map: HashMap<(u64, u64), u32> = HashMap::new();
+        let (mut p, mut n) = (Vec::new(), Vec::new());
+        let corners = faces
+            .corner_v
+            .iter()
+            .zip(&faces.corner_n)
+            .map(|(&v, &vn)| {
+                *map.entry((v, vn)).or_insert_with(|| {
+                    p.push(positions[v as usize]);
+                    n.push(normals[vn as usize]);
+                    (p.len() - 1) as u32
+                })
+            })
+            .collect::<Vec<u32>>();
+        (corners, p, Some(n))
+    } else {
+        if with_normals > 0 {
+            ignored.add("the normals (vn) of some faces, as others have none (`smooth` computes them all)", "");
+        }
+        (faces.corner_v.iter().map(|&v| v as u32).collect(), positions, None)
+    };
+
+    // The materials: each `usemtl` name that faces use, mapped once.
+    let mut builder = Builder { positions, normals, ..Default::default() };
+    let mut name_to_material: Vec<Option<u32>> = vec![None; usemtl_names.len()];
+    for (k, (name, first_line)) in usemtl_names.iter().enumerate() {
+        if !faces.usemtl.contains(&(k as u32)) {
+            continue;
+        }
+        match library.iter().find(|m| &m.name == name) {
+            Some(m) => {
+                name_to_material[k] = Some(builder.materials.len() as u32);
+                builder.materials.push(mtl::map(m, &mut ignored));
+            }
+            None => ignored.add(
+                "`usemtl` of materials no `mtllib` defines (their faces have no material)",
+                format!("`{name}` (line {first_line})"),
+            ),
+        }
+    }
+
+    for (f, &start) in faces.start.iter().enumerate() {
+        let end = faces.start.get(f + 1).copied().unwrap_or(corners.len());
+        let material = match faces.usemtl[f] {
+            NO_MATERIAL => NO_MATERIAL,
+            k => name_to_material[k as usize].unwrap_or(NO_MATERIAL),
+        };
+        for k in start + 1..end - 1 {
+            builder.triangles.push([corners[start], corners[k], corners[k + 1]]);
+            builder.triangle_materials.push(material);
+        }
+    }
+    builder.ignored = ignored;
+    builder.finish(path)
+}
+
+/// A finite f32 coordinate.
+fn coordinate(path: &Path, line: usize, word: &str, what: &str) -> Result<f32, MeshError> {
+    match word.parse::<f32>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        Ok(x) => Err(MeshError::NotFinite {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            what: what.to_string(),
+            value: format!("`{word}` ({})", number(f64::from(x))),
+        }),
+        Err(_) => Err(MeshError::Malformed {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            message: format!("expected a number for the {what}, found `{word}`"),
+        }),
+    }
+}
+
+/// One face corner, `v`, `v/vt`, `v//vn` or `v/vt/vn`: 0-based vertex and
+/// normal indices (`NO_NORMAL` without one). Negative indices are resolved
+/// (and checked) against the counts so far.
+fn corner(path: &Path, line: usize, token: &str, vertices: usize, normals: usize) -> Result<(u64, u64), MeshError> {
+    let parts: Vec<&str> = token.split('/').collect();
+    if parts.len() > 3 || parts[0].is_empty() {
+        return Err(MeshError::Malformed {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            message: format!("expected a face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`, found `{token}`"),
+        });
+    }
+    let v = index(path, line, token, parts[0], vertices, "vertex")?;
+    let n = match parts.get(2) {
+        Some(p) if !p.is_empty() => index(path, line, token, p, normals, "normal")?,
+        _ => NO_NORMAL,
+    };
+    if let Some(vt) = parts.get(1).filter(|p| !p.is_empty()) {
+        if vt.parse::<i64>().is_err() {
+            return Err(MeshError::Malformed {
+                path: path.to_path_buf(),
+                location: Location::Line(line),
+                message: format!(
+                    "expected an integer texture-coordinate index in the face corner `{token}`, found `{vt}`"
+                ),
+            });
+        }
+    }
+    Ok((v, n))
+}
+
+fn index(path: &Path, line: usize, token: &str, word: &str, count: usize, what: &str) -> Result<u64, MeshError> {
+    let malformed =
+        |message: String| MeshError::Malformed { path: path.to_path_buf(), location: Location::Line(line), message };
+    let i: i64 = word.parse().map_err(|_| {
+        malformed(format!("expected an integer {what} index in the face corner `{token}`, found `{word}`"))
+    })?;
+    match i {
+        0 => Err(malformed(format!(
+            "{what} index 0 in the face corner `{token}`; OBJ indices count from 1 (or back from -1)"
+        ))),
+        i if i > 0 => Ok(i as u64 - 1),
+        i => {
+            let resolved = count as i64 + i;
+            if resolved < 0 {
+                return Err(MeshError::IndexOutOfRange {
+                    path: path.to_path_buf(),
+                    location: Location::Line(line),
+                    what: if what == "vertex" { "relative vertex index" } else { "relative normal index" },
+                    index: i,
+                    expected: match count {
+                        0 => format!("a {what} defined before it (there is none by this line)"),
+                        1 => format!("-1 (the file has 1 {what} by this line)"),
+                        n => format!("-1 to -{n} (the file has {n} {} by this line)", plural(what)),
+                    },
+                });
+            }
+            Ok(resolved as u64)
+        }
+    }
+}
+
+fn plural(what: &str) -> &str {
+    match what {
+        "vertex" => "vertices",
+        _ => "normals",
+    }
+}
+
+/// Every positive index within the file's vertices and normals.
+fn check_indices(path: &Path, faces: &Faces, vertices: usize, normals: usize) -> Result<(), MeshError> {
+    for (f, &start) in faces.start.iter().enumerate() {
+        let end = faces.start.get(f + 1).copied().unwrap_or(faces.corner_v.len());
+        for k in start..end {
+            for (index, count, what) in
+                [(faces.corner_v[k], vertices, "vertex"), (faces.corner_n[k], normals, "normal")]
+            {
+                if index != NO_NORMAL && index >= count as u64 {
+                    return Err(MeshError::IndexOutOfRange {
+                        path: path.to_path_buf(),
+                        location: Location::Line(faces.line[f]),
+                        what: if what == "vertex" { "vertex index" } else { "normal index" },
+                        index: index as i64 + 1,
+                        expected: match count {
+                            0 => format!("a defined {what} (the file has none)"),
+                            1 => format!("1 (the file has 1 {what})"),
+                            n => format!("1 to {n} (the file has {n} {})", plural(what)),
+                        },
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
