@@ -5,9 +5,8 @@ sky of radiance 1, the camera of bmw-m6.pbrt, 8 bounces, no Russian roulette.
     python3 scripts/mitsuba_bmw.py GEOMETRY_DIR OUT.exr [--spp 64] [--frames 5] [--width 1400 --height 1000]
 
 Prints the time of each 64-spp frame (warm: the first, which compiles kernels,
-is reported apart) and Msamples/s; writes the last frame's image. Mitsuba's
-camera looks along +z with +x to the left (as pbrt's): its image is the mirror
-of rlpt's, flipped back here so the two compare pixel for pixel.
+is reported apart) and Msamples/s; writes the last frame's image, which
+compares with rlpt's pixel for pixel (`rlpt compare`).
 """
 import argparse
 import glob
@@ -52,7 +51,8 @@ scene = {
     },
     "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 1.0}},
 }
-grey = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.5}}
+# Two-sided, as rlpt's materials reflect on both sides (Mitsuba's diffuse is black from behind).
+grey = {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.5}}}
 for i, p in enumerate(plys):
     scene[f"mesh{i}"] = {"type": "ply", "filename": p, "bsdf": grey, "face_normals": True}
 t0 = time.perf_counter()
@@ -74,7 +74,7 @@ mean = sum(warm) / len(warm)
 print(f"mitsuba {mi.__version__} cuda_ad_rgb path: load {load_s:.2f} s, first frame {times[0]*1e3:.1f} ms (compiles)")
 print(f"  warm {args.spp}-spp frames: mean {mean*1e3:.1f} ms, best {best*1e3:.1f} ms, "
       f"{samples/mean/1e6:.1f} Msamples/s")
-arr = mi.TensorXf(img).numpy()[:, ::-1, :3]
+arr = mi.TensorXf(img).numpy()[:, :, :3]
 mi.Bitmap(arr.copy()).write(args.out)
 if args.json:
     with open(args.json, "w") as fh:
