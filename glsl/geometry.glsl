@@ -374,10 +374,16 @@ uint light_kind(Light l) {
     return l.kind;
 }
 
+// params.num_lights. A scene with one light has no choice to make and the kernel
+// leaves the choosing out; with more the count is read at run time, as a loop
+// of known length unrolled made two-light scenes' frames slower.
+layout(constant_id = SPEC_NUM_LIGHTS) const uint SCENE_LIGHTS = 0u;
+
 // src/math/geometry.rs `choose_light`: the first light whose cdf exceeds u_sel
-// (the last where none does); a walk where there are few, else bisection.
+// (the last where none does); a walk where there are few, else bisection. The
+// choice is the specialization constant's, so each kernel carries one of them.
 uint choose_light(uint n_lights, float u_sel) {
-    if (n_lights <= 8u) {
+    if (SCENE_LIGHTS <= 8u) {
         for (uint i = 0u; i < n_lights; ++i) {
             if (u_sel < lights[i].cdf) return i;
         }
@@ -403,10 +409,6 @@ void sample_triangle(Triangle t, vec2 u, out vec3 p, out vec3 n, out float area)
     area = 0.5 * len;
 }
 
-// params.num_lights. A scene with one light has no choice to make and the kernel
-// leaves the choosing out; with more the count is read at run time, as a loop
-// of known length unrolled made two-light scenes' frames slower.
-layout(constant_id = SPEC_NUM_LIGHTS) const uint SCENE_LIGHTS = 0u;
 
 bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     uint n_lights = SCENE_LIGHTS == 1u ? 1u : params.num_lights;
