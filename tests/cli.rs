@@ -989,6 +989,37 @@ fn a_render_larger_than_the_device_memory_says_what_to_do() {
 }
 
 #[test]
+fn a_mesh_larger_than_the_device_memory_is_refused_before_upload() {
+    let out = tmp("oom-mesh.png");
+    let o = rlpt()
+        .args(["render", "scenes/bmw-m6.toml", "--width", "32", "--height", "24", "--spp", "64", "-o"])
+        .arg(&out)
+        .env(rlpt::gpu::DEVICE_MEMORY_HOOK, "16")
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(!e.contains("panicked") && !out.exists(), "{e}");
+    assert!(
+        e.contains("MB for the meshes and the BVH") && e.contains("has 16 MB: render a scene with fewer triangles"),
+        "{e}"
+    );
+}
+
+#[test]
+fn info_prints_the_meshes_lights_and_bvh_of_a_scene() {
+    let o = rlpt().args(["info", "scenes/cornell-box.toml"]).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The OBJ's 16 quads, fanned into 32 triangles; the lamp's two are the lights.
+    assert!(text.contains("cornell-box.obj: 32 triangles, 64 vertices, flat"), "{text}");
+    assert!(text.contains("lights: 2 (0 spheres, 0 quads, 2 triangles)"), "{text}");
+    assert!(text.contains("BVH: ") && text.contains("32 primitive refs"), "{text}");
+    assert!(text.contains("cornell-box/light: Diffuse") && text.contains("emission [17, 12, 4]"), "{text}");
+    assert!(text.contains("mapped cornell-box/light: MTL `light`: diffuse") && text.contains("from Ke"), "{text}");
+}
+
+#[test]
 fn a_lost_device_is_a_sentence_that_says_what_was_kept() {
     let out = tmp("lost.png");
     let stats = tmp("lost.json");

@@ -95,6 +95,9 @@ pub(crate) fn info(path: &Path) -> Result<()> {
         }
         println!("{line}");
     }
+    for m in &scene.material_mappings {
+        println!("  mapped {m}");
+    }
     for note in &scene.notes {
         println!("  note: {note}");
     }

@@ -192,7 +192,9 @@ fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuErr
     if table > 0 {
         parts.push(format!("{} MB for the guiding table", mb(table)));
     }
-    let hint = if scene.guide.is_some() {
+    let hint = if geometry > accum + table {
+        "render a scene with fewer triangles, or on the CPU (--device cpu)"
+    } else if scene.guide.is_some() {
         "render a smaller image (--width, --height), with fewer guiding bins (--bins) or cells (the scene's \
          [guiding] resolution), or on the CPU (--device cpu)"
     } else {

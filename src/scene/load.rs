@@ -509,7 +509,8 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
     for table in table_array(&src, "quad", root.get("quad"))? {
         quads.push(parse_quad(&table, &materials)?);
     }
-    let (meshes, notes) = mesh_table::parse_meshes(&src, root.get("mesh"), &mut materials, base)?;
+    let mesh_table::ParsedMeshes { meshes, notes, mappings: material_mappings } =
+        mesh_table::parse_meshes(&src, root.get("mesh"), &mut materials, base)?;
     if spheres.is_empty() && quads.is_empty() && meshes.is_empty() {
         return Err(src.error(
             None,
@@ -527,6 +528,7 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
         quads,
         meshes,
         notes,
+        material_mappings,
         guiding,
     })
 }

@@ -146,6 +146,9 @@ pub struct Scene {
     /// that rlpt does not render (one line per file), and the zero-area
     /// triangles skipped. For the command line to print; nothing is wrong.
     pub notes: Vec<String>,
+    /// How each mesh file's material became one of rlpt's, one line each
+    /// (`<file stem>/<name>: ...`), for `rlpt info`.
+    pub material_mappings: Vec<String>,
     /// The optional `[guiding]` table (all `None` when absent).
     pub guiding: GuidingSettings,
 }

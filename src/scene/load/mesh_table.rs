@@ -15,6 +15,13 @@ use crate::scene::{Material, Mesh};
 
 const MESH_KEYS: &[&str] = &["file", "material", "translate", "rotate", "scale", "transform", "smooth"];
 
+/// The `[[mesh]]` tables' meshes, the files' notes, and how their materials were mapped.
+pub(super) struct ParsedMeshes {
+    pub meshes: Vec<Mesh>,
+    pub notes: Vec<String>,
+    pub mappings: Vec<String>,
+}
+
 /// Every `[[mesh]]` table, in order, and the notes on their files (each file's
 /// once, prefixed by the file). A file named by several tables is read once.
 pub(super) fn parse_meshes(
@@ -22,14 +29,15 @@ pub(super) fn parse_meshes(
     value: Option<&Value<'_>>,
     materials: &mut Vec<Material>,
     base: &Path,
-) -> Result<(Vec<Mesh>, Vec<String>), SceneError> {
+) -> Result<ParsedMeshes, SceneError> {
     let mut files: HashMap<PathBuf, MeshFile> = HashMap::new();
     let mut meshes = Vec::new();
     let mut notes = Vec::new();
+    let mut mappings = Vec::new();
     for table in table_array(src, "mesh", value)? {
-        meshes.push(parse_mesh(&table, materials, base, &mut files, &mut notes)?);
+        meshes.push(parse_mesh(&table, materials, base, &mut files, &mut notes, &mut mappings)?);
     }
-    Ok((meshes, notes))
+    Ok(ParsedMeshes { meshes, notes, mappings })
 }
 
 fn parse_mesh(
@@ -38,6 +46,7 @@ fn parse_mesh(
     base: &Path,
     files: &mut HashMap<PathBuf, MeshFile>,
     notes: &mut Vec<String>,
+    mappings: &mut Vec<String>,
 ) -> Result<Mesh, SceneError> {
     t.check_keys(MESH_KEYS, "")?;
     let expected = "the path of a .obj, .ply, .gltf or .glb file, relative to the scene file";
@@ -88,7 +97,8 @@ fn parse_mesh(
                 )));
             }
             let stem = path.file_stem().map_or_else(|| "mesh".to_string(), |s| s.to_string_lossy().into_owned());
-            let indices: Vec<u32> = f.materials.iter().map(|m| add_file_material(materials, &stem, m)).collect();
+            let indices: Vec<u32> =
+                f.materials.iter().map(|m| add_file_material(materials, mappings, &stem, m)).collect();
             f.triangle_materials.iter().map(|&m| indices[m as usize]).collect()
         }
     };
@@ -132,8 +142,8 @@ fn scene_material(t: &Table<'_, '_, '_>, v: &Value<'_>, materials: &[Material]) 
 
 /// Appends a file's material as `<stem>/<name>`, or finds the same material
 /// already there (a file used twice); a different one of that name becomes
-/// `<stem>/<name> (2)`.
-fn add_file_material(materials: &mut Vec<Material>, stem: &str, m: &FileMaterial) -> u32 {
+/// `<stem>/<name> (2)`. A new one's mapping goes to `mappings` (`Scene::material_mappings`).
+fn add_file_material(materials: &mut Vec<Material>, mappings: &mut Vec<String>, stem: &str, m: &FileMaterial) -> u32 {
     let base = format!("{stem}/{}", m.name);
     let mut material = m.material.clone();
     let mut name = base.clone();
@@ -145,6 +155,7 @@ fn add_file_material(materials: &mut Vec<Material>, stem: &str, m: &FileMaterial
             None => break,
         }
     }
+    mappings.push(format!("{name}: {}", m.mapping));
     materials.push(material);
     (materials.len() - 1) as u32
 }
