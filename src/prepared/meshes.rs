@@ -1,0 +1,86 @@
+//! The meshes' triangles as the renderers trace them, their lights, and the
+//! boxes the BVH is built from (`crate::math::bvh`).
+
+use crate::layout::{prim_ref, v4, GpuLight, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals};
+use crate::math::bvh;
+use crate::math::Vec3;
+use crate::scene::Scene;
+use crate::shared;
+
+/// Scenes with more spheres and quads than this are traced through a BVH, as
+/// every scene with triangles is; smaller ones keep the specialized walk.
+pub const BVH_MIN_ANALYTIC: usize = 256;
+
+/// Whether the renderers walk a BVH over every primitive (`shared::SPEC_BVH`):
+/// where the scene has triangles, or more than [`BVH_MIN_ANALYTIC`] spheres and quads.
+pub fn uses_bvh(scene: &Scene) -> bool {
+    scene.meshes.iter().any(|m| !m.triangles.is_empty()) || scene.spheres.len() + scene.quads.len() > BVH_MIN_ANALYTIC
+}
+
+/// The meshes' triangles and the shading normals of the smooth ones; a triangle
+/// of an emitting material becomes a light (appended to `lights`, its power to
+/// `powers`), as spheres and quads do.
+pub(super) fn mesh_triangles(
+    scene: &Scene,
+    lights: &mut Vec<GpuLight>,
+    powers: &mut Vec<f64>,
+    power: &dyn Fn(u32, f64) -> f64,
+) -> (Vec<GpuTriangle>, Vec<GpuTriangleNormals>) {
+    let count = scene.meshes.iter().map(|m| m.triangles.len()).sum();
+    let mut triangles = Vec::with_capacity(count);
+    let mut normals = Vec::new();
+    for mesh in &scene.meshes {
+        for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
+            let material = mesh.materials[t];
+            let v = [a, b, c].map(|i| mesh.positions[i as usize]);
+            let mut light = shared::NO_LIGHT;
+            if scene.material_emits(material) {
+                light = lights.len() as u32;
+                let index = triangles.len() as u32;
+                lights.push(GpuLight { kind: shared::LIGHT_TRIANGLE, index, pmf: 0.0, cdf: 0.0 });
+                let d = |x: Vec3| x.as_dvec3();
+                powers.push(power(material, 0.5 * (d(v[1]) - d(v[0])).cross(d(v[2]) - d(v[0])).length()));
+            }
+            let mut tri_normals = shared::NO_NORMALS;
+            if let Some(n) = &mesh.normals {
+                tri_normals = normals.len() as u32;
+                normals.push(GpuTriangleNormals { n: [a, b, c].map(|i| v4(n[i as usize], 0.0)) });
+            }
+            triangles.push(GpuTriangle {
+                v0: v[0].into(),
+                material,
+                v1: v[1].into(),
+                light,
+                v2: v[2].into(),
+                normals: tri_normals,
+            });
+        }
+    }
+    (triangles, normals)
+}
+
+/// The boxes of every primitive, for the BVH's build.
+pub(super) fn prim_boxes(spheres: &[GpuSphere], quads: &[GpuQuad], triangles: &[GpuTriangle]) -> Vec<bvh::PrimBox> {
+    let mut boxes = Vec::with_capacity(spheres.len() + quads.len() + triangles.len());
+    for (i, s) in spheres.iter().enumerate() {
+        let (c, r) = (Vec3::new(s.center_radius[0], s.center_radius[1], s.center_radius[2]), s.center_radius[3]);
+        boxes.push(bvh::PrimBox { prim: prim_ref(shared::PRIM_SPHERE, i as u32), lo: c - r, hi: c + r });
+    }
+    for (i, q) in quads.iter().enumerate() {
+        let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
+        let (o, u, v) = (xyz(q.origin), xyz(q.edge_u), xyz(q.edge_v));
+        let corners = [o, o + u, o + v, o + u + v];
+        let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
+        let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
+        boxes.push(bvh::PrimBox { prim: prim_ref(shared::PRIM_QUAD, i as u32), lo, hi });
+    }
+    for (i, t) in triangles.iter().enumerate() {
+        let [a, b, c] = t.vertices();
+        boxes.push(bvh::PrimBox {
+            prim: prim_ref(shared::PRIM_TRIANGLE, i as u32),
+            lo: a.min(b).min(c),
+            hi: a.max(b).max(c),
+        });
+    }
+    boxes
+}
