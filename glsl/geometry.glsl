@@ -371,6 +371,8 @@ uint light_kind(Light l) {
     if (!scene_has_light(LIGHT_QUAD) && !scene_has_light(LIGHT_TRIANGLE)) return LIGHT_SPHERE;
     if (!scene_has_light(LIGHT_SPHERE) && !scene_has_light(LIGHT_TRIANGLE)) return LIGHT_QUAD;
     if (!scene_has_light(LIGHT_SPHERE) && !scene_has_light(LIGHT_QUAD)) return LIGHT_TRIANGLE;
+    // Spheres and quads without triangles: the triangle's code goes too.
+    if (!scene_has_light(LIGHT_TRIANGLE)) return l.kind == LIGHT_SPHERE ? LIGHT_SPHERE : LIGHT_QUAD;
     return l.kind;
 }
 
