@@ -298,8 +298,8 @@ fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>) -> (u32, u
     (index, depth)
 }
 
-/// Builds the BVH over `prims` by binned SAH ([`BINS`] bins on the centroids'
-/// bounds, leaves of up to [`MAX_LEAF`] where the SAH prefers them, more only where
+/// Builds the BVH over `prims` by binned SAH (`BINS` bins on the centroids'
+/// bounds, leaves of up to `MAX_LEAF` where the SAH prefers them, more only where
 /// the centroids coincide), subtrees in parallel. Its depth stays at most
 /// `BVH_STACK - 8`: near that, nodes split at the median. No primitives, no nodes;
 /// one leaf (a single primitive, or a few the SAH keeps together) becomes a root

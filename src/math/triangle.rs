@@ -51,7 +51,7 @@ fn edge_function(a: Vec3, b: Vec3) -> f32 {
 
 impl TriangleRay {
     /// The ray from `o` along `d` (any length but 0). The paper swaps kx and ky
-    /// where d[kz] < 0 to keep the winding's sign; the test here is two-sided,
+    /// where `d[kz] < 0` to keep the winding's sign; the test here is two-sided,
     /// so it does not.
     pub fn new(o: Vec3, d: Vec3) -> TriangleRay {
         let a = d.abs();

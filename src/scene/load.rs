@@ -39,7 +39,7 @@ pub enum SceneError {
         message: String,
     },
     /// A `[[mesh]]` whose file was refused: where the scene names the file
-    /// (its `file` value), the table ("[[mesh]] #2"), and the file's error,
+    /// (its `file` value), the table (`[[mesh]] #2`), and the file's error,
     /// which names the mesh file and where in it.
     #[error("{}: {table}: {error}", location(file, *position))]
     Mesh { file: String, position: Option<(usize, usize)>, table: String, error: Box<MeshError> },

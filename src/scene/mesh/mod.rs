@@ -4,7 +4,7 @@
 //!
 //! A file that cannot be read whole is refused with a [`MeshError`] that names
 //! the file and where in it: the line (OBJ, MTL), the element and its index
-//! (PLY, "face 12") or the JSON path (glTF, "meshes[0].primitives[1].indices").
+//! (PLY, "face 12") or the JSON path (glTF, `meshes[0].primitives[1].indices`).
 //! What a file asks for that rlpt does not render (textures, alpha, vertex
 //! colours, a second layer of a material) is named in [`MeshFile::notes`], one
 //! line per file; zero-area triangles are skipped and counted in another.
@@ -76,7 +76,7 @@ pub enum Location {
     /// A PLY element by name and 0-based index ("face 12"), with its 1-based
     /// line in an ASCII file.
     Element { name: String, index: usize, line: Option<usize> },
-    /// A glTF JSON path ("meshes[0].primitives[1].indices").
+    /// A glTF JSON path (`meshes[0].primitives[1].indices`).
     Json(String),
 }
 
