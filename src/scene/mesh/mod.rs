@@ -198,6 +198,26 @@ fn read_file(file: &Path, path: &Path, location: Location, what: &str) -> Result
     })
 }
 
+/// A finite f32 from `word` on `line` of a text file (OBJ, MTL): NotFinite where
+/// it parses to NaN or infinity, Malformed ("expected a number for
+/// {article}{what}") where it does not parse.
+fn line_f32(path: &Path, line: usize, word: &str, article: &str, what: &str) -> Result<f32, MeshError> {
+    match word.parse::<f32>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        Ok(x) => Err(MeshError::NotFinite {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            what: what.to_string(),
+            value: format!("`{word}` ({})", number(f64::from(x))),
+        }),
+        Err(_) => Err(MeshError::Malformed {
+            path: path.to_path_buf(),
+            location: Location::Line(line),
+            message: format!("expected a number for {article}{what}, found `{word}`"),
+        }),
+    }
+}
+
 /// A number for messages: `0.5`, `1e300`, `NaN`.
 fn number(x: f64) -> String {
     if x.is_nan() {

@@ -21,7 +21,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::{number, vec_text, FileMaterial, Ignored, Location, MeshError, SPECULAR_BELOW_ROUGHNESS};
+use super::{vec_text, FileMaterial, Ignored, Location, MeshError, SPECULAR_BELOW_ROUGHNESS};
 use crate::scene::{Material, MaterialKind};
 
 /// `Ns` from which a material whose `Ks` outshines its `Kd` counts as glossy.
@@ -146,20 +146,7 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Vec<MtlMaterial>, MeshErr
 }
 
 fn parse_number(path: &Path, line: usize, word: &str, what: &str) -> Result<f32, MeshError> {
-    match word.parse::<f32>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        Ok(x) => Err(MeshError::NotFinite {
-            path: path.to_path_buf(),
-            location: Location::Line(line),
-            what: what.to_string(),
-            value: format!("`{word}` ({})", number(f64::from(x))),
-        }),
-        Err(_) => Err(MeshError::Malformed {
-            path: path.to_path_buf(),
-            location: Location::Line(line),
-            message: format!("expected a number for {what}, found `{word}`"),
-        }),
-    }
+    super::line_f32(path, line, word, "", what)
 }
 
 fn non_negative(path: &Path, line: usize, what: &str, x: f32) -> Result<f32, MeshError> {

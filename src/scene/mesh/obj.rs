@@ -14,7 +14,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::mtl::{self, MtlMaterial};
-use super::{number, read_file, Builder, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
+use super::{read_file, Builder, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
 
 /// A corner's normal where the face gives none.
 const NO_NORMAL: u64 = u64::MAX;
@@ -197,20 +197,7 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
 
 /// A finite f32 coordinate.
 fn coordinate(path: &Path, line: usize, word: &str, what: &str) -> Result<f32, MeshError> {
-    match word.parse::<f32>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        Ok(x) => Err(MeshError::NotFinite {
-            path: path.to_path_buf(),
-            location: Location::Line(line),
-            what: what.to_string(),
-            value: format!("`{word}` ({})", number(f64::from(x))),
-        }),
-        Err(_) => Err(MeshError::Malformed {
-            path: path.to_path_buf(),
-            location: Location::Line(line),
-            message: format!("expected a number for the {what}, found `{word}`"),
-        }),
-    }
+    super::line_f32(path, line, word, "the ", what)
 }
 
 /// One face corner, `v`, `v/vt`, `v//vn` or `v/vt/vn`: 0-based vertex and
