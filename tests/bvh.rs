@@ -191,14 +191,7 @@ fn icosphere(level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 
 /// Triangles over their own BVH, nothing else.
 fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
-    let boxes: Vec<PrimBox> = triangles
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            let [a, b, c] = t.vertices();
-            PrimBox { prim: prim_ref(shared::PRIM_TRIANGLE, i as u32), lo: a.min(b).min(c), hi: a.max(b).max(c) }
-        })
-        .collect();
+    let boxes: Vec<PrimBox> = triangles.iter().enumerate().map(|(i, t)| PrimBox::triangle(i as u32, t)).collect();
     let built = bvh::build(&boxes);
     SceneArrays {
         params: RenderParams::default(),

@@ -26,29 +26,12 @@ fn megabytes(bytes: u64) -> String {
     format!("{:.1} MB", bytes as f64 / (1 << 20) as f64)
 }
 
+/// The box around every primitive, from the boxes the BVH is built from.
 fn bounds(s: &SceneArrays) -> Option<(glam::Vec3, glam::Vec3)> {
-    let mut lo = glam::Vec3::INFINITY;
-    let mut hi = glam::Vec3::NEG_INFINITY;
-    for sp in &s.spheres {
-        let c = glam::Vec3::new(sp.center_radius[0], sp.center_radius[1], sp.center_radius[2]);
-        lo = lo.min(c - sp.center_radius[3]);
-        hi = hi.max(c + sp.center_radius[3]);
-    }
-    for q in &s.quads {
-        let o = glam::Vec3::new(q.origin[0], q.origin[1], q.origin[2]);
-        let (u, v) = (glam::Vec3::from_slice(&q.edge_u[..3]), glam::Vec3::from_slice(&q.edge_v[..3]));
-        for c in [o, o + u, o + v, o + u + v] {
-            lo = lo.min(c);
-            hi = hi.max(c);
-        }
-    }
-    for t in &s.triangles {
-        for v in t.vertices() {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-    }
-    (lo.x <= hi.x).then_some((lo, hi))
+    let boxes = rlpt::prepared::prim_boxes(&s.spheres, &s.quads, &s.triangles);
+    let lo = boxes.iter().fold(glam::Vec3::INFINITY, |a, b| a.min(b.lo));
+    let hi = boxes.iter().fold(glam::Vec3::NEG_INFINITY, |a, b| a.max(b.hi));
+    (!boxes.is_empty()).then_some((lo, hi))
 }
 
 pub(crate) fn info(path: &Path) -> Result<()> {

@@ -10,7 +10,7 @@
 use super::geometry::{intersect_quad, intersect_sphere, sphere_blocks};
 use super::triangle::TriangleRay;
 use super::Vec3;
-use crate::layout::{prim_kind_index, GpuBvhNode, SceneArrays};
+use crate::layout::{prim_kind_index, prim_ref, GpuBvhNode, GpuQuad, GpuSphere, GpuTriangle, SceneArrays};
 use crate::shared;
 use rayon::prelude::*;
 
@@ -20,6 +20,30 @@ pub struct PrimBox {
     pub prim: u32,
     pub lo: Vec3,
     pub hi: Vec3,
+}
+
+impl PrimBox {
+    /// Sphere `i`'s box: centre -+ radius.
+    pub fn sphere(i: u32, s: &GpuSphere) -> PrimBox {
+        let (c, r) = (Vec3::new(s.center_radius[0], s.center_radius[1], s.center_radius[2]), s.center_radius[3]);
+        PrimBox { prim: prim_ref(shared::PRIM_SPHERE, i), lo: c - r, hi: c + r }
+    }
+
+    /// Quad `i`'s box: around its four corners.
+    pub fn quad(i: u32, q: &GpuQuad) -> PrimBox {
+        let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
+        let (o, u, v) = (xyz(q.origin), xyz(q.edge_u), xyz(q.edge_v));
+        let corners = [o, o + u, o + v, o + u + v];
+        let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
+        let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
+        PrimBox { prim: prim_ref(shared::PRIM_QUAD, i), lo, hi }
+    }
+
+    /// Triangle `i`'s box: around its three vertices.
+    pub fn triangle(i: u32, t: &GpuTriangle) -> PrimBox {
+        let [a, b, c] = t.vertices();
+        PrimBox { prim: prim_ref(shared::PRIM_TRIANGLE, i), lo: a.min(b).min(c), hi: a.max(b).max(c) }
+    }
 }
 
 /// A built BVH: its nodes (root first) and the leaves' primitive references, as
@@ -492,13 +516,7 @@ mod tests {
     use crate::math::triangle::intersect_triangle;
 
     fn tri_boxes(tris: &[GpuTriangle]) -> Vec<PrimBox> {
-        tris.iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let [a, b, c] = t.vertices();
-                PrimBox { prim: prim_ref(shared::PRIM_TRIANGLE, i as u32), lo: a.min(b).min(c), hi: a.max(b).max(c) }
-            })
-            .collect()
+        tris.iter().enumerate().map(|(i, t)| PrimBox::triangle(i as u32, t)).collect()
     }
 
     fn scene(triangles: Vec<GpuTriangle>) -> SceneArrays {

@@ -1,7 +1,7 @@
 //! The meshes' triangles as the renderers trace them, their lights, and the
 //! boxes the BVH is built from (`crate::math::bvh`).
 
-use crate::layout::{prim_ref, v4, GpuLight, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals};
+use crate::layout::{v4, GpuLight, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals};
 use crate::math::bvh;
 use crate::math::Vec3;
 use crate::scene::Scene;
@@ -59,28 +59,10 @@ pub(super) fn mesh_triangles(
     (triangles, normals)
 }
 
-/// The boxes of every primitive, for the BVH's build.
-pub(super) fn prim_boxes(spheres: &[GpuSphere], quads: &[GpuQuad], triangles: &[GpuTriangle]) -> Vec<bvh::PrimBox> {
-    let mut boxes = Vec::with_capacity(spheres.len() + quads.len() + triangles.len());
-    for (i, s) in spheres.iter().enumerate() {
-        let (c, r) = (Vec3::new(s.center_radius[0], s.center_radius[1], s.center_radius[2]), s.center_radius[3]);
-        boxes.push(bvh::PrimBox { prim: prim_ref(shared::PRIM_SPHERE, i as u32), lo: c - r, hi: c + r });
-    }
-    for (i, q) in quads.iter().enumerate() {
-        let xyz = |v: [f32; 4]| Vec3::new(v[0], v[1], v[2]);
-        let (o, u, v) = (xyz(q.origin), xyz(q.edge_u), xyz(q.edge_v));
-        let corners = [o, o + u, o + v, o + u + v];
-        let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
-        let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
-        boxes.push(bvh::PrimBox { prim: prim_ref(shared::PRIM_QUAD, i as u32), lo, hi });
-    }
-    for (i, t) in triangles.iter().enumerate() {
-        let [a, b, c] = t.vertices();
-        boxes.push(bvh::PrimBox {
-            prim: prim_ref(shared::PRIM_TRIANGLE, i as u32),
-            lo: a.min(b).min(c),
-            hi: a.max(b).max(c),
-        });
-    }
-    boxes
+/// The boxes of every primitive, for the BVH's build (and `rlpt info`'s bounds).
+pub fn prim_boxes(spheres: &[GpuSphere], quads: &[GpuQuad], triangles: &[GpuTriangle]) -> Vec<bvh::PrimBox> {
+    let spheres = spheres.iter().enumerate().map(|(i, s)| bvh::PrimBox::sphere(i as u32, s));
+    let quads = quads.iter().enumerate().map(|(i, q)| bvh::PrimBox::quad(i as u32, q));
+    let triangles = triangles.iter().enumerate().map(|(i, t)| bvh::PrimBox::triangle(i as u32, t));
+    spheres.chain(quads).chain(triangles).collect()
 }

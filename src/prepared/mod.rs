@@ -17,8 +17,8 @@ use crate::shared;
 mod analysis;
 mod meshes;
 pub use analysis::*;
-use meshes::{mesh_triangles, prim_boxes};
-pub use meshes::{uses_bvh, BVH_MIN_ANALYTIC};
+use meshes::mesh_triangles;
+pub use meshes::{prim_boxes, uses_bvh, BVH_MIN_ANALYTIC};
 
 /// The scene ready to upload or trace: its arrays ([`SceneArrays`], which it
 /// derefs to, as the geometry reads them) and the guiding configuration.
