@@ -2,6 +2,7 @@
 //! a tessellated ball in the open furnace, emissive triangles as lights (their
 //! sampler's chi-square, NEE on versus off, guided versus unguided), GPU versus CPU.
 
+mod bvh_support;
 mod common;
 
 use common::*;
@@ -23,67 +24,13 @@ const K: f64 = 5.0;
 /// A closed icosphere of `level` subdivisions about `center` (counter-clockwise
 /// seen from outside: the front faces out), every triangle of material `material`.
 fn icosphere(center: Vec3, radius: f32, level: u32, material: u32) -> Mesh {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|p| Vec3::from(*p).normalize())
-    .collect();
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        for [a, b, c] in f {
-            let mut m = |i: u32, j: u32| {
-                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    v.push(((v[i as usize] + v[j as usize]) / 2.0).normalize());
-                    v.len() as u32 - 1
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
+    let (unit, triangles) = bvh_support::icosphere(level);
     Mesh {
         source: PathBuf::from("icosphere"),
-        positions: v.iter().map(|p| center + radius * *p).collect(),
+        positions: unit.iter().map(|p| center + radius * *p).collect(),
         normals: None,
-        materials: vec![material; f.len()],
-        triangles: f,
+        materials: vec![material; triangles.len()],
+        triangles,
     }
 }
 

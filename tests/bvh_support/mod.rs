@@ -1,6 +1,7 @@
 //! What the BVH tests share (tests/bvh.rs, tests/bvh_gpu.rs): a test-only PLY
 //! reader, the bunny and a mixed scene prepared as the renderers prepare them,
-//! random rays in bundles, and the brute-force reference.
+//! random rays in bundles, the brute-force reference, and a closed icosphere
+//! (tests/mesh_render.rs too).
 #![allow(dead_code)]
 
 use rlpt::layout::{prim_kind_index, prim_ref, SceneArrays};
@@ -344,4 +345,63 @@ pub fn all_prims(s: &SceneArrays) -> Vec<u32> {
         .chain((0..s.spheres.len() as u32).map(|i| prim_ref(shared::PRIM_SPHERE, i)))
         .chain((0..s.quads.len() as u32).map(|i| prim_ref(shared::PRIM_QUAD, i)))
         .collect()
+}
+
+/// A closed icosphere of `level` subdivisions, radius 1 about the origin.
+pub fn icosphere(level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .map(|p| Vec3::from(p).normalize())
+    .to_vec();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for [a, b, c] in f {
+            let mut m = |i: u32, j: u32| {
+                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
+                    v.push(((v[i as usize] + v[j as usize]) / 2.0).normalize());
+                    v.len() as u32 - 1
+                })
+            };
+            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v, f)
 }
