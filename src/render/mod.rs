@@ -402,6 +402,21 @@ fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
     bytemuck::cast_slice(v)
 }
 
+/// The bindings of the meshes and the BVH, in the order of [`geometry_buffers`].
+const GEOMETRY_BINDINGS: [u32; 4] =
+    [shared::BINDING_TRIANGLES, shared::BINDING_TRIANGLE_NORMALS, shared::BINDING_BVH_NODES, shared::BINDING_PRIM_REFS];
+
+/// The meshes and the BVH on the device (the path tracer's and `raycast`'s):
+/// device-local, as they are large and read at every ray.
+fn geometry_buffers(ctx: &Arc<Context>, scene: &crate::layout::SceneArrays) -> Result<Vec<Buffer>, GpuError> {
+    Ok(vec![
+        Buffer::device_with_data(ctx, "triangles", bytes(&scene.triangles))?,
+        Buffer::device_with_data(ctx, "triangle normals", bytes(&scene.triangle_normals))?,
+        Buffer::device_with_data(ctx, "BVH nodes", bytes(&scene.bvh_nodes))?,
+        Buffer::device_with_data(ctx, "primitive refs", bytes(&scene.prim_refs))?,
+    ])
+}
+
 impl GpuRenderer {
     pub fn new(ctx: &Arc<Context>, scene: &PreparedScene) -> Result<GpuRenderer, GpuError> {
         let p = &scene.params;
@@ -441,13 +456,7 @@ impl GpuRenderer {
             Buffer::with_data(ctx, "quads", bytes(&scene.quads), false)?,
             Buffer::with_data(ctx, "lights", bytes(&scene.lights), false)?,
         ];
-        // The meshes and the BVH: device-local, as they are large and read at every ray.
-        let geometry_buffers = vec![
-            Buffer::device_with_data(ctx, "triangles", bytes(&scene.triangles))?,
-            Buffer::device_with_data(ctx, "triangle normals", bytes(&scene.triangle_normals))?,
-            Buffer::device_with_data(ctx, "BVH nodes", bytes(&scene.bvh_nodes))?,
-            Buffer::device_with_data(ctx, "primitive refs", bytes(&scene.prim_refs))?,
-        ];
+        let geometry_buffers = geometry_buffers(ctx, scene)?;
         let scene_constants = Buffer::with_data(ctx, "scene constants", bytes(&scene.scene_constants()), true)?;
         let accum_size = (p.width as u64) * (p.height as u64) * std::mem::size_of::<AccumPixel>() as u64;
         fits_one_buffer(ctx, "the accumulation buffer", accum_size, "render a smaller image")?;
@@ -940,14 +949,7 @@ fn path_pipeline(
         bindings.push((shared::BINDING_FRACTIONS, Binding::Storage));
         bindings.push((shared::BINDING_ROWS_READ, Binding::Storage));
     }
-    for b in [
-        shared::BINDING_TRIANGLES,
-        shared::BINDING_TRIANGLE_NORMALS,
-        shared::BINDING_BVH_NODES,
-        shared::BINDING_PRIM_REFS,
-    ] {
-        bindings.push((b, Binding::Storage));
-    }
+    bindings.extend(GEOMETRY_BINDINGS.map(|b| (b, Binding::Storage)));
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
     constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(guided, p.scene_kinds);

@@ -3,7 +3,7 @@
 //! along the same bounce direction, each through the renderer's own
 //! `intersect_scene` and `occluded` (glsl/raycast.comp).
 
-use super::{specialization, GpuError};
+use super::{geometry_buffers, specialization, GpuError, GEOMETRY_BINDINGS};
 use crate::gpu::{Binding, Buffer, BufferUsage, Context, Pipeline, Timer};
 use crate::prepared::PreparedScene;
 use crate::shared;
@@ -43,29 +43,23 @@ pub fn measure_ray_rates(ctx: &Arc<Context>, scene: &PreparedScene, repeats: u32
         Buffer::with_data(ctx, "quads", bytemuck::cast_slice(&scene.quads), false)?,
         Buffer::with_data(ctx, "lights", bytemuck::cast_slice(&scene.lights), false)?,
         Buffer::with_data(ctx, "scene constants", bytemuck::cast_slice(&scene.scene_constants()), true)?,
-        Buffer::device_with_data(ctx, "triangles", bytemuck::cast_slice(&scene.triangles))?,
-        Buffer::device_with_data(ctx, "triangle normals", bytemuck::cast_slice(&scene.triangle_normals))?,
-        Buffer::device_with_data(ctx, "BVH nodes", bytemuck::cast_slice(&scene.bvh_nodes))?,
-        Buffer::device_with_data(ctx, "primitive refs", bytemuck::cast_slice(&scene.prim_refs))?,
     ];
+    buffers.extend(geometry_buffers(ctx, scene)?);
     let pixels = p.width as u64 * p.height as u64;
     buffers.push(Buffer::new(ctx, "ray hits", 32 * pixels, BufferUsage::Storage)?);
     buffers.push(Buffer::new(ctx, "ray count", 16, BufferUsage::Storage)?);
     let count_readback = Buffer::new(ctx, "ray count readback", 16, BufferUsage::Readback)?;
-    let bindings: Vec<(u32, Binding)> = vec![
+    let mut bindings: Vec<(u32, Binding)> = vec![
         (shared::BINDING_PARAMS, Binding::Uniform),
         (shared::BINDING_MATERIALS, Binding::Storage),
         (shared::BINDING_SPHERES, Binding::Storage),
         (shared::BINDING_QUADS, Binding::Storage),
         (shared::BINDING_LIGHTS, Binding::Storage),
         (shared::BINDING_SCENE_CONSTANTS, Binding::Uniform),
-        (shared::BINDING_TRIANGLES, Binding::Storage),
-        (shared::BINDING_TRIANGLE_NORMALS, Binding::Storage),
-        (shared::BINDING_BVH_NODES, Binding::Storage),
-        (shared::BINDING_PRIM_REFS, Binding::Storage),
-        (shared::BINDING_RAYCAST_HITS, Binding::Storage),
-        (shared::BINDING_RAYCAST_COUNT, Binding::Storage),
     ];
+    bindings.extend(GEOMETRY_BINDINGS.map(|b| (b, Binding::Storage)));
+    bindings.push((shared::BINDING_RAYCAST_HITS, Binding::Storage));
+    bindings.push((shared::BINDING_RAYCAST_COUNT, Binding::Storage));
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_PIXELS_PER_GROUP as usize] = 1;
     constants.extend_from_slice(&scene.geometry_specialization());
