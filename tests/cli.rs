@@ -1007,6 +1007,29 @@ fn a_mesh_larger_than_the_device_memory_is_refused_before_upload() {
 }
 
 #[test]
+fn bench_rays_times_the_three_kinds_of_ray_and_needs_the_gpu() {
+    let json = tmp("rays.json");
+    let o = rlpt()
+        .args(["bench", "scenes/cornell-box.toml", "--rays", "2", "--width", "16", "--height", "12", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for kind in ["camera rays", "bounce rays", "any-hit rays"] {
+        assert!(text.contains(kind) && text.contains("Mrays/s"), "{kind}: {text}");
+    }
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    // One camera ray per pixel; a bounce ray from each of their hits.
+    assert_eq!(r["camera_rays"], 16 * 12, "{r}");
+    assert!(r["bounce_rays"].as_u64().unwrap() > 0 && r["camera_mrays_per_s"].as_f64().unwrap() > 0.0, "{r}");
+    let o = rlpt().args(["bench", "scenes/cornell-box.toml", "--rays", "2", "--device", "cpu"]).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("--rays times GPU dispatches: it needs --device gpu"), "{e}");
+}
+
+#[test]
 fn info_prints_the_meshes_lights_and_bvh_of_a_scene() {
     let o = rlpt().args(["info", "scenes/cornell-box.toml"]).output().unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
