@@ -198,6 +198,17 @@ fn read_file(file: &Path, path: &Path, location: Location, what: &str) -> Result
     })
 }
 
+/// The lines of an OBJ or MTL text that hold a keyword: the 1-based line, its
+/// content before any `#`, the keyword and the words after it.
+fn keyword_lines(text: &str) -> impl Iterator<Item = (usize, &str, &str, Vec<&str>)> {
+    text.lines().enumerate().filter_map(|(i, raw)| {
+        let content = raw.split('#').next().unwrap_or("");
+        let mut words = content.split_whitespace();
+        let keyword = words.next()?;
+        Some((i + 1, content, keyword, words.collect()))
+    })
+}
+
 /// A finite f32 from `word` on `line` of a text file (OBJ, MTL): NotFinite where
 /// it parses to NaN or infinity, Malformed ("expected a number for
 /// {article}{what}") where it does not parse.

@@ -60,12 +60,7 @@ const TEXTURE_KEYWORDS: &[&str] = &[
 /// Parses an MTL file's text; errors name `path` and the line.
 pub(super) fn parse(path: &Path, text: &str) -> Result<Vec<MtlMaterial>, MeshError> {
     let mut materials: Vec<MtlMaterial> = Vec::new();
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let content = raw.split('#').next().unwrap_or("");
-        let mut words = content.split_whitespace();
-        let Some(keyword) = words.next() else { continue };
-        let rest: Vec<&str> = words.collect();
+    for (line, content, keyword, rest) in super::keyword_lines(text) {
         let malformed = |message: String| MeshError::Malformed {
             path: path.to_path_buf(),
             location: Location::Line(line),

@@ -45,12 +45,7 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
     let mut library: Vec<MtlMaterial> = Vec::new();
     let mut ignored = Ignored::default();
 
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let content = raw.split('#').next().unwrap_or("");
-        let mut words = content.split_whitespace();
-        let Some(keyword) = words.next() else { continue };
-        let rest: Vec<&str> = words.collect();
+    for (line, content, keyword, rest) in super::keyword_lines(&text) {
         let malformed = |message: String| MeshError::Malformed {
             path: path.to_path_buf(),
             location: Location::Line(line),
