@@ -236,6 +236,10 @@
 #define FRACTION_BETA1 0.9
 #define FRACTION_BETA2 0.999
 #define FRACTION_MIN 0.1
+// A cell uses its table as far as it has earned it: its rows' fraction is the
+// learned one times n / (n + FRACTION_EVIDENCE_PER_BIN * bins), n the targets
+// its entries have taken (src/guide/fraction.rs `evidence_weight`).
+#define FRACTION_EVIDENCE_PER_BIN 16
 // Which paths hand their Q-learning targets to the table (src/guide/mod.rs
 // `RecordSchedule`): all of them in the first RECORD_ALL_FRAMES frames, then those
 // of one pixel row in a stride, a different row each frame. The stride starts at

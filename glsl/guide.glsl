@@ -17,7 +17,8 @@ layout(std430, set = 0, binding = BINDING_FRAME_SUMS) buffer FrameSums { float f
 layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uint frame_counts[]; };
 // Per bin of each sampling row: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
 layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uvec2 sampler_table[]; };
-// Per sampling row: its guided fraction, 0 where it is unlearned; src/guide/mod.rs `QTable::fractions`.
+// Per sampling row: its guided fraction (the cell's times its evidence weight), 0 where
+// it is unlearned; src/guide/table.rs `QTable::fractions`.
 layout(std430, set = 0, binding = BINDING_FRACTIONS) readonly buffer Fractions { float row_fractions[]; };
 layout(std430, set = 0, binding = BINDING_ROWS_READ) buffer RowsRead { uint rows_read[]; };
 

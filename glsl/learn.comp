@@ -70,6 +70,12 @@ float cell_fraction(vec4 s) {
     return clamp(1.0 / (1.0 + exp(-l)), FRACTION_MIN, 1.0 - FRACTION_MIN);
 }
 
+// src/guide/fraction.rs `evidence_weight`: the share of its fraction a cell
+// whose entries took n targets uses.
+float evidence_weight(float n) {
+    return n / (n + float(FRACTION_EVIDENCE_PER_BIN) * float(push.bins));
+}
+
 // src/guide/mod.rs `FractionState::step`.
 vec4 fraction_step(vec4 s, float gradient) {
     if (isnan(gradient) || isinf(gradient)) return s;
@@ -200,9 +206,11 @@ void build_row(uint i) {
     // slot and the column is marked unset while the table is built.
     float qc = 0.0;
     float c = 0.0;
+    float targets = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
         float w = bin_cosine(b, class_);
         float q = q_table[qrow + b];
+        targets += float(visits[qrow + b]);
         set_bin(b, uvec2(floatBitsToUint(q), floatBitsToUint(w)));
         qc += q * w;
         c += w;
@@ -220,7 +228,8 @@ void build_row(uint i) {
         row_fractions[i] = 0.0;
         return;
     }
-    row_fractions[i] = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
+    float g = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
+    row_fractions[i] = g * evidence_weight(targets);
     build_alias_row(push.bins, total);
     if (STAGED) {
         for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = get_bin(b);

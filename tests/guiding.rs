@@ -10,7 +10,7 @@ use rlpt::cpu::{trace_path, CpuRenderer, Guide};
 use rlpt::film::Film;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Context, Pipeline};
 use rlpt::guide::{
-    bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, guided_direction,
+    bin_cosine, build_alias_row, build_sampling_rows, class_axis, class_cosines, evidence_weight, guided_direction,
     guided_direction_bin, guided_pdf, learned, lobe_share, sampler_row, AliasBin, Bins, GuideConfig, GuidingMode,
     QTable, QTargets, RecordSchedule, Recorder, DEFAULT_RATE_EXPONENT, NORMAL_CLASSES, UNLEARNED,
 };
@@ -1088,8 +1088,14 @@ fn the_gpu_image_starts_after_the_learning_frames() {
 }
 
 /// The mean guided fraction of the learned rows of `t`, and how many there are.
+/// The mean of the learned fractions of the cells' learned rows (the cells'
+/// states', before the evidence weight), and how many rows.
 fn mean_fraction(t: &QTable) -> (f64, usize) {
-    let learned: Vec<f64> = t.fractions.iter().filter(|&&f| f > 0.0).map(|&f| f as f64).collect();
+    let n = t.q.len() / t.fraction_states.len();
+    let learned: Vec<f64> = (0..t.fractions.len())
+        .filter(|&i| learned(&t.rows[i * n..(i + 1) * n]))
+        .map(|i| t.fraction_states[i / NORMAL_CLASSES as usize].fraction(0.5) as f64)
+        .collect();
     (learned.iter().sum::<f64>() / learned.len().max(1) as f64, learned.len())
 }
 
@@ -1167,7 +1173,8 @@ fn cells_learn_their_fractions_from_the_light_they_find() {
 }
 
 /// `learn.comp` learns the fractions as `QTable::learn` does: each row's fraction
-/// is its cell's (from the cell's state) where the row is learned, 0 where not;
+/// is its cell's (from the cell's state) times the cell's evidence weight where
+/// the row is learned, 0 where not;
 /// and the GPU's cells, tracing the same paths up to rounding, end where the
 /// CPU's do. Adam's steps are nearly the gradient's sign while it keeps its
 /// sign, so the two agree exactly but where a cell's mean gradient is near 0.
@@ -1190,8 +1197,14 @@ fn assert_gpu_learns_what_the_cpu_learns(gpu_table: &QTable, cpu_table: &QTable,
     let n = Bins::OCTANT.count() as usize;
     for (i, &f) in gpu_table.fractions.iter().enumerate() {
         let row = &gpu_table.rows[i * n..(i + 1) * n];
-        let want = if learned(row) { gpu_table.fraction_states[i / classes].fraction(0.5) } else { 0.0 };
-        assert!((f - want).abs() < 1e-6, "row {i}: fraction {f}, its cell's state says {want}");
+        let cell = i / classes;
+        let targets: f32 = gpu_table.visits[cell * n..(cell + 1) * n].iter().map(|&v| v as f32).sum();
+        let want = if learned(row) {
+            gpu_table.fraction_states[cell].fraction(0.5) * evidence_weight(targets, n as u32)
+        } else {
+            0.0
+        };
+        assert!((f - want).abs() < 1e-6, "row {i}: fraction {f}, its cell's state and evidence say {want}");
     }
     let (cpu_mean, _) = mean_fraction(cpu_table);
     assert!((cpu_mean - 0.5).abs() > 0.05, "rate {rate}: the CPU's fractions did not move from 0.5: mean {cpu_mean}");

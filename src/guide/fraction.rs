@@ -33,6 +33,18 @@ pub struct FractionState {
 /// Smallest learned fraction, and 1 minus the largest. `glsl/common.glsl`.
 pub const FRACTION_MIN: f32 = shared::FRACTION_MIN;
 
+/// The share of its learned fraction that a cell's rows use: `n / (n + k bins)`
+/// for a cell whose entries have taken `n` targets, k =
+/// `FRACTION_EVIDENCE_PER_BIN`. A table that has seen few paths is noisy, and
+/// guided directions drawn from it weigh up to 1 / (1 - fraction) times a BSDF
+/// direction at each vertex: a cell starts from BSDF sampling and hands over to
+/// its table as the evidence grows (docs/guiding.md, "Evidence").
+/// `glsl/learn.comp` `evidence_weight` is the same.
+pub fn evidence_weight(targets: f32, bins: u32) -> f32 {
+    let k = shared::FRACTION_EVIDENCE_PER_BIN as f32 * bins as f32;
+    targets / (targets + k)
+}
+
 /// ln(p / (1 - p)), for p in (0, 1).
 fn logit(p: f32) -> f32 {
     (p / (1.0 - p)).ln()
@@ -116,6 +128,23 @@ mod tests {
                 s.step(-gradient, 0.5);
             }
             assert!(sign * (s.fraction(0.5) - before) < -0.01, "{before} -> {}", s.fraction(0.5));
+        }
+    }
+
+    /// No targets, no share; half at k targets per bin; nearly all with many more.
+    #[test]
+    fn the_evidence_weight_grows_from_zero_to_one_with_the_targets_per_bin() {
+        let k = shared::FRACTION_EVIDENCE_PER_BIN as f32;
+        for bins in [8u32, 128, 800] {
+            assert_eq!(evidence_weight(0.0, bins), 0.0);
+            assert!((evidence_weight(k * bins as f32, bins) - 0.5).abs() < 1e-6);
+            assert!(evidence_weight(1000.0 * k * bins as f32, bins) > 0.998);
+            let mut last = 0.0;
+            for t in [1.0f32, 10.0, 1e3, 1e5, 1e7] {
+                let w = evidence_weight(t, bins);
+                assert!(w > last && w < 1.0, "{t} targets over {bins} bins: {w} after {last}");
+                last = w;
+            }
         }
     }
 

@@ -12,8 +12,9 @@ pub struct QTable {
     pub visits: Vec<u32>,
     /// Sampling rows, [`NORMAL_CLASSES`] per cell (see [`build_sampling_rows`]).
     pub rows: Vec<AliasBin>,
-    /// The guided fraction of each sampling row: its cell's, 0 where the row is
-    /// [`UNLEARNED`] (so one load tells a vertex both).
+    /// The guided fraction of each sampling row: its cell's times the cell's
+    /// [`evidence_weight`], 0 where the row is [`UNLEARNED`] (so one load tells a
+    /// vertex both).
     pub fractions: Vec<f32>,
     /// Per cell, the state of its learned fraction.
     pub fraction_states: Vec<FractionState>,
@@ -114,6 +115,8 @@ impl QTable {
             }
             build_sampling_rows(&cosines, q, cfg.floor, &mut built);
             let g = if cfg.learn_fraction { self.fraction_states[cell].fraction(cfg.fraction) } else { cfg.fraction };
+            let targets: f32 = self.visits[cell * n..(cell + 1) * n].iter().map(|&v| v as f32).sum();
+            let g = g * evidence_weight(targets, n as u32);
             for (class, (row, new)) in rows.chunks_mut(n).zip(built.chunks(n)).enumerate() {
                 if read[class] {
                     row.copy_from_slice(new);
