@@ -78,7 +78,8 @@ impl Renderer for GpuRenderer {
 }
 
 /// How much a session may render: at most `frames` frames (the learning frames
-/// counted), and where `time_ms` is set, no frame after the one that reaches it.
+/// counted), and where `time_ms` is set, no frame that would end past it, each
+/// taken to last as long as the frame before (the first frame always runs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
     pub frames: u32,
@@ -156,7 +157,9 @@ impl<'a> Session<'a> {
             let frame_ms = report.gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
             let mark = time_mark(self.elapsed_ms, self.elapsed_ms + frame_ms);
             self.elapsed_ms += frame_ms;
-            let out_of_time = budget.time_ms.is_some_and(|limit| self.elapsed_ms >= limit);
+            // The next frame is taken to last as long as this one: the session
+            // stops where it would end past the limit, so that --time T ends by T.
+            let out_of_time = budget.time_ms.is_some_and(|limit| self.elapsed_ms + frame_ms > limit);
             let interrupted = interrupt.load(Ordering::SeqCst) && f + 1 < budget.frames;
             let last = f + 1 == budget.frames || out_of_time || interrupted;
             let errors = match self.reference {

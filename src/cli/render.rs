@@ -29,8 +29,9 @@ pub(crate) struct RenderArgs {
     /// Write per-frame statistics (time, relMSE, zero-radiance paths) as JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
-    /// Stop once this much render time has passed (GPU time from timestamps on the GPU,
-    /// wall clock on the CPU): equal-time comparisons. --spp is then the upper bound.
+    /// Stop by this much render time (GPU time from timestamps on the GPU, wall clock on
+    /// the CPU): no frame starts that would end past it, each judged to last as long as
+    /// the frame before (the first always runs). --spp is then the upper bound.
     #[arg(long, value_parser = parse_seconds)]
     time: Option<f64>,
 }
