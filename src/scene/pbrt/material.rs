@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::lexer::Loc;
 use super::params::{Param, Params};
-use super::Notes;
+use super::{Importer, Notes};
 use crate::scene::mesh::SPECULAR_BELOW_ROUGHNESS;
 use crate::scene::{Material, MaterialKind, SceneError};
 
@@ -345,4 +345,58 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
     };
     let kind = format!("{:?}", material.kind).to_lowercase();
     Ok(Mapped { material, mapping: format!("{ty} -> {kind} ({how})") })
+}
+
+impl Importer {
+    /// Maps a material, notes what it leaves out, and returns its index.
+    pub(super) fn material(&mut self, ty: &str, p: &Params, loc: &Loc, label: &str) -> Result<usize, SceneError> {
+        let mut mapped = if ty == "mix" {
+            self.mix(p, loc, label)?
+        } else {
+            let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: format!("material \"{label}\"") };
+            map(ty, &mut r)?
+        };
+        let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
+        if !unused.is_empty() {
+            self.notes.approximated(loc, format!("material \"{label}\" ({ty}): ignored {}", unused.join(", ")))?;
+        }
+        mapped.material.name = label.to_string();
+        mapped.mapping = format!("{label}: {} [{}]", mapped.mapping, loc.at());
+        self.materials.push(mapped);
+        Ok(self.materials.len() - 1)
+    }
+
+    /// `mix`: two diffuse materials blend their albedos; otherwise the one of
+    /// larger weight stands for both.
+    fn mix(&mut self, p: &Params, loc: &Loc, label: &str) -> Result<Mapped, SceneError> {
+        let names = p.get("materials", &["string"]).map(|q| q.strings()).transpose()?;
+        let Some(names) = names.filter(|n| n.len() == 2) else {
+            return Err(loc.error(format!("material \"{label}\" (mix): expected \"string materials\" with two material names")));
+        };
+        let amount = {
+            let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: format!("material \"{label}\"") };
+            r.scalar("amount", 0.5)?
+        };
+        let mut pair = Vec::new();
+        for n in &names {
+            let i = *self.named_materials.get(n).ok_or_else(|| {
+                loc.error(format!("material \"{label}\" (mix): \"{n}\" is not a named material made before it"))
+            })?;
+            pair.push(self.materials[i].clone());
+        }
+        let (a, b) = (&pair[0].material, &pair[1].material);
+        let t = amount.clamp(0.0, 1.0) as f32;
+        let (material, how) = if a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse {
+            let mut m = a.clone();
+            m.albedo = a.albedo.lerp(b.albedo, t);
+            (m, format!("albedos of \"{}\" and \"{}\" blended by amount {amount}", names[0], names[1]))
+        } else {
+            let (pick, name) = if t < 0.5 { (a, &names[0]) } else { (b, &names[1]) };
+            (pick.clone(), format!("\"{name}\", the larger share at amount {amount}"))
+        };
+        self.notes.approximated(loc, format!("material \"{label}\" (mix): {how}"))?;
+        let kind = format!("{:?}", material.kind).to_lowercase();
+        Ok(Mapped { material, mapping: format!("mix -> {kind} ({how})") })
+    }
+
 }

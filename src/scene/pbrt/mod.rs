@@ -4,6 +4,7 @@
 //! lights in [`shapes`]; materials in [`material`]. What is approximated or
 //! ignored becomes one note each, with its file and line (`docs/pbrt.md`).
 
+mod camera;
 mod images;
 mod lexer;
 mod material;
@@ -17,7 +18,7 @@ use std::rc::Rc;
 use glam::{DMat4, DVec3, Vec3};
 
 use self::lexer::{Kind, Loc, Token};
-use self::material::{Mapped, Reader, Texture};
+use self::material::{Mapped, Texture};
 use self::params::Params;
 use super::{Camera, GuidingSettings, RenderSettings, Scene, SceneError};
 
@@ -256,7 +257,7 @@ impl Importer {
             }
             "LookAt" => {
                 let v = Self::numbers(tokens, i, 9, t)?;
-                self.state.ctm *= look_at(&v).ok_or_else(|| {
+                self.state.ctm *= camera::look_at(&v).ok_or_else(|| {
                     loc.error("LookAt: the eye and the point looked at coincide, or `up` is parallel to the view direction")
                 })?;
             }
@@ -371,7 +372,7 @@ impl Importer {
                 let first = Self::string(tokens, i, t, if name == "Material" { "a material type" } else { "a name" })?;
                 let p = params::parse(tokens, i)?;
                 let (ty, label) = if name == "Material" {
-                    (first.clone(), format!("Material \"{first}\" of line {}", loc.line))
+                    (first.clone(), format!("{first} (line {})", loc.line))
                 } else {
                     let ty = p.string("type")?.ok_or_else(|| {
                         loc.error(format!("MakeNamedMaterial \"{first}\": missing parameter \"string type\""))
@@ -463,147 +464,6 @@ impl Importer {
         Ok(())
     }
 
-    /// `WorldBegin`: fixes the camera. The world is baked into pbrt's camera
-    /// space mirrored in x, where rlpt's camera sits at the origin looking
-    /// along +z with +y up: rlpt's right (forward x up) is -x there, which is
-    /// pbrt's +x, so the picture is pbrt's, handedness included.
-    fn world_begin(&mut self, loc: &Loc) -> Result<(), SceneError> {
-        if self.in_world {
-            return Err(loc.error("a second WorldBegin"));
-        }
-        if let Some((_, push, opened)) = self.stack.last() {
-            return Err(loc.error(format!("WorldBegin inside the {push:?}Begin of line {}", opened.line)));
-        }
-        let camera_from_world = match &self.camera {
-            Some((m, _, _)) => *m,
-            None => {
-                self.notes.setting(loc, "no Camera: pbrt's default, perspective with fov 90 at the origin".into());
-                self.camera = Some((self.state.ctm, 90.0, loc.clone()));
-                self.state.ctm
-            }
-        };
-        self.bake = DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0)) * camera_from_world;
-        self.in_world = true;
-        self.state.ctm = DMat4::IDENTITY;
-        self.coordinate_systems.insert("world".into(), DMat4::IDENTITY);
-        Ok(())
-    }
-
-    /// Camera, Sampler, Film, PixelFilter, Integrator: what rlpt takes, and a
-    /// note naming what it leaves to its own options.
-    fn option(&mut self, directive: &str, ty: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
-        let max_side = crate::layout::MAX_IMAGE_SIDE as i64;
-        match directive {
-            "Camera" => {
-                let inverse = self.state.ctm.inverse();
-                self.coordinate_systems.insert("camera".into(), inverse);
-                if ty != "perspective" {
-                    self.notes.approximated(loc, format!("Camera \"{ty}\" rendered as a perspective camera (rlpt has a pinhole only)"))?;
-                }
-                let fov = p.float_or("fov", 90.0)?;
-                if !(fov > 0.0 && fov < 180.0) {
-                    return Err(loc.error(format!("Camera: \"float fov\" must be in (0, 180) degrees, found {fov}")));
-                }
-                self.camera = Some((self.state.ctm, fov, loc.clone()));
-                let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
-                if !unused.is_empty() {
-                    self.notes.approximated(loc, format!("Camera parameters {} ignored (rlpt has a pinhole camera)", unused.join(", ")))?;
-                }
-                return Ok(());
-            }
-            "Film" => {
-                for (key, slot) in [("xresolution", 0), ("yresolution", 1)] {
-                    if let Some(n) = p.integer(key)? {
-                        if !(1..=max_side).contains(&n) {
-                            return Err(loc.error(format!("Film: \"integer {key}\" must be from 1 to {max_side}, found {n}")));
-                        }
-                        if slot == 0 { self.render.width = n as u32 } else { self.render.height = n as u32 }
-                    }
-                }
-            }
-            "Sampler" => {
-                if let Some(n) = p.integer("pixelsamples")? {
-                    let max = crate::layout::MAX_SPP as i64;
-                    self.render.spp = n.clamp(1, max) as u32;
-                    if n > max {
-                        self.notes.setting(loc, format!("\"integer pixelsamples\" {n} capped at rlpt's {max}"));
-                    }
-                }
-            }
-            "Integrator" | "SurfaceIntegrator" => {
-                if let Some(n) = p.integer("maxdepth")? {
-                    let max = crate::layout::MAX_BOUNCES as i64;
-                    self.render.max_bounces = n.clamp(0, max) as u32;
-                    if n > max {
-                        self.notes.setting(loc, format!("\"integer maxdepth\" {n} capped at rlpt's {max} bounces"));
-                    }
-                }
-            }
-            _ => {}
-        }
-        let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
-        let kept = match directive {
-            "Film" => "resolution taken",
-            "Sampler" => "pixelsamples taken as spp",
-            "Integrator" | "SurfaceIntegrator" => "maxdepth taken as max_bounces",
-            _ => "nothing taken",
-        };
-        let rest = if unused.is_empty() { String::new() } else { format!("; ignored {}", unused.join(", ")) };
-        self.notes.setting(loc, format!("{directive} \"{ty}\": {kept}, rlpt's own {} used{rest}", directive.to_lowercase()));
-        Ok(())
-    }
-
-    /// Maps a material, notes what it leaves out, and returns its index.
-    fn material(&mut self, ty: &str, p: &Params, loc: &Loc, label: &str) -> Result<usize, SceneError> {
-        let mut mapped = if ty == "mix" {
-            self.mix(p, loc, label)?
-        } else {
-            let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: format!("material \"{label}\"") };
-            material::map(ty, &mut r)?
-        };
-        let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
-        if !unused.is_empty() {
-            self.notes.approximated(loc, format!("material \"{label}\" ({ty}): ignored {}", unused.join(", ")))?;
-        }
-        mapped.material.name = label.to_string();
-        mapped.mapping = format!("{label}: {} [{}]", mapped.mapping, loc.at());
-        self.materials.push(mapped);
-        Ok(self.materials.len() - 1)
-    }
-
-    /// `mix`: two diffuse materials blend their albedos; otherwise the one of
-    /// larger weight stands for both.
-    fn mix(&mut self, p: &Params, loc: &Loc, label: &str) -> Result<Mapped, SceneError> {
-        let names = p.get("materials", &["string"]).map(|q| q.strings()).transpose()?;
-        let Some(names) = names.filter(|n| n.len() == 2) else {
-            return Err(loc.error(format!("material \"{label}\" (mix): expected \"string materials\" with two material names")));
-        };
-        let amount = {
-            let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: format!("material \"{label}\"") };
-            r.scalar("amount", 0.5)?
-        };
-        let mut pair = Vec::new();
-        for n in &names {
-            let i = *self.named_materials.get(n).ok_or_else(|| {
-                loc.error(format!("material \"{label}\" (mix): \"{n}\" is not a named material made before it"))
-            })?;
-            pair.push(self.materials[i].clone());
-        }
-        let (a, b) = (&pair[0].material, &pair[1].material);
-        let t = amount.clamp(0.0, 1.0) as f32;
-        let (material, how) = if a.kind == super::MaterialKind::Diffuse && b.kind == super::MaterialKind::Diffuse {
-            let mut m = a.clone();
-            m.albedo = a.albedo.lerp(b.albedo, t);
-            (m, format!("albedos of \"{}\" and \"{}\" blended by amount {amount}", names[0], names[1]))
-        } else {
-            let (pick, name) = if t < 0.5 { (a, &names[0]) } else { (b, &names[1]) };
-            (pick.clone(), format!("\"{name}\", the larger share at amount {amount}"))
-        };
-        self.notes.approximated(loc, format!("material \"{label}\" (mix): {how}"))?;
-        let kind = format!("{:?}", material.kind).to_lowercase();
-        Ok(Mapped { material, mapping: format!("mix -> {kind} ({how})") })
-    }
-
     fn finish(mut self, path: &Path) -> Result<Scene, SceneError> {
         if let Some((_, push, opened)) = self.stack.last() {
             self.notes.setting(opened, format!("{push:?}Begin is never closed"));
@@ -643,20 +503,4 @@ impl Importer {
             guiding: GuidingSettings::default(),
         })
     }
-}
-
-/// pbrt's LookAt: camera-from-world for eye, target, up (9 numbers); its
-/// camera x is cross(up, dir), so its camera space is left-handed.
-fn look_at(v: &[f64]) -> Option<DMat4> {
-    let pos = DVec3::new(v[0], v[1], v[2]);
-    let dir = (DVec3::new(v[3], v[4], v[5]) - pos).normalize_or_zero();
-    let up = DVec3::new(v[6], v[7], v[8]).normalize_or_zero();
-    let right = up.cross(dir);
-    if dir == DVec3::ZERO || right.length() < 1e-9 {
-        return None;
-    }
-    let right = right.normalize();
-    let new_up = dir.cross(right);
-    let world_from_camera = DMat4::from_cols(right.extend(0.0), new_up.extend(0.0), dir.extend(0.0), pos.extend(1.0));
-    Some(world_from_camera.inverse())
 }

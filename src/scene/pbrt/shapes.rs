@@ -195,7 +195,7 @@ impl Importer {
                 let mut radiance = l * scale;
                 if let Some(f) = file {
                     let path = self.base.join(&f);
-                    match images::mean(&path, Some(false), true) {
+                    match images::mean(&path, None, true) {
                         Ok(mean) => {
                             radiance = mean * scale;
                             self.notes.approximated(loc, format!(
