@@ -54,8 +54,15 @@ fn structure_errors() {
     assert_eq!(e, "DIR/scene.pbrt:1:1: Shape is allowed only after WorldBegin");
     let e = refuse("noworld", "Camera \"perspective\"\n", false);
     assert_eq!(e, "DIR/scene.pbrt: no WorldBegin: the file describes no world to render");
-    let e = refuse("index", "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"integer indices\" [0 1 3]\n", false);
-    assert!(e.starts_with("DIR/scene.pbrt:2:76: Shape \"trianglemesh\": index 3 (number 3 of \"indices\") is out of range"), "{e}");
+    let e = refuse(
+        "index",
+        "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"integer indices\" [0 1 3]\n",
+        false,
+    );
+    assert!(
+        e.starts_with("DIR/scene.pbrt:2:76: Shape \"trianglemesh\": index 3 (number 3 of \"indices\") is out of range"),
+        "{e}"
+    );
     let e = refuse("lookat", "LookAt 0 0 0  0 1 0  0 1 0\nWorldBegin\n", false);
     assert!(e.starts_with("DIR/scene.pbrt:1:1: LookAt: "), "{e}");
     let e = refuse("empty", "WorldBegin\n", false);
@@ -101,13 +108,24 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
             c.arg("--strict");
         }
         let out = c.output().unwrap();
-        (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
     };
     let (ok, stdout, stderr) = run(false);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("mapped paint: coateddiffuse -> diffuse"), "{stdout}");
-    assert!(stdout.contains("note: ") && stdout.contains("scene.pbrt:2: material \"paint\": coateddiffuse rendered as diffuse"), "{stdout}");
+    assert!(
+        stdout.contains("note: ")
+            && stdout.contains("scene.pbrt:2: material \"paint\": coateddiffuse rendered as diffuse"),
+        "{stdout}"
+    );
     let (ok, _, stderr) = run(true);
-    assert!(!ok && stderr.contains("scene.pbrt:2:1: material \"paint\": coateddiffuse rendered as diffuse"), "{stderr}");
+    assert!(
+        !ok && stderr.contains("scene.pbrt:2:1: material \"paint\": coateddiffuse rendered as diffuse"),
+        "{stderr}"
+    );
     assert!(stderr.contains("--strict"), "{stderr}");
 }

@@ -87,7 +87,8 @@ fn transforms_attributes_and_coordinate_systems() {
     ];
     assert_eq!(s.meshes.len(), cases.len());
     for (k, (m, want)) in s.meshes.iter().zip(cases).enumerate() {
-        let mut got: Vec<[i64; 3]> = m.positions.iter().map(|p| (p.as_dvec3() * 1e4).round().as_i64vec3().to_array()).collect();
+        let mut got: Vec<[i64; 3]> =
+            m.positions.iter().map(|p| (p.as_dvec3() * 1e4).round().as_i64vec3().to_array()).collect();
         let mut expected: Vec<[i64; 3]> = [DVec3::ZERO, DVec3::X, DVec3::Y]
             .iter()
             .map(|&p| (baked(want.transform_point3(p)).as_dvec3() * 1e4).round().as_i64vec3().to_array())
@@ -130,18 +131,26 @@ fn materials_map_onto_rlpt_kinds() {
     // Conductor: albedo the normal-incidence Fresnel of eta and k; v4 remaps
     // roughness r to alpha sqrt(r), and rlpt's roughness is sqrt(alpha).
     let (eta, k) = (Vec3::new(0.2, 0.9, 1.1), Vec3::new(3.9, 2.4, 2.1));
-    let (s, m) = material_of("conductor", "Material \"conductor\" \"rgb eta\" [0.2 0.9 1.1] \"rgb k\" [3.9 2.4 2.1] \"float roughness\" 0.0625");
+    let (s, m) = material_of(
+        "conductor",
+        "Material \"conductor\" \"rgb eta\" [0.2 0.9 1.1] \"rgb k\" [3.9 2.4 2.1] \"float roughness\" 0.0625",
+    );
     assert_eq!(m.kind, MaterialKind::Glossy);
     assert!(close(m.albedo, fresnel(eta, k)), "{}", m.albedo);
     assert!((m.roughness - 0.5).abs() < 1e-6, "{}", m.roughness);
     assert!(s.material_mappings.iter().any(|l| l.contains("conductor -> glossy")));
-    let (_, m) = material_of("unremapped", "Material \"conductor\" \"float roughness\" 0.01 \"bool remaproughness\" false");
+    let (_, m) =
+        material_of("unremapped", "Material \"conductor\" \"float roughness\" 0.01 \"bool remaproughness\" false");
     assert!((m.roughness - 0.1).abs() < 1e-6 && m.albedo.x > m.albedo.z, "copper by default: {m:?}");
-    let (_, m) = material_of("smooth", "Material \"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\"");
+    let (_, m) =
+        material_of("smooth", "Material \"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\"");
     assert_eq!(m.kind, MaterialKind::Specular);
     assert!(m.albedo.x > m.albedo.z, "gold is yellow: {}", m.albedo);
     // pbrt-v3 metal with u/v roughness, not remapped.
-    let (_, m) = material_of("metal", "Material \"metal\" \"float uroughness\" 0.25 \"float vroughness\" 0.25 \"bool remaproughness\" \"false\"");
+    let (_, m) = material_of(
+        "metal",
+        "Material \"metal\" \"float uroughness\" 0.25 \"float vroughness\" 0.25 \"bool remaproughness\" \"false\"",
+    );
     assert!((m.kind, (m.roughness - 0.5).abs() < 1e-6) == (MaterialKind::Glossy, true), "{m:?}");
 
     let (s, m) = material_of("dielectric", "Material \"dielectric\" \"float eta\" 1.33 \"float roughness\" 0.1");
@@ -274,7 +283,10 @@ fn lights_environment_and_dropped_delta_lights() {
     for ty in ["point", "spot", "distant"] {
         assert!(note(&s, &format!("LightSource \"{ty}\" dropped")).contains("scene.pbrt:"));
     }
-    let s = load("envmissing", &format!("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n{TRIANGLE}"));
+    let s = load(
+        "envmissing",
+        &format!("WorldBegin\nLightSource \"infinite\" \"string filename\" \"sky.exr\"\n{TRIANGLE}"),
+    );
     assert_eq!(s.environment, Vec3::ONE);
     note(&s, "\"sky.exr\"");
 }
@@ -310,7 +322,11 @@ fn image_textures_and_maps_stand_in_as_their_mean() {
     let s = Scene::load(&p).unwrap();
     let mut mean = DVec3::ZERO;
     for c in px {
-        mean += DVec3::new(srgb_to_linear(c[0] as f64 / 255.0), srgb_to_linear(c[1] as f64 / 255.0), srgb_to_linear(c[2] as f64 / 255.0)) / 4.0;
+        mean += DVec3::new(
+            srgb_to_linear(c[0] as f64 / 255.0),
+            srgb_to_linear(c[1] as f64 / 255.0),
+            srgb_to_linear(c[2] as f64 / 255.0),
+        ) / 4.0;
     }
     let m = &s.materials[s.meshes[0].materials[0] as usize];
     assert!(close(m.albedo, mean.as_vec3()), "{} vs {mean}", m.albedo);
@@ -330,7 +346,10 @@ fn strict_refuses_what_would_be_noted() {
     let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
     assert!(Scene::load(&p).is_ok());
     let e = Scene::load_with(&p, true).unwrap_err().to_string();
-    assert!(e.contains("scene.pbrt:2:1: ") && e.contains("coateddiffuse rendered as diffuse") && e.contains("--strict"), "{e}");
+    assert!(
+        e.contains("scene.pbrt:2:1: ") && e.contains("coateddiffuse rendered as diffuse") && e.contains("--strict"),
+        "{e}"
+    );
     // Render settings rlpt takes from its own options stay notes.
     let p = write(&d, "ok.pbrt", &format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
     assert!(Scene::load_with(&p, true).is_ok());

@@ -28,10 +28,7 @@ fn triangles(s: &Scene) -> usize {
 
 /// The zero-area triangles a note says were skipped ("skipped N zero-area triangles").
 fn skipped(s: &Scene) -> usize {
-    s.notes
-        .iter()
-        .filter_map(|n| n.split("skipped ").nth(1)?.split(' ').next()?.parse::<usize>().ok())
-        .sum()
+    s.notes.iter().filter_map(|n| n.split("skipped ").nth(1)?.split(' ').next()?.parse::<usize>().ok()).sum()
 }
 
 #[test]

@@ -45,7 +45,10 @@ impl Importer {
                 let inverse = self.state.ctm.inverse();
                 self.coordinate_systems.insert("camera".into(), inverse);
                 if ty != "perspective" {
-                    self.notes.approximated(loc, format!("Camera \"{ty}\" rendered as a perspective camera (rlpt has a pinhole only)"))?;
+                    self.notes.approximated(
+                        loc,
+                        format!("Camera \"{ty}\" rendered as a perspective camera (rlpt has a pinhole only)"),
+                    )?;
                 }
                 let fov = p.float_or("fov", 90.0)?;
                 if !(fov > 0.0 && fov < 180.0) {
@@ -54,7 +57,10 @@ impl Importer {
                 self.camera = Some((self.state.ctm, fov, loc.clone()));
                 let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
                 if !unused.is_empty() {
-                    self.notes.approximated(loc, format!("Camera parameters {} ignored (rlpt has a pinhole camera)", unused.join(", ")))?;
+                    self.notes.approximated(
+                        loc,
+                        format!("Camera parameters {} ignored (rlpt has a pinhole camera)", unused.join(", ")),
+                    )?;
                 }
                 return Ok(());
             }
@@ -62,9 +68,15 @@ impl Importer {
                 for (key, slot) in [("xresolution", 0), ("yresolution", 1)] {
                     if let Some(n) = p.integer(key)? {
                         if !(1..=max_side).contains(&n) {
-                            return Err(loc.error(format!("Film: \"integer {key}\" must be from 1 to {max_side}, found {n}")));
+                            return Err(
+                                loc.error(format!("Film: \"integer {key}\" must be from 1 to {max_side}, found {n}"))
+                            );
                         }
-                        if slot == 0 { self.render.width = n as u32 } else { self.render.height = n as u32 }
+                        if slot == 0 {
+                            self.render.width = n as u32
+                        } else {
+                            self.render.height = n as u32
+                        }
                     }
                 }
             }
@@ -96,10 +108,10 @@ impl Importer {
             _ => "nothing taken",
         };
         let rest = if unused.is_empty() { String::new() } else { format!("; ignored {}", unused.join(", ")) };
-        self.notes.setting(loc, format!("{directive} \"{ty}\": {kept}, rlpt's own {} used{rest}", directive.to_lowercase()));
+        self.notes
+            .setting(loc, format!("{directive} \"{ty}\": {kept}, rlpt's own {} used{rest}", directive.to_lowercase()));
         Ok(())
     }
-
 }
 
 /// pbrt's LookAt: camera-from-world for eye, target, up (9 numbers); its

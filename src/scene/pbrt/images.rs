@@ -52,7 +52,8 @@ pub(super) fn substitute(path: &Path) -> Option<PathBuf> {
     let dir = path.parent()?;
     let mut dirs = vec![dir.to_path_buf()];
     if let Some(Ok(entries)) = dir.parent().map(std::fs::read_dir) {
-        let mut siblings: Vec<PathBuf> = entries.flatten().map(|e| e.path()).filter(|p| p.is_dir() && p != dir).collect();
+        let mut siblings: Vec<PathBuf> =
+            entries.flatten().map(|e| e.path()).filter(|p| p.is_dir() && p != dir).collect();
         siblings.sort();
         dirs.extend(siblings);
     }

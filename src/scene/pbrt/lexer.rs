@@ -107,7 +107,9 @@ pub(crate) fn tokenize(text: &str, file: &Rc<str>) -> Result<Vec<Token>, SceneEr
                             Some('n') => '\n',
                             Some('t') => '\t',
                             Some(&other) if other != '\n' => other,
-                            _ => return Err(start.error("unterminated string: expected a closing `\"` on the same line")),
+                            _ => {
+                                return Err(start.error("unterminated string: expected a closing `\"` on the same line"))
+                            }
                         };
                         s.push(escaped);
                         advance(&mut i, &mut line, &mut column);
@@ -134,9 +136,9 @@ pub(crate) fn tokenize(text: &str, file: &Rc<str>) -> Result<Vec<Token>, SceneEr
             } else if first.is_ascii_alphabetic() || first == '_' {
                 Kind::Word(word)
             } else {
-                return Err(start.error(format!(
-                    "expected a directive, a quoted string, a number, `[` or `]`, found `{word}`"
-                )));
+                return Err(
+                    start.error(format!("expected a directive, a quoted string, a number, `[` or `]`, found `{word}`"))
+                );
             };
             tokens.push(Token { kind, loc: start });
         }

@@ -204,7 +204,10 @@ impl Reader<'_> {
         };
         let (au, av) = (to_alpha(u), to_alpha(v));
         if (au - av).abs() > 1e-6 {
-            self.note(format!("anisotropic roughness (alpha {au} by {av}) taken as isotropic alpha {}", (au * av).sqrt()))?;
+            self.note(format!(
+                "anisotropic roughness (alpha {au} by {av}) taken as isotropic alpha {}",
+                (au * av).sqrt()
+            ))?;
         }
         Ok((au * av).sqrt())
     }
@@ -228,7 +231,8 @@ impl Reader<'_> {
     /// Conductor albedo: `reflectance` if given, else the normal-incidence
     /// Fresnel reflectance of eta and k (default copper).
     fn conductor(&mut self, prefix: &str) -> Result<(Vec3, String), SceneError> {
-        if self.params.get(&format!("{prefix}reflectance"), &["rgb", "color", "spectrum", "float", "texture"]).is_some() {
+        if self.params.get(&format!("{prefix}reflectance"), &["rgb", "color", "spectrum", "float", "texture"]).is_some()
+        {
             let r = self.colour(&format!("{prefix}reflectance"), Vec3::ONE)?;
             return Ok((self.albedo(r, "reflectance")?, "reflectance".to_string()));
         }
@@ -260,7 +264,17 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             let prefix = if ty == "coatedconductor" { "conductor." } else { "" };
             if ty == "coatedconductor" {
                 r.note("the dielectric coat of coatedconductor dropped (the conductor alone)".to_string())?;
-                for p in ["interface.roughness", "interface.uroughness", "interface.vroughness", "interface.eta", "thickness", "albedo", "g", "maxdepth", "nsamples"] {
+                for p in [
+                    "interface.roughness",
+                    "interface.uroughness",
+                    "interface.vroughness",
+                    "interface.eta",
+                    "thickness",
+                    "albedo",
+                    "g",
+                    "maxdepth",
+                    "nsamples",
+                ] {
                     r.params.touch(p);
                 }
             }
@@ -353,7 +367,13 @@ impl Importer {
         let mut mapped = if ty == "mix" {
             self.mix(p, loc, label)?
         } else {
-            let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: format!("material \"{label}\"") };
+            let mut r = Reader {
+                params: p,
+                textures: &self.textures,
+                notes: &mut self.notes,
+                loc,
+                what: format!("material \"{label}\""),
+            };
             map(ty, &mut r)?
         };
         let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
@@ -371,10 +391,18 @@ impl Importer {
     fn mix(&mut self, p: &Params, loc: &Loc, label: &str) -> Result<Mapped, SceneError> {
         let names = p.get("materials", &["string"]).map(|q| q.strings()).transpose()?;
         let Some(names) = names.filter(|n| n.len() == 2) else {
-            return Err(loc.error(format!("material \"{label}\" (mix): expected \"string materials\" with two material names")));
+            return Err(
+                loc.error(format!("material \"{label}\" (mix): expected \"string materials\" with two material names"))
+            );
         };
         let amount = {
-            let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: format!("material \"{label}\"") };
+            let mut r = Reader {
+                params: p,
+                textures: &self.textures,
+                notes: &mut self.notes,
+                loc,
+                what: format!("material \"{label}\""),
+            };
             r.scalar("amount", 0.5)?
         };
         let mut pair = Vec::new();
@@ -398,5 +426,4 @@ impl Importer {
         let kind = format!("{:?}", material.kind).to_lowercase();
         Ok(Mapped { material, mapping: format!("mix -> {kind} ({how})") })
     }
-
 }

@@ -120,7 +120,9 @@ pub(super) fn load(path: &Path, strict: bool) -> Result<Scene, SceneError> {
             emission: Vec3::ZERO,
             two_sided: false,
         },
-        mapping: "pbrt default diffuse: diffuse -> diffuse (reflectance [0.5, 0.5, 0.5], used where no Material was given)".into(),
+        mapping:
+            "pbrt default diffuse: diffuse -> diffuse (reflectance [0.5, 0.5, 0.5], used where no Material was given)"
+                .into(),
     };
     let mut im = Importer {
         base,
@@ -156,7 +158,9 @@ impl Importer {
     fn file(&mut self, path: &Path, shown: String, from: Option<&Loc>) -> Result<(), SceneError> {
         let text = std::fs::read_to_string(path).map_err(|e| match from {
             None => SceneError::Io { path: path.to_path_buf(), error: e },
-            Some(loc) => loc.error(format!("cannot read the included file {shown} (resolved to {}): {e}", path.display())),
+            Some(loc) => {
+                loc.error(format!("cannot read the included file {shown} (resolved to {}): {e}", path.display()))
+            }
         })?;
         let name: Rc<str> = Rc::from(path.display().to_string());
         let tokens = lexer::tokenize(&text, &name)?;
@@ -198,7 +202,9 @@ impl Importer {
             match tokens.get(*i) {
                 Some(t) if t.kind == Kind::Close => *i += 1,
                 Some(t) => return Err(t.loc.error(format!("expected `]` after {n} numbers, found {}", t.describe()))),
-                None => return Err(what.loc.error(format!("expected `]` after {n} numbers, found the end of the file"))),
+                None => {
+                    return Err(what.loc.error(format!("expected `]` after {n} numbers, found the end of the file")))
+                }
             }
         }
         Ok(out)
@@ -216,17 +222,18 @@ impl Importer {
                 word(what).unwrap_or(""),
                 t.describe()
             ))),
-            None => Err(what.loc.error(format!(
-                "{} takes {meaning} in quotes; found the end of the file",
-                word(what).unwrap_or("")
-            ))),
+            None => Err(what
+                .loc
+                .error(format!("{} takes {meaning} in quotes; found the end of the file", word(what).unwrap_or("")))),
         }
     }
 
     fn directive(&mut self, tokens: &[Token], i: &mut usize) -> Result<(), SceneError> {
         let t = &tokens[*i];
         let Some(name) = word(t) else {
-            return Err(t.loc.error(format!("expected a directive (such as Shape or WorldBegin), found {}", t.describe())));
+            return Err(t
+                .loc
+                .error(format!("expected a directive (such as Shape or WorldBegin), found {}", t.describe())));
         };
         let loc = t.loc.clone();
         *i += 1;
@@ -258,7 +265,9 @@ impl Importer {
             "LookAt" => {
                 let v = Self::numbers(tokens, i, 9, t)?;
                 self.state.ctm *= camera::look_at(&v).ok_or_else(|| {
-                    loc.error("LookAt: the eye and the point looked at coincide, or `up` is parallel to the view direction")
+                    loc.error(
+                        "LookAt: the eye and the point looked at coincide, or `up` is parallel to the view direction",
+                    )
                 })?;
             }
             "Transform" | "ConcatTransform" => {
@@ -297,7 +306,9 @@ impl Importer {
                     Some("All") | Some("StartTime") => {}
                     Some("EndTime") => {
                         // Transforms given for the end time only would move nothing at the start.
-                        return Err(loc.error("ActiveTransform EndTime: rlpt has no motion blur and reads start-time transforms only"));
+                        return Err(loc.error(
+                            "ActiveTransform EndTime: rlpt has no motion blur and reads start-time transforms only",
+                        ));
                     }
                     _ => return Err(loc.error("ActiveTransform takes All, StartTime or EndTime")),
                 }

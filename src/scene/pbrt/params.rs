@@ -8,8 +8,23 @@ use super::lexer::{Kind, Loc, Token};
 use crate::scene::SceneError;
 
 const TYPES: &[&str] = &[
-    "integer", "float", "point2", "vector2", "point3", "vector3", "normal3", "normal", "point", "vector", "spectrum",
-    "rgb", "color", "blackbody", "bool", "string", "texture",
+    "integer",
+    "float",
+    "point2",
+    "vector2",
+    "point3",
+    "vector3",
+    "normal3",
+    "normal",
+    "point",
+    "vector",
+    "spectrum",
+    "rgb",
+    "color",
+    "blackbody",
+    "bool",
+    "string",
+    "texture",
 ];
 
 #[derive(Clone, Debug)]
@@ -173,10 +188,9 @@ pub(crate) fn parse(tokens: &[Token], i: &mut usize) -> Result<Params, SceneErro
             )));
         };
         if !TYPES.contains(ty) {
-            return Err(t.loc.error(format!(
-                "unknown parameter type `{ty}` in \"{decl}\"; expected one of {}",
-                TYPES.join(", ")
-            )));
+            return Err(t
+                .loc
+                .error(format!("unknown parameter type `{ty}` in \"{decl}\"; expected one of {}", TYPES.join(", "))));
         }
         *i += 1;
         let value = |t: &Token| -> Result<(Value, Loc), SceneError> {
@@ -184,18 +198,20 @@ pub(crate) fn parse(tokens: &[Token], i: &mut usize) -> Result<Params, SceneErro
                 Kind::Num(x) => Value::Num(*x),
                 Kind::Str(s) => Value::Str(s.clone()),
                 Kind::Word(w) if w == "true" || w == "false" => Value::Bool(w == "true"),
-                _ => {
-                    return Err(t.loc.error(format!(
-                        "expected a value for parameter \"{decl}\" (a number, a quoted string, true or false), found {}",
-                        t.describe()
-                    )))
-                }
+                _ => return Err(t.loc.error(format!(
+                    "expected a value for parameter \"{decl}\" (a number, a quoted string, true or false), found {}",
+                    t.describe()
+                ))),
             };
             Ok((v, t.loc.clone()))
         };
         let mut values = Vec::new();
         match tokens.get(*i) {
-            None => return Err(t.loc.error(format!("expected a value after parameter \"{decl}\", found the end of the file"))),
+            None => {
+                return Err(t
+                    .loc
+                    .error(format!("expected a value after parameter \"{decl}\", found the end of the file")))
+            }
             Some(open) if open.kind == Kind::Open => {
                 *i += 1;
                 loop {
@@ -221,7 +237,13 @@ pub(crate) fn parse(tokens: &[Token], i: &mut usize) -> Result<Params, SceneErro
                 *i += 1;
             }
         }
-        list.push(Param { ty: ty.to_string(), name: name.to_string(), values, loc: t.loc.clone(), used: Cell::new(false) });
+        list.push(Param {
+            ty: ty.to_string(),
+            name: name.to_string(),
+            values,
+            loc: t.loc.clone(),
+            used: Cell::new(false),
+        });
     }
     Ok(Params { list })
 }

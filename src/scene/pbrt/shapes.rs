@@ -60,7 +60,8 @@ impl Importer {
         let m = self.bake * *instance * s.state.ctm;
         let mut area = s.state.area.clone();
         if instanced && area.is_some() {
-            self.notes.approximated(loc, "an area light on a shape of an object instance ignored, as pbrt-v4 does".into())?;
+            self.notes
+                .approximated(loc, "an area light on a shape of an object instance ignored, as pbrt-v4 does".into())?;
             area = None;
         }
         let kind = s.kind.as_str();
@@ -71,20 +72,30 @@ impl Importer {
         match kind {
             "sphere" => self.sphere(p, loc, &m, s.state.reverse, material)?,
             "trianglemesh" | "bilinearmesh" | "plymesh" => {
-                let (file, source) = if kind == "plymesh" { self.ply(p, loc)? } else { (inline_mesh(kind, p, loc)?, PathBuf::from(&*loc.file)) };
+                let (file, source) = if kind == "plymesh" {
+                    self.ply(p, loc)?
+                } else {
+                    (inline_mesh(kind, p, loc)?, PathBuf::from(&*loc.file))
+                };
                 let placed = mesh::place(&file, &m, file.normals.is_some(), LIMIT).map_err(|e| match e {
                     PlaceError::OutOfRange { vertex, position } => loc.error(format!(
                         "Shape \"{kind}\": vertex {vertex} lies at {position} in rlpt's space; expected within +-1e12"
                     )),
-                    PlaceError::AllDegenerate { triangles } => {
-                        loc.error(format!("Shape \"{kind}\": all {triangles} triangles have zero area after the transform"))
-                    }
+                    PlaceError::AllDegenerate { triangles } => loc.error(format!(
+                        "Shape \"{kind}\": all {triangles} triangles have zero area after the transform"
+                    )),
                 })?;
                 let mut triangles = placed.triangles;
                 let mut normals = placed.normals;
                 orient(&mut triangles, normals.as_mut(), &placed.positions, s.state.reverse, file.normals.is_some());
                 let n = triangles.len();
-                self.out.meshes.push(Mesh { source, positions: placed.positions, normals, triangles, materials: vec![material; n] });
+                self.out.meshes.push(Mesh {
+                    source,
+                    positions: placed.positions,
+                    normals,
+                    triangles,
+                    materials: vec![material; n],
+                });
             }
             _ => {
                 return Err(loc.error(format!(
@@ -108,29 +119,43 @@ impl Importer {
         }
         let (zmin, zmax, phimax) = (p.float_or("zmin", -r)?, p.float_or("zmax", r)?, p.float_or("phimax", 360.0)?);
         if zmin > -r || zmax < r || phimax < 360.0 {
-            self.notes.approximated(loc, format!("a partial sphere (zmin {zmin}, zmax {zmax}, phimax {phimax}) rendered whole"))?;
+            self.notes.approximated(
+                loc,
+                format!("a partial sphere (zmin {zmin}, zmax {zmax}, phimax {phimax}) rendered whole"),
+            )?;
         }
         let linear = DMat3::from_mat4(*m);
         let det = linear.determinant();
         let scale = det.abs().cbrt();
         let gram = linear.transpose() * linear;
-        let uniform = (0..3).all(|i| (0..3).all(|j| {
-            let want = if i == j { scale * scale } else { 0.0 };
-            (gram.col(i)[j] - want).abs() <= 1e-4 * scale * scale
-        }));
+        let uniform = (0..3).all(|i| {
+            (0..3).all(|j| {
+                let want = if i == j { scale * scale } else { 0.0 };
+                (gram.col(i)[j] - want).abs() <= 1e-4 * scale * scale
+            })
+        });
         if !uniform {
-            self.notes.approximated(loc, format!(
-                "a sphere under a non-uniform scale (an ellipsoid in pbrt) rendered as a sphere of radius {}",
-                r * scale
-            ))?;
+            self.notes.approximated(
+                loc,
+                format!(
+                    "a sphere under a non-uniform scale (an ellipsoid in pbrt) rendered as a sphere of radius {}",
+                    r * scale
+                ),
+            )?;
         }
         if reverse != (det < 0.0) {
             self.notes.approximated(loc, "a sphere whose normals pbrt turns inward (ReverseOrientation or a mirroring transform) rendered with outward normals".into())?;
         }
         let center = m.transform_point3(DVec3::ZERO);
         let radius = r * scale;
-        if !center.is_finite() || center.abs().max_element() > LIMIT || !(radius > 0.0 && radius <= LIMIT) || (radius as f32).powi(2) == 0.0 {
-            return Err(loc.error(format!("Shape \"sphere\": centre {center} or radius {radius} out of range in rlpt's space")));
+        if !center.is_finite()
+            || center.abs().max_element() > LIMIT
+            || !(radius > 0.0 && radius <= LIMIT)
+            || (radius as f32).powi(2) == 0.0
+        {
+            return Err(
+                loc.error(format!("Shape \"sphere\": centre {center} or radius {radius} out of range in rlpt's space"))
+            );
         }
         self.out.spheres.push(Sphere { center: center.as_vec3(), radius: radius as f32, material });
         Ok(())
@@ -144,7 +169,10 @@ impl Importer {
             return Ok((file.clone(), path));
         }
         if !path.is_file() {
-            return Err(loc.error(format!("Shape \"plymesh\": the file \"{f}\" does not exist (resolved to {})", path.display())));
+            return Err(loc.error(format!(
+                "Shape \"plymesh\": the file \"{f}\" does not exist (resolved to {})",
+                path.display()
+            )));
         }
         let file = mesh::load_mesh_file(&path).map_err(|error| crate::scene::SceneError::Mesh {
             file: loc.file.to_string(),
@@ -164,7 +192,13 @@ impl Importer {
         if ty != "diffuse" {
             return Err(loc.error(format!("unknown area light \"{ty}\"; pbrt's only area light is \"diffuse\"")));
         }
-        let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: "AreaLightSource \"diffuse\"".into() };
+        let mut r = Reader {
+            params: p,
+            textures: &self.textures,
+            notes: &mut self.notes,
+            loc,
+            what: "AreaLightSource \"diffuse\"".into(),
+        };
         let l = r.colour("L", Vec3::ONE)?;
         let scale = r.colour("scale", Vec3::ONE)?;
         let two_sided = p.bool("twosided")?.unwrap_or(false);
@@ -185,7 +219,13 @@ impl Importer {
     pub(super) fn light(&mut self, ty: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
         match ty {
             "infinite" => {
-                let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: "LightSource \"infinite\"".into() };
+                let mut r = Reader {
+                    params: p,
+                    textures: &self.textures,
+                    notes: &mut self.notes,
+                    loc,
+                    what: "LightSource \"infinite\"".into(),
+                };
                 let l = r.colour("L", Vec3::ONE)?;
                 let scale = r.colour("scale", Vec3::ONE)?;
                 let file = match p.string("filename")? {
@@ -198,20 +238,28 @@ impl Importer {
                     match images::mean(&path, None, true) {
                         Ok(mean) => {
                             radiance = mean * scale;
-                            self.notes.approximated(loc, format!(
+                            self.notes.approximated(
+                                loc,
+                                format!(
                                 "the environment image \"{f}\" taken as a uniform sky of its mean radiance {radiance} \
                                  (rlpt has no image environment yet)"
-                            ))?;
+                            ),
+                            )?;
                         }
-                        Err(why) => self.notes.approximated(loc, format!(
-                            "the environment image \"{f}\" ({}) {why}: a uniform sky of radiance {radiance} \
+                        Err(why) => self.notes.approximated(
+                            loc,
+                            format!(
+                                "the environment image \"{f}\" ({}) {why}: a uniform sky of radiance {radiance} \
                              (L times scale) stands in",
-                            path.display()
-                        ))?,
+                                path.display()
+                            ),
+                        )?,
                     }
                 }
                 if radiance.min_element() < 0.0 || radiance.max_element() > 1e12 {
-                    return Err(loc.error(format!("LightSource \"infinite\": radiance {radiance} must be from 0 to 1e12")));
+                    return Err(
+                        loc.error(format!("LightSource \"infinite\": radiance {radiance} must be from 0 to 1e12"))
+                    );
                 }
                 self.out.environment += radiance;
                 let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
@@ -220,9 +268,10 @@ impl Importer {
                 }
                 Ok(())
             }
-            "distant" | "point" | "spot" | "goniometric" | "projection" => self
-                .notes
-                .approximated(loc, format!("LightSource \"{ty}\" dropped (rlpt has no point, spot or distant lights yet)")),
+            "distant" | "point" | "spot" | "goniometric" | "projection" => self.notes.approximated(
+                loc,
+                format!("LightSource \"{ty}\" dropped (rlpt has no point, spot or distant lights yet)"),
+            ),
             _ => Err(loc.error(format!(
                 "unknown light \"{ty}\"; expected infinite, distant, point, spot, goniometric or projection"
             ))),
@@ -232,22 +281,28 @@ impl Importer {
     /// `Texture`: an `imagemap`'s mean colour where its image reads (a missing
     /// image may be found under another image extension nearby, noted).
     pub(super) fn texture(&mut self, _ty: &str, class: &str, p: &Params, loc: &Loc) -> Result<Texture, SceneError> {
-        for name in ["filter", "wrap", "maxanisotropy", "trilinear", "uscale", "vscale", "udelta", "vdelta", "mapping"] {
+        for name in ["filter", "wrap", "maxanisotropy", "trilinear", "uscale", "vscale", "udelta", "vdelta", "mapping"]
+        {
             p.touch(name);
         }
         let texture = match class {
             "imagemap" => {
-                let f = p.string("filename")?.ok_or_else(|| loc.error("Texture \"imagemap\": missing \"string filename\""))?;
+                let f = p
+                    .string("filename")?
+                    .ok_or_else(|| loc.error("Texture \"imagemap\": missing \"string filename\""))?;
                 let mut path = self.base.join(&f);
                 let mut detail = format!("the mean of {}", path.display());
                 if !path.is_file() {
                     match images::substitute(&path) {
                         Some(found) => {
-                            self.notes.approximated(loc, format!(
-                                "texture image \"{f}\" ({}) is missing; {} has the same name and is read instead",
-                                path.display(),
-                                found.display()
-                            ))?;
+                            self.notes.approximated(
+                                loc,
+                                format!(
+                                    "texture image \"{f}\" ({}) is missing; {} has the same name and is read instead",
+                                    path.display(),
+                                    found.display()
+                                ),
+                            )?;
                             detail = format!("the mean of {}, standing in for the missing \"{f}\"", found.display());
                             path = found;
                         }
@@ -277,7 +332,13 @@ impl Importer {
                 }
             }
             "constant" => {
-                let mut r = Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what: "Texture \"constant\"".into() };
+                let mut r = Reader {
+                    params: p,
+                    textures: &self.textures,
+                    notes: &mut self.notes,
+                    loc,
+                    what: "Texture \"constant\"".into(),
+                };
                 let v = r.colour("value", Vec3::ONE)?;
                 Texture { mean: Some(v), loc: loc.clone(), detail: "a constant".into() }
             }
@@ -299,10 +360,13 @@ impl Importer {
 /// A `trianglemesh` or `bilinearmesh` (two triangles per patch) from its parameters.
 fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError> {
     let per = if kind == "trianglemesh" { 3 } else { 4 };
-    let pp = p.get("P", &["point3", "point"]).ok_or_else(|| loc.error(format!("Shape \"{kind}\": missing \"point3 P\"")))?;
+    let pp =
+        p.get("P", &["point3", "point"]).ok_or_else(|| loc.error(format!("Shape \"{kind}\": missing \"point3 P\"")))?;
     let v = pp.numbers()?;
     if v.is_empty() || v.len() % 3 != 0 {
-        return Err(pp.loc.error(format!("Shape \"{kind}\": \"P\" must hold x y z triples, found {} numbers", v.len())));
+        return Err(pp
+            .loc
+            .error(format!("Shape \"{kind}\": \"P\" must hold x y z triples, found {} numbers", v.len())));
     }
     let positions: Vec<Vec3> = v.chunks(3).map(|c| DVec3::new(c[0], c[1], c[2]).as_vec3()).collect();
     let n = positions.len();
@@ -310,7 +374,10 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
         Some(q) => {
             let v = q.numbers()?;
             if v.is_empty() || v.len() % per != 0 {
-                return Err(q.loc.error(format!("Shape \"{kind}\": \"indices\" must hold groups of {per}, found {} numbers", v.len())));
+                return Err(q.loc.error(format!(
+                    "Shape \"{kind}\": \"indices\" must hold groups of {per}, found {} numbers",
+                    v.len()
+                )));
             }
             let mut out = Vec::with_capacity(v.len());
             for (k, x) in v.iter().enumerate() {
@@ -326,14 +393,19 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
             out
         }
         None if n == per => (0..per as u32).collect(),
-        None => return Err(loc.error(format!("Shape \"{kind}\": missing \"integer indices\" ({n} vertices, not {per})"))),
+        None => {
+            return Err(loc.error(format!("Shape \"{kind}\": missing \"integer indices\" ({n} vertices, not {per})")))
+        }
     };
     let normals = match p.get("N", &["normal", "normal3"]) {
         None => None,
         Some(q) => {
             let v = q.numbers()?;
             if v.len() != 3 * n {
-                return Err(q.loc.error(format!("Shape \"{kind}\": \"N\" must have one normal per vertex ({n}), found {} numbers", v.len())));
+                return Err(q.loc.error(format!(
+                    "Shape \"{kind}\": \"N\" must have one normal per vertex ({n}), found {} numbers",
+                    v.len()
+                )));
             }
             Some(v.chunks(3).map(|c| DVec3::new(c[0], c[1], c[2]).as_vec3()).collect())
         }
@@ -346,14 +418,22 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
         indices.chunks(4).flat_map(|c| [[c[0], c[1], c[3]], [c[0], c[3], c[2]]]).collect()
     };
     let builder = Builder { positions, normals, triangles, ..Default::default() };
-    builder.finish(std::path::Path::new(&*loc.file)).map_err(|_| loc.error(format!("Shape \"{kind}\": every triangle has zero area")))
+    builder
+        .finish(std::path::Path::new(&*loc.file))
+        .map_err(|_| loc.error(format!("Shape \"{kind}\": every triangle has zero area")))
 }
 
 /// Turns each triangle as pbrt does: placement kept the transformed front side
 /// (pbrt flips where the transform swaps handedness); ReverseOrientation flips
 /// it; where the shape has normals, the front faces them (pbrt's normals are
 /// authoritative).
-fn orient(triangles: &mut [[u32; 3]], normals: Option<&mut Vec<Vec3>>, positions: &[Vec3], reverse: bool, has_normals: bool) {
+fn orient(
+    triangles: &mut [[u32; 3]],
+    normals: Option<&mut Vec<Vec3>>,
+    positions: &[Vec3],
+    reverse: bool,
+    has_normals: bool,
+) {
     match normals {
         Some(ns) if has_normals => {
             if reverse {
