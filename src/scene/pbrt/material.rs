@@ -186,7 +186,7 @@ impl Reader<'_> {
     /// GGX alpha from roughness parameters (`prefix` "conductor." for
     /// coatedconductor): u and v roughness (their geometric mean where they
     /// differ, noted), remapped as pbrt-v4 (`sqrt`) or pbrt-v3 (its polynomial).
-    fn alpha(&mut self, prefix: &str, default: f64, v3: bool) -> Result<f64, SceneError> {
+    fn alpha(&mut self, prefix: &str, default: f64, v3: bool, smooth_at_zero: bool) -> Result<f64, SceneError> {
         let r = self.scalar(&format!("{prefix}roughness"), default)?;
         let u = self.scalar(&format!("{prefix}uroughness"), r)?;
         let v = self.scalar(&format!("{prefix}vroughness"), r)?;
@@ -202,6 +202,10 @@ impl Reader<'_> {
                 1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x.powi(3) + 0.000640711 * x.powi(4)
             }
         };
+        // pbrt-v3's glass is smooth at roughness 0 before any remapping.
+        if smooth_at_zero && u == 0.0 && v == 0.0 {
+            return Ok(0.0);
+        }
         let (au, av) = (to_alpha(u), to_alpha(v));
         if (au - av).abs() > 1e-6 {
             self.note(format!(
@@ -221,11 +225,11 @@ impl Reader<'_> {
             roughness = 1.0;
         }
         if roughness < SPECULAR_BELOW_ROUGHNESS {
-            return Ok((plain(MaterialKind::Specular, albedo), format!("alpha {alpha} -> specular")));
+            return Ok((plain(MaterialKind::Specular, albedo), format!("alpha {} -> specular", alpha as f32)));
         }
         let mut m = plain(MaterialKind::Glossy, albedo);
         m.roughness = roughness;
-        Ok((m, format!("alpha {alpha} -> roughness {roughness}")))
+        Ok((m, format!("alpha {} -> roughness {roughness}", alpha as f32)))
     }
 
     /// Conductor albedo: `reflectance` if given, else the normal-incidence
@@ -279,7 +283,7 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 }
             }
             let (albedo, from) = r.conductor(prefix)?;
-            let alpha = r.alpha(prefix, if v3 { 0.01 } else { 0.0 }, v3)?;
+            let alpha = r.alpha(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
             let (m, rough) = r.reflector(albedo, alpha)?;
             (m, format!("{from}, {rough}"))
         }
@@ -301,7 +305,7 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             if eta < 1.0 {
                 return Err(r.loc.error(format!("{}: eta {eta} below 1; rlpt's dielectrics need eta >= 1", r.what)));
             }
-            let alpha = r.alpha("", 0.0, v3)?;
+            let alpha = r.alpha("", 0.0, v3, true)?;
             if alpha > 0.0 {
                 r.note(format!("rough dielectric (alpha {alpha}) rendered smooth"))?;
             }

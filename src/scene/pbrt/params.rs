@@ -198,10 +198,12 @@ pub(crate) fn parse(tokens: &[Token], i: &mut usize) -> Result<Params, SceneErro
                 Kind::Num(x) => Value::Num(*x),
                 Kind::Str(s) => Value::Str(s.clone()),
                 Kind::Word(w) if w == "true" || w == "false" => Value::Bool(w == "true"),
-                _ => return Err(t.loc.error(format!(
+                _ => {
+                    return Err(t.loc.error(format!(
                     "expected a value for parameter \"{decl}\" (a number, a quoted string, true or false), found {}",
                     t.describe()
-                ))),
+                )))
+                }
             };
             Ok((v, t.loc.clone()))
         };
