@@ -356,3 +356,19 @@ fn strict_refuses_what_would_be_noted() {
     let p = write(&d, "ok.pbrt", &format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
     assert!(Scene::load_with(&p, true).is_ok());
 }
+
+#[test]
+fn strict_refuses_a_toml_scene_whose_mesh_file_is_noted() {
+    let d = dir("strict-toml");
+    write(&d, "m.mtl", "newmtl wood\nKd 0.5 0.5 0.5\nmap_Kd wood.png\n");
+    write(&d, "m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl wood\nf 1 2 3\n");
+    let p = write(
+        &d,
+        "scene.toml",
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nvfov = 40\n[[mesh]]\nfile = \"m.obj\"\n",
+    );
+    let s = Scene::load(&p).unwrap();
+    let first = s.notes.first().expect("the texture is noted").clone();
+    let e = Scene::load_with(&p, true).unwrap_err().to_string();
+    assert!(e.contains(&first) && e.contains("--strict"), "{e}");
+}
