@@ -372,3 +372,17 @@ fn strict_refuses_a_toml_scene_whose_mesh_file_is_noted() {
     let e = Scene::load_with(&p, true).unwrap_err().to_string();
     assert!(e.contains(&first) && e.contains("--strict"), "{e}");
 }
+
+#[test]
+fn end_time_transforms_are_ignored_with_a_note() {
+    let s = load(
+        "activetransform",
+        &format!(
+            "WorldBegin\nActiveTransform EndTime\nTranslate 100 0 0\nActiveTransform All\nTranslate 0 1 0\n{TRIANGLE}"
+        ),
+    );
+    let min_y = s.meshes[0].positions.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    let max_x = s.meshes[0].positions.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
+    assert!((min_y - 1.0).abs() < 1e-6 && max_x <= 1.0, "{:?}", s.meshes[0].positions);
+    assert!(note(&s, "Translate under ActiveTransform EndTime ignored").contains("scene.pbrt:3:"));
+}

@@ -58,6 +58,9 @@ struct State {
     /// Index into `Importer::materials`.
     material: usize,
     area: Option<AreaLight>,
+    /// `ActiveTransform EndTime`: transforms apply to the end of a motion,
+    /// which rlpt does not render.
+    end_time_only: bool,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -127,7 +130,7 @@ pub(super) fn load(path: &Path, strict: bool) -> Result<Scene, SceneError> {
     let mut im = Importer {
         base,
         notes: Notes { strict, list: Vec::new() },
-        state: State { ctm: DMat4::IDENTITY, reverse: false, material: 0, area: None },
+        state: State { ctm: DMat4::IDENTITY, reverse: false, material: 0, area: None, end_time_only: false },
         stack: Vec::new(),
         coordinate_systems: HashMap::new(),
         textures: HashMap::new(),
@@ -236,6 +239,8 @@ impl Importer {
                 .error(format!("expected a directive (such as Shape or WorldBegin), found {}", t.describe())));
         };
         let loc = t.loc.clone();
+        let here = loc.clone();
+        let ctm_before = self.state.ctm;
         *i += 1;
         let world_only = |im: &Self| -> Result<(), SceneError> {
             if im.in_world {
@@ -302,16 +307,11 @@ impl Importer {
             "ActiveTransform" => {
                 let which = tokens.get(*i).and_then(word).map(str::to_string);
                 *i += 1;
-                match which.as_deref() {
-                    Some("All") | Some("StartTime") => {}
-                    Some("EndTime") => {
-                        // Transforms given for the end time only would move nothing at the start.
-                        return Err(loc.error(
-                            "ActiveTransform EndTime: rlpt has no motion blur and reads start-time transforms only",
-                        ));
-                    }
+                self.state.end_time_only = match which.as_deref() {
+                    Some("All") | Some("StartTime") => false,
+                    Some("EndTime") => true,
                     _ => return Err(loc.error("ActiveTransform takes All, StartTime or EndTime")),
-                }
+                };
             }
             "AttributeBegin" | "TransformBegin" => {
                 let push = if name == "AttributeBegin" { Push::Attribute } else { Push::Transform };
@@ -471,6 +471,21 @@ impl Importer {
                      AttributeBegin or WorldBegin"
                 )))
             }
+        }
+        const TRANSFORMS: &[&str] = &[
+            "Identity",
+            "Translate",
+            "Scale",
+            "Rotate",
+            "LookAt",
+            "Transform",
+            "ConcatTransform",
+            "CoordSysTransform",
+        ];
+        if self.state.end_time_only && TRANSFORMS.contains(&name) {
+            self.state.ctm = ctm_before;
+            let message = format!("{name} under ActiveTransform EndTime ignored (rlpt has no motion blur)");
+            self.notes.approximated(&here, message)?;
         }
         Ok(())
     }
