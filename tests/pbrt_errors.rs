@@ -129,3 +129,33 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
     );
     assert!(stderr.contains("--strict"), "{stderr}");
 }
+
+#[test]
+fn cli_render_prints_the_notes_and_strict_renders_nothing() {
+    let d = dir("cli-render");
+    let p =
+        write(&d, "scene.pbrt", &format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
+    let out = d.join("out.png");
+    let run = |strict: bool| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rlpt"));
+        c.arg("render")
+            .arg(&p)
+            .args(["--width", "8", "--height", "8", "--spp", "64", "--device", "cpu", "-o"])
+            .arg(&out);
+        if strict {
+            c.arg("--strict");
+        }
+        let o = c.output().unwrap();
+        (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (ok, stderr) = run(false);
+    assert!(
+        ok && stderr.contains("note: ") && stderr.contains("scene.pbrt:3: LightSource \"point\" dropped"),
+        "{stderr}"
+    );
+    assert!(out.is_file());
+    std::fs::remove_file(&out).unwrap();
+    let (ok, stderr) = run(true);
+    assert!(!ok && stderr.contains("scene.pbrt:3:1: LightSource \"point\" dropped"), "{stderr}");
+    assert!(!out.exists(), "nothing rendered under --strict");
+}
