@@ -49,8 +49,12 @@ enum Command {
     /// Print what a scene holds: meshes and their triangles, materials, lights, bounds,
     /// the BVH's nodes and depth, and the device memory it takes.
     Info {
-        /// Scene file (TOML, see SCENE_FORMAT.md).
+        /// Scene file (TOML, see SCENE_FORMAT.md, or pbrt, see docs/pbrt.md).
         scene: PathBuf,
+        /// Refuse a pbrt scene's unsupported material or approximated feature
+        /// instead of noting it.
+        #[arg(long)]
+        strict: bool,
     },
     /// Print relMSE, RMSE and MAPE of an image against a reference (EXR or PNG).
     Compare {
@@ -110,6 +114,10 @@ enum Heuristic {
 /// What a frame is: size, bounces, seed, device, NEE and guiding (`render` and `bench`).
 #[derive(clap::Args)]
 struct Settings {
+    /// Refuse a pbrt scene's unsupported material or approximated feature (naming
+    /// it, its file and line) instead of noting it and rendering the approximation.
+    #[arg(long)]
+    strict: bool,
     /// Image width in pixels (default: the scene's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=rlpt::layout::MAX_IMAGE_SIDE as i64))]
     width: Option<u32>,
@@ -333,7 +341,7 @@ fn main() {
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
-        Command::Info { scene } => info(&scene),
+        Command::Info { scene, strict } => info(&scene, strict),
         Command::Compare { image, reference, reference_variance, image_variance, max_z, floor } => {
             let agreement = image_variance.as_deref().map(|v| (v, max_z, floor));
             compare(&image, &reference, reference_variance.as_deref(), agreement)
@@ -393,6 +401,10 @@ enum Outcome {
 /// other settings leave without effect, and a scene where nothing gives light.
 fn warn_before_render(settings: &Settings, scene: &Scene) {
     settings.note_ignored();
+    // What the scene's import approximated or ignored (mesh files, pbrt files).
+    for note in &scene.notes {
+        eprintln!("note: {note}");
+    }
     if let Some(w) = rlpt::scene::no_light_warning(scene) {
         eprintln!("warning: {w}");
     }

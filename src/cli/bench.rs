@@ -76,7 +76,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
              frames take the same time either way"
         );
     }
-    let scene = Scene::load(&args.scene)?;
+    let scene = Scene::load_with(&args.scene, args.settings.strict)?;
     warn_before_render(&args.settings, &scene);
     let mut opts = args.settings.options(&scene);
     opts.counters = args.counters;

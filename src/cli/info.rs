@@ -34,9 +34,9 @@ fn bounds(s: &SceneArrays) -> Option<(glam::Vec3, glam::Vec3)> {
     (!boxes.is_empty()).then_some((lo, hi))
 }
 
-pub(crate) fn info(path: &Path) -> Result<()> {
+pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
     let start = std::time::Instant::now();
-    let scene = Scene::load(path)?;
+    let scene = Scene::load_with(path, strict)?;
     let loaded = start.elapsed();
     let start = std::time::Instant::now();
     let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene))?;

@@ -4,7 +4,7 @@ use crate::*;
 
 #[derive(clap::Args)]
 pub(crate) struct RenderArgs {
-    /// Scene file (TOML, see SCENE_FORMAT.md).
+    /// Scene file (TOML, see SCENE_FORMAT.md, or pbrt, see docs/pbrt.md).
     scene: PathBuf,
     /// Output image: .png or .exr.
     #[arg(short, long)]
@@ -76,7 +76,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     outputs.extend(args.reference.as_deref().map(|p| ("--reference", p)));
     outputs.extend(args.reference_variance.as_deref().map(|p| ("--reference-variance", p)));
     check_distinct(&outputs)?;
-    let scene = Scene::load(&args.scene)?;
+    let scene = Scene::load_with(&args.scene, args.settings.strict)?;
     warn_before_render(&args.settings, &scene);
     let mut opts = args.settings.options(&scene);
     if let Some(s) = args.spp {

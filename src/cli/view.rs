@@ -4,7 +4,7 @@ use crate::*;
 
 #[derive(clap::Args)]
 pub(crate) struct ViewArgs {
-    /// Scene file (TOML, see SCENE_FORMAT.md).
+    /// Scene file (TOML, see SCENE_FORMAT.md, or pbrt, see docs/pbrt.md).
     scene: PathBuf,
     #[command(flatten)]
     settings: Settings,
@@ -34,7 +34,7 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
     if args.settings.device == DeviceKind::Cpu {
         bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
     }
-    let scene = Scene::load(&args.scene)?;
+    let scene = Scene::load_with(&args.scene, args.settings.strict)?;
     warn_before_render(&args.settings, &scene);
     let render = args.settings.options(&scene);
     // The viewer switches guiding on and off as it runs: the box is checked as

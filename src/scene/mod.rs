@@ -6,6 +6,7 @@
 
 mod load;
 pub mod mesh;
+mod pbrt;
 
 use glam::Vec3;
 use std::path::PathBuf;
@@ -154,9 +155,32 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Reads and validates a scene file.
+    /// Reads and validates a scene file: TOML, or a pbrt file (`.pbrt`, see
+    /// `docs/pbrt.md`) whose approximations become notes.
     pub fn load(path: impl AsRef<std::path::Path>) -> Result<Scene, SceneError> {
-        load::load_file(path.as_ref())
+        Scene::load_with(path, false)
+    }
+
+    /// [`Scene::load`]; with `strict`, a pbrt file's unsupported material or
+    /// approximated feature is refused (naming it, its file and line) instead
+    /// of noted; a TOML scene with a note on its mesh files (a texture it
+    /// ignores, say) is refused with the first.
+    pub fn load_with(path: impl AsRef<std::path::Path>, strict: bool) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let is_pbrt = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("pbrt"));
+        if is_pbrt {
+            pbrt::load(path, strict)
+        } else {
+            let scene = load::load_file(path)?;
+            match scene.notes.first() {
+                Some(note) if strict => Err(SceneError::Invalid {
+                    file: path.display().to_string(),
+                    position: None,
+                    message: format!("{note} (refused by --strict)"),
+                }),
+                _ => Ok(scene),
+            }
+        }
     }
 
     /// Parses and validates scene text; `name` is used in error messages in place of a path.

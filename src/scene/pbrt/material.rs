@@ -1,0 +1,433 @@
+//! pbrt's materials (v4 names and v3 names) mapped onto rlpt's five kinds by the
+//! rules of `docs/pbrt.md`; what a mapping approximates is noted.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+
+use super::lexer::Loc;
+use super::params::{Param, Params};
+use super::{Importer, Notes};
+use crate::scene::mesh::SPECULAR_BELOW_ROUGHNESS;
+use crate::scene::{Material, MaterialKind, SceneError};
+
+/// A `Texture` as the materials see it: its mean colour where its image reads.
+#[derive(Clone, Debug)]
+pub(crate) struct Texture {
+    pub mean: Option<Vec3>,
+    pub loc: Loc,
+    /// Why there is no mean, or where it came from (for the note).
+    pub detail: String,
+}
+
+/// A pbrt material mapped onto one of rlpt's, with the line `rlpt info` prints.
+#[derive(Clone, Debug)]
+pub(crate) struct Mapped {
+    pub material: Material,
+    pub mapping: String,
+}
+
+/// RGB eta and k of pbrt's named metal spectra (their values at the sRGB primaries).
+const METALS: &[(&str, [f32; 3], [f32; 3])] = &[
+    ("Cu", [0.200438, 0.924033, 1.10221], [3.91295, 2.45285, 2.14219]),
+    ("Au", [0.143119, 0.374957, 1.44248], [3.98316, 2.38572, 1.60322]),
+    ("Ag", [0.155265, 0.116723, 0.138342], [4.82835, 3.12225, 2.14696]),
+    ("Al", [1.65746, 0.880369, 0.521229], [9.22387, 6.26952, 4.837]),
+];
+
+/// Index of refraction at 587.6 nm of pbrt's named glass spectra.
+const GLASSES: &[(&str, f32)] = &[
+    ("glass-BK7", 1.5168),
+    ("glass-BAF10", 1.67),
+    ("glass-FK51A", 1.4866),
+    ("glass-LASF9", 1.8503),
+    ("glass-F5", 1.6034),
+    ("glass-F10", 1.6200),
+    ("glass-F11", 1.6209),
+];
+
+fn plain(kind: MaterialKind, albedo: Vec3) -> Material {
+    Material { name: String::new(), kind, albedo, roughness: 1.0, ior: 1.0, emission: Vec3::ZERO, two_sided: false }
+}
+
+fn text(v: Vec3) -> String {
+    format!("[{}, {}, {}]", v.x, v.y, v.z)
+}
+
+/// Reads materials' parameters, noting what it approximates.
+pub(crate) struct Reader<'a> {
+    pub params: &'a Params,
+    pub textures: &'a HashMap<String, Texture>,
+    pub notes: &'a mut Notes,
+    /// The directive's place, and the material's name for notes.
+    pub loc: &'a Loc,
+    pub what: String,
+}
+
+impl Reader<'_> {
+    fn note(&mut self, message: String) -> Result<(), SceneError> {
+        let m = format!("{}: {message}", self.what);
+        self.notes.approximated(self.loc, m)
+    }
+
+    /// A colour parameter: rgb/color, a named or sampled spectrum, blackbody, a
+    /// float, or a texture (its mean colour).
+    pub fn colour(&mut self, name: &str, default: Vec3) -> Result<Vec3, SceneError> {
+        let Some(p) = self.params.get(name, &["rgb", "color", "spectrum", "blackbody", "float", "texture"]) else {
+            return Ok(default);
+        };
+        let p = p.clone();
+        match p.ty.as_str() {
+            "rgb" | "color" => {
+                let v = p.numbers_n(3)?;
+                Ok(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
+            }
+            "float" => Ok(Vec3::splat(p.numbers_n(1)?[0] as f32)),
+            "blackbody" => {
+                self.note(format!("{}: a blackbody colour, taken as white (rlpt works in RGB)", p.label()))?;
+                Ok(Vec3::ONE)
+            }
+            "texture" => self.texture(&p, default),
+            _ => self.spectrum(&p),
+        }
+    }
+
+    fn texture(&mut self, p: &Param, default: Vec3) -> Result<Vec3, SceneError> {
+        let name = p.string()?;
+        let Some(t) = self.textures.get(&name) else {
+            return Err(p.loc.error(format!("parameter {} names texture \"{name}\", which is not defined", p.label())));
+        };
+        let t = t.clone();
+        match t.mean {
+            Some(mean) => {
+                self.note(format!(
+                    "{} is texture \"{name}\" ({}), taken as its mean colour {} ({}; rlpt has no image textures yet)",
+                    p.label(),
+                    t.loc.at(),
+                    text(mean),
+                    t.detail
+                ))?;
+                Ok(mean)
+            }
+            None => {
+                self.note(format!(
+                    "{} is texture \"{name}\" ({}), which rlpt cannot read ({}); the default {} stands in",
+                    p.label(),
+                    t.loc.at(),
+                    t.detail,
+                    text(default)
+                ))?;
+                Ok(default)
+            }
+        }
+    }
+
+    /// A `spectrum` value: a named metal (`metal-Cu-eta`), or wavelength/value
+    /// pairs (averaged, noted).
+    fn spectrum(&mut self, p: &Param) -> Result<Vec3, SceneError> {
+        if let Ok(name) = p.string() {
+            for (metal, eta, k) in METALS {
+                if name == format!("metal-{metal}-eta") {
+                    return Ok(Vec3::from(*eta));
+                }
+                if name == format!("metal-{metal}-k") {
+                    return Ok(Vec3::from(*k));
+                }
+            }
+            if let Some((_, ior)) = GLASSES.iter().find(|(g, _)| *g == name) {
+                return Ok(Vec3::splat(*ior));
+            }
+            let known: Vec<String> = METALS.iter().map(|m| format!("metal-{}-eta/k", m.0)).collect();
+            return Err(p.loc.error(format!(
+                "parameter {} names spectrum \"{name}\", which rlpt does not know; it knows {} and {}",
+                p.label(),
+                known.join(", "),
+                GLASSES.iter().map(|g| g.0).collect::<Vec<_>>().join(", ")
+            )));
+        }
+        let v = p.numbers()?;
+        if v.len() < 2 || v.len() % 2 != 0 {
+            return Err(p.loc.error(format!(
+                "parameter {} must be a spectrum name or wavelength/value pairs, found {} numbers",
+                p.label(),
+                v.len()
+            )));
+        }
+        let values: Vec<f64> = v.chunks(2).map(|c| c[1]).collect();
+        let mean = (values.iter().sum::<f64>() / values.len() as f64) as f32;
+        self.note(format!("{}: a sampled spectrum, taken as its mean value {mean} (rlpt works in RGB)", p.label()))?;
+        Ok(Vec3::splat(mean))
+    }
+
+    /// A float parameter that may be a texture (then the default, noted).
+    pub fn scalar(&mut self, name: &str, default: f64) -> Result<f64, SceneError> {
+        match self.params.get(name, &["float", "texture"]) {
+            None => Ok(default),
+            Some(p) if p.ty == "texture" => {
+                let label = p.label();
+                self.note(format!("{label} is a float texture, which rlpt does not read; {default} stands in"))?;
+                Ok(default)
+            }
+            Some(p) => Ok(p.numbers_n(1)?[0]),
+        }
+    }
+
+    /// An albedo in [0, 1]: negative components refused, larger ones clamped (noted).
+    fn albedo(&mut self, v: Vec3, what: &str) -> Result<Vec3, SceneError> {
+        if v.min_element() < 0.0 {
+            return Err(self.loc.error(format!("{}: {what} {} has a negative component", self.what, text(v))));
+        }
+        if v.max_element() > 1.0 {
+            self.note(format!("{what} {} clamped to [0, 1]", text(v)))?;
+        }
+        Ok(v.clamp(Vec3::ZERO, Vec3::ONE))
+    }
+
+    /// GGX alpha from roughness parameters (`prefix` "conductor." for
+    /// coatedconductor): u and v roughness (their geometric mean where they
+    /// differ, noted), remapped as pbrt-v4 (`sqrt`) or pbrt-v3 (its polynomial).
+    fn alpha(&mut self, prefix: &str, default: f64, v3: bool, smooth_at_zero: bool) -> Result<f64, SceneError> {
+        let r = self.scalar(&format!("{prefix}roughness"), default)?;
+        let u = self.scalar(&format!("{prefix}uroughness"), r)?;
+        let v = self.scalar(&format!("{prefix}vroughness"), r)?;
+        if u < 0.0 || v < 0.0 {
+            return Err(self.loc.error(format!("{}: roughness must be >= 0, found {u} and {v}", self.what)));
+        }
+        let remap = self.params.bool("remaproughness")?.unwrap_or(true);
+        let to_alpha = |r: f64| match (remap, v3) {
+            (false, _) => r,
+            (true, false) => r.sqrt(),
+            (true, true) => {
+                let x = r.max(1e-3).ln();
+                1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x.powi(3) + 0.000640711 * x.powi(4)
+            }
+        };
+        // pbrt-v3's glass is smooth at roughness 0 before any remapping.
+        if smooth_at_zero && u == 0.0 && v == 0.0 {
+            return Ok(0.0);
+        }
+        let (au, av) = (to_alpha(u), to_alpha(v));
+        if (au - av).abs() > 1e-6 {
+            self.note(format!(
+                "anisotropic roughness (alpha {au} by {av}) taken as isotropic alpha {}",
+                (au * av).sqrt()
+            ))?;
+        }
+        Ok((au * av).sqrt())
+    }
+
+    /// Glossy with rlpt roughness sqrt(alpha), or specular below
+    /// [`SPECULAR_BELOW_ROUGHNESS`]; the mapping's roughness text.
+    fn reflector(&mut self, albedo: Vec3, alpha: f64) -> Result<(Material, String), SceneError> {
+        let mut roughness = alpha.sqrt() as f32;
+        if roughness > 1.0 {
+            self.note(format!("GGX alpha {alpha} above 1, clamped to 1"))?;
+            roughness = 1.0;
+        }
+        if roughness < SPECULAR_BELOW_ROUGHNESS {
+            return Ok((plain(MaterialKind::Specular, albedo), format!("alpha {} -> specular", alpha as f32)));
+        }
+        let mut m = plain(MaterialKind::Glossy, albedo);
+        m.roughness = roughness;
+        Ok((m, format!("alpha {} -> roughness {roughness}", alpha as f32)))
+    }
+
+    /// Conductor albedo: `reflectance` if given, else the normal-incidence
+    /// Fresnel reflectance of eta and k (default copper).
+    fn conductor(&mut self, prefix: &str) -> Result<(Vec3, String), SceneError> {
+        if self.params.get(&format!("{prefix}reflectance"), &["rgb", "color", "spectrum", "float", "texture"]).is_some()
+        {
+            let r = self.colour(&format!("{prefix}reflectance"), Vec3::ONE)?;
+            return Ok((self.albedo(r, "reflectance")?, "reflectance".to_string()));
+        }
+        let (cu_eta, cu_k) = (Vec3::from(METALS[0].1), Vec3::from(METALS[0].2));
+        let eta = self.colour(&format!("{prefix}eta"), cu_eta)?;
+        let k = self.colour(&format!("{prefix}k"), cu_k)?;
+        if eta.min_element() <= 0.0 || k.min_element() < 0.0 {
+            return Err(self.loc.error(format!("{}: eta {} must be > 0 and k {} >= 0", self.what, text(eta), text(k))));
+        }
+        let f0 = ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k);
+        Ok((f0, format!("F0 {} from eta {} k {}", text(f0), text(eta), text(k))))
+    }
+}
+
+/// Maps material `ty` (its parameters in `r`) onto rlpt's; `mix` is the
+/// importer's (it needs the named materials).
+pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
+    let v3 = matches!(ty, "metal" | "glass" | "plastic" | "uber" | "substrate" | "translucent" | "mirror" | "matte");
+    let (material, how) = match ty {
+        "diffuse" | "matte" => {
+            let key = if ty == "diffuse" { "reflectance" } else { "Kd" };
+            let a = r.colour(key, Vec3::splat(0.5))?;
+            if ty == "matte" && r.scalar("sigma", 0.0)? != 0.0 {
+                r.note("Oren-Nayar `sigma` dropped (Lambertian)".to_string())?;
+            }
+            (plain(MaterialKind::Diffuse, r.albedo(a, key)?), format!("{key} {}", text(a)))
+        }
+        "conductor" | "metal" | "coatedconductor" => {
+            let prefix = if ty == "coatedconductor" { "conductor." } else { "" };
+            if ty == "coatedconductor" {
+                r.note("the dielectric coat of coatedconductor dropped (the conductor alone)".to_string())?;
+                for p in [
+                    "interface.roughness",
+                    "interface.uroughness",
+                    "interface.vroughness",
+                    "interface.eta",
+                    "thickness",
+                    "albedo",
+                    "g",
+                    "maxdepth",
+                    "nsamples",
+                ] {
+                    r.params.touch(p);
+                }
+            }
+            let (albedo, from) = r.conductor(prefix)?;
+            let alpha = r.alpha(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
+            let (m, rough) = r.reflector(albedo, alpha)?;
+            (m, format!("{from}, {rough}"))
+        }
+        "mirror" => {
+            let a = r.colour("Kr", Vec3::splat(0.9))?;
+            (plain(MaterialKind::Specular, r.albedo(a, "Kr")?), format!("Kr {}", text(a)))
+        }
+        "dielectric" | "glass" | "thindielectric" => {
+            let eta = match r.params.get("eta", &["float", "spectrum"]).or_else(|| r.params.get("index", &["float"])) {
+                None => 1.5,
+                Some(p) if p.ty == "float" => p.numbers_n(1)?[0] as f32,
+                Some(p) => {
+                    let p = p.clone();
+                    let v = r.spectrum(&p)?;
+                    r.note(format!("{}: dispersion dropped, index {}", p.label(), v.x))?;
+                    v.x
+                }
+            };
+            if eta < 1.0 {
+                return Err(r.loc.error(format!("{}: eta {eta} below 1; rlpt's dielectrics need eta >= 1", r.what)));
+            }
+            let alpha = r.alpha("", 0.0, v3, true)?;
+            if alpha > 0.0 {
+                r.note(format!("rough dielectric (alpha {alpha}) rendered smooth"))?;
+            }
+            if ty == "thindielectric" {
+                r.note("thindielectric rendered as a solid dielectric".to_string())?;
+            }
+            let mut albedo = Vec3::ONE;
+            if ty == "glass" {
+                let kr = r.colour("Kr", Vec3::ONE)?;
+                albedo = r.colour("Kt", Vec3::ONE)?;
+                if kr != Vec3::ONE || albedo != Vec3::ONE {
+                    r.note(format!("Kr {} and Kt {}: Kt taken as the albedo, Kr dropped", text(kr), text(albedo)))?;
+                }
+                albedo = r.albedo(albedo, "Kt")?;
+            }
+            let mut m = plain(MaterialKind::Dielectric, albedo);
+            m.ior = eta;
+            (m, format!("eta {eta}"))
+        }
+        "interface" | "none" | "" => {
+            r.note("no surface (a medium boundary): rendered as a dielectric of eta 1, which light passes straight through".to_string())?;
+            let mut m = plain(MaterialKind::Dielectric, Vec3::ONE);
+            m.ior = 1.0;
+            (m, "eta 1 (invisible)".to_string())
+        }
+        _ => {
+            let (key, default, what) = match ty {
+                "coateddiffuse" => ("reflectance", 0.5, "its dielectric coat dropped"),
+                "diffusetransmission" => ("reflectance", 0.25, "its transmission dropped"),
+                "plastic" => ("Kd", 0.25, "its specular layer (Ks) dropped"),
+                "substrate" => ("Kd", 0.5, "its specular layer (Ks) dropped"),
+                "uber" => ("Kd", 0.25, "its specular, mirror and transmission layers dropped"),
+                "translucent" => ("Kd", 0.25, "its transmission dropped"),
+                "subsurface" | "kdsubsurface" => ("reflectance", 0.5, "subsurface scattering dropped"),
+                "measured" | "hair" | "fourier" => ("", 0.5, "not modelled at all"),
+                _ => {
+                    return Err(r.loc.error(format!(
+                        "unknown material type \"{ty}\"; expected one of diffuse, conductor, dielectric, thindielectric, \
+                         coateddiffuse, coatedconductor, diffusetransmission, measured, mix, hair, subsurface, interface \
+                         (pbrt-v4) or matte, plastic, metal, glass, mirror, uber, substrate, translucent (pbrt-v3)"
+                    )))
+                }
+            };
+            let key = if ty == "kdsubsurface" { "Kd" } else { key };
+            let a = if key.is_empty() { Vec3::splat(default) } else { r.colour(key, Vec3::splat(default))? };
+            r.note(format!("{ty} rendered as diffuse ({what})"))?;
+            // The dropped layers' parameters are covered by that note.
+            let names: Vec<String> = r.params.list.iter().map(|p| p.name.clone()).collect();
+            for n in names {
+                r.params.touch(&n);
+            }
+            let a = r.albedo(a, if key.is_empty() { "albedo" } else { key })?;
+            (plain(MaterialKind::Diffuse, a), format!("{} {}", if key.is_empty() { "albedo" } else { key }, text(a)))
+        }
+    };
+    let kind = format!("{:?}", material.kind).to_lowercase();
+    Ok(Mapped { material, mapping: format!("{ty} -> {kind} ({how})") })
+}
+
+impl Importer {
+    /// Maps a material, notes what it leaves out, and returns its index.
+    pub(super) fn material(&mut self, ty: &str, p: &Params, loc: &Loc, label: &str) -> Result<usize, SceneError> {
+        let mut mapped = if ty == "mix" {
+            self.mix(p, loc, label)?
+        } else {
+            let mut r = Reader {
+                params: p,
+                textures: &self.textures,
+                notes: &mut self.notes,
+                loc,
+                what: format!("material \"{label}\""),
+            };
+            map(ty, &mut r)?
+        };
+        let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
+        if !unused.is_empty() {
+            self.notes.approximated(loc, format!("material \"{label}\" ({ty}): ignored {}", unused.join(", ")))?;
+        }
+        mapped.material.name = label.to_string();
+        mapped.mapping = format!("{label}: {} [{}]", mapped.mapping, loc.at());
+        self.materials.push(mapped);
+        Ok(self.materials.len() - 1)
+    }
+
+    /// `mix`: two diffuse materials blend their albedos; otherwise the one of
+    /// larger weight stands for both.
+    fn mix(&mut self, p: &Params, loc: &Loc, label: &str) -> Result<Mapped, SceneError> {
+        let names = p.get("materials", &["string"]).map(|q| q.strings()).transpose()?;
+        let Some(names) = names.filter(|n| n.len() == 2) else {
+            return Err(
+                loc.error(format!("material \"{label}\" (mix): expected \"string materials\" with two material names"))
+            );
+        };
+        let amount = {
+            let mut r = Reader {
+                params: p,
+                textures: &self.textures,
+                notes: &mut self.notes,
+                loc,
+                what: format!("material \"{label}\""),
+            };
+            r.scalar("amount", 0.5)?
+        };
+        let mut pair = Vec::new();
+        for n in &names {
+            let i = *self.named_materials.get(n).ok_or_else(|| {
+                loc.error(format!("material \"{label}\" (mix): \"{n}\" is not a named material made before it"))
+            })?;
+            pair.push(self.materials[i].clone());
+        }
+        let (a, b) = (&pair[0].material, &pair[1].material);
+        let t = amount.clamp(0.0, 1.0) as f32;
+        let (material, how) = if a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse {
+            let mut m = a.clone();
+            m.albedo = a.albedo.lerp(b.albedo, t);
+            (m, format!("albedos of \"{}\" and \"{}\" blended by amount {amount}", names[0], names[1]))
+        } else {
+            let (pick, name) = if t < 0.5 { (a, &names[0]) } else { (b, &names[1]) };
+            (pick.clone(), format!("\"{name}\", the larger share at amount {amount}"))
+        };
+        self.notes.approximated(loc, format!("material \"{label}\" (mix): {how}"))?;
+        let kind = format!("{:?}", material.kind).to_lowercase();
+        Ok(Mapped { material, mapping: format!("mix -> {kind} ({how})") })
+    }
+}

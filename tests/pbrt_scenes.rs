@@ -1,0 +1,93 @@
+//! The pbrt scenes of `../shared/assets/` (other people's data, never copied
+//! in) load with the notes they must carry, and an imported scene shows what
+//! pbrt shows: left in pbrt's image is left in rlpt's, on the CPU and the GPU.
+
+mod common;
+mod pbrt_support;
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use pbrt_support::{dir, note, write};
+use rlpt::scene::{MaterialKind, Scene};
+
+fn assets() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets");
+    assert!(
+        dir.is_dir(),
+        "the shared assets are missing: expected the folder {} (the project's shared/assets/, which the \
+         repository does not commit)",
+        dir.display()
+    );
+    dir
+}
+
+fn triangles(s: &Scene) -> usize {
+    s.meshes.iter().map(|m| m.triangles.len()).sum()
+}
+
+/// The zero-area triangles a note says were skipped ("skipped N zero-area triangles").
+fn skipped(s: &Scene) -> usize {
+    s.notes.iter().filter_map(|n| n.split("skipped ").nth(1)?.split(' ').next()?.parse::<usize>().ok()).sum()
+}
+
+#[test]
+fn veach_ajar_loads_with_its_instances_and_the_jpeg_textures_named() {
+    let s = Scene::load(assets().join("veach_ajar_pbrt/scene.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    let plys = s.meshes.iter().filter(|m| m.source.extension().is_some_and(|e| e == "ply")).count();
+    assert_eq!(plys, 21, "21 plymesh references, the teapots' instanced three times");
+    // 382,688 triangles after instancing, and the light's quad.
+    assert_eq!(triangles(&s) + skipped(&s), 382_688 + 2);
+    assert_eq!((s.render.width, s.render.height, s.render.max_bounces), (1280, 720, 13));
+    for missing in ["landscape-with-a-lake", "Good Textures_005844"] {
+        let n = note(&s, &format!("texture image \"textures/{missing}.tga\""));
+        assert!(n.contains("is missing") && n.contains(&format!("textures_jpg_mitsuba_release/{missing}.jpg")), "{n}");
+    }
+    note(&s, "texture \"Texture03\"");
+    let light: Vec<_> = s.materials.iter().filter(|m| m.emits()).collect();
+    assert_eq!(light.len(), 1);
+    assert_eq!((light[0].emission, light[0].two_sided), (Vec3::splat(1000.0), false));
+    let floor = s.materials.iter().find(|m| m.name == "Floor").unwrap();
+    assert_eq!(floor.kind, MaterialKind::Glossy);
+    assert!(s.material_mappings.iter().any(|l| l.starts_with("Material: glass -> dielectric")));
+}
+
+#[test]
+fn bmw_loads_with_a_uniform_sky_for_its_missing_environment_map() {
+    let s = Scene::load(assets().join("bmw_m6_pbrt/bmw-m6.pbrt")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.meshes.len(), 114);
+    assert_eq!(triangles(&s) + skipped(&s), 792_746);
+    let n = note(&s, "the environment image \"textures/sunflowers_equiarea.exr\"");
+    assert!(n.contains("does not exist") && n.contains("uniform sky"), "{n}");
+    assert_eq!(s.environment, Vec3::ONE);
+    note(&s, "material \"CarPaint\": coateddiffuse rendered as diffuse");
+    note(&s, "material \"LEATHER\" (mix)");
+    assert!((s.camera.vfov_deg - 30.0).abs() < 1e-6, "1400x1000 is landscape: fov is vertical");
+}
+
+/// A black scene with one emitting sphere at pbrt camera x = -1 (left in pbrt's
+/// image), seen through a plain LookAt, whose camera space is left-handed.
+const LEFT_LAMP: &str = "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 16\n\
+    LookAt 0 0 0  0 0 1  0 1 0\nCamera \"perspective\" \"float fov\" 40\nWorldBegin\n\
+    AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [4 4 4]\nTranslate -1 0 5\nShape \"sphere\" \"float radius\" 0.6\nAttributeEnd\n\
+    Shape \"trianglemesh\" \"point3 P\" [-50 -3 -50  50 -3 -50  50 -3 50  -50 -3 50] \"integer indices\" [0 1 2 0 2 3]\n";
+
+fn halves(film: &rlpt::film::Film) -> (f64, f64) {
+    let (left, _, _) = common::region_stats(film, |x, _| x < film.width / 2);
+    let (right, _, _) = common::region_stats(film, |x, _| x >= film.width / 2);
+    (left, right)
+}
+
+#[test]
+fn left_in_pbrt_is_left_in_rlpt_on_cpu_and_gpu() {
+    let d = dir("orientation");
+    let p = write(&d, "scene.pbrt", LEFT_LAMP);
+    let s = Scene::load(&p).unwrap();
+    let opts = common::options(&s, 32, 16, 128);
+    let cpu = common::render_cpu(&s, &opts);
+    let gpu = common::render_gpu(&common::gpu(), &s, &opts);
+    for (name, film) in [("cpu", &cpu), ("gpu", &gpu)] {
+        let (left, right) = halves(film);
+        assert!(left > 4.0 * right && left > 0.0, "{name}: left half {left}, right half {right}");
+    }
+}
