@@ -35,15 +35,16 @@ const METALS: &[(&str, [f32; 3], [f32; 3])] = &[
     ("Al", [1.65746, 0.880369, 0.521229], [9.22387, 6.26952, 4.837]),
 ];
 
-/// Index of refraction at 587.6 nm of pbrt's named glass spectra.
+/// Index of refraction at 587.6 nm of pbrt's named glass spectra (pbrt reads F5, F10
+/// and F11 from its tables of Schott SF5, SF10 and SF11).
 const GLASSES: &[(&str, f32)] = &[
     ("glass-BK7", 1.5168),
     ("glass-BAF10", 1.67),
     ("glass-FK51A", 1.4866),
     ("glass-LASF9", 1.8503),
-    ("glass-F5", 1.6034),
-    ("glass-F10", 1.6200),
-    ("glass-F11", 1.6209),
+    ("glass-F5", 1.6727),
+    ("glass-F10", 1.7283),
+    ("glass-F11", 1.7847),
 ];
 
 fn plain(kind: MaterialKind, albedo: Vec3) -> Material {
