@@ -48,8 +48,11 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // learned_frames: frames left out of the image whose radiance the pixels' sum.w
 // keeps for learned roulette's estimate (guide::GuideConfig::learning_frames):
 // where accum_frames is 0, the frames the buffer still holds, which the first
-// accumulation replaces.
-layout(push_constant) uniform Push { uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; } push;
+// accumulation replaces;
+// table_frames: frames the table learned from before this render (a loaded field).
+layout(push_constant) uniform Push {
+    uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames;
+} push;
 
 // src/render/mod.rs `pixel_row`: the pixel row of workgroup row `g`.
 uint pixel_row(uint g) {
@@ -444,7 +447,7 @@ void main() {
 #if GUIDED
         // src/cpu/mod.rs `roulette_estimate`: the image's frames and the learning
         // frames' (sum.w); where accum_frames is 0, the buffer still holds the latter.
-        if (push.accum_frames + push.learned_frames > 0u && push.frame >= uint(LEARNED_RR_FRAMES)) {
+        if (push.accum_frames + push.learned_frames > 0u && push.frame + push.table_frames >= uint(LEARNED_RR_FRAMES)) {
             vec4 s = accum[pixel].sum;
             float learned = push.accum_frames > 0u ? s.w : 0.0;
             estimate = (mean3(s.xyz) + learned) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames + push.learned_frames));

@@ -4,7 +4,7 @@ use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use rlpt::cpu::CpuRenderer;
 use rlpt::gpu::{Context, ContextOptions};
-use rlpt::guide::{Bins, GuidingMode};
+use rlpt::guide::{scene_hash, Bins, GuideField, GuidingMode};
 use rlpt::image::Image;
 use rlpt::metrics;
 use rlpt::options::{Counters, RenderOptions};

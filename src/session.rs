@@ -8,6 +8,7 @@
 use crate::cpu::CpuRenderer;
 use crate::film::Film;
 use crate::gpu::GpuError;
+use crate::guide::QTable;
 use crate::metrics::Reference;
 use crate::render::GpuRenderer;
 use crate::stats::FrameStats;
@@ -37,6 +38,8 @@ pub trait Renderer {
     fn device_name(&self) -> String;
     /// Whether frames report GPU time; the session times wall clock where not.
     fn timestamps(&self) -> bool;
+    /// The learned table, None without guiding.
+    fn table(&self) -> Result<Option<QTable>, GpuError>;
 }
 
 impl Renderer for CpuRenderer {
@@ -56,6 +59,9 @@ impl Renderer for CpuRenderer {
     fn timestamps(&self) -> bool {
         false
     }
+    fn table(&self) -> Result<Option<QTable>, GpuError> {
+        Ok(CpuRenderer::table(self).cloned())
+    }
 }
 
 impl Renderer for GpuRenderer {
@@ -74,6 +80,9 @@ impl Renderer for GpuRenderer {
     }
     fn timestamps(&self) -> bool {
         self.context().info.timestamps
+    }
+    fn table(&self) -> Result<Option<QTable>, GpuError> {
+        GpuRenderer::table(self)
     }
 }
 

@@ -1073,3 +1073,29 @@ fn a_lost_device_is_a_sentence_that_says_what_was_kept() {
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("the GPU stopped responding (device lost") && !stderr.contains("panicked"), "{stderr}");
 }
+
+/// `--guide-out` writes the learned field after the image; `--guide-in` starts a
+/// render of the same scene from it (another size and the other device too);
+/// `--guide-out` without guiding is refused before anything renders.
+#[test]
+fn a_learned_field_written_by_one_render_starts_another() {
+    let (img, field) = (tmp("field.png"), tmp("door.qtab"));
+    let (img, field) = (img.to_str().unwrap(), field.to_str().unwrap());
+    let door = ["render", "scenes/door.toml", "--spp", "128", "--guiding", "sphere", "-o", img];
+    let (ok, err) = run(&[&door[..], &["--width", "24", "--height", "16", "--guide-out", field]].concat());
+    assert!(ok, "{err}");
+    assert!(std::fs::metadata(field).unwrap().len() > 64, "the field was written");
+    std::fs::remove_file(img).unwrap();
+    let (ok, err) =
+        run(&[&door[..], &["--width", "32", "--height", "20", "--device", "cpu", "--guide-in", field]].concat());
+    assert!(ok, "{err}");
+    assert!(std::fs::metadata(img).is_ok(), "the image from the loaded field");
+    let (ok, err) =
+        run(&["render", "scenes/smallpt.toml", "--spp", "64", "--guiding", "sphere", "-o", img, "--guide-in", field]);
+    assert!(!ok && err.contains("another scene") && err.contains(field), "{err}");
+    let unguided = tmp("unguided.png");
+    let (ok, err) =
+        run(&["render", "scenes/door.toml", "--spp", "64", "-o", unguided.to_str().unwrap(), "--guide-out", field]);
+    assert!(!ok && err.contains("--guide-out") && err.contains("needs guiding on"), "{err}");
+    assert!(std::fs::metadata(&unguided).is_err(), "nothing rendered");
+}

@@ -29,6 +29,14 @@ pub(crate) struct RenderArgs {
     /// Write per-frame statistics (time, relMSE, zero-radiance paths) as JSON.
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Start guiding from the learned field FILE that a render of the same scene wrote with
+    /// --guide-out (the same bins; its grid is used whatever the camera): a preview's
+    /// learning serves the final render. Learning frames are then 0 unless asked for.
+    #[arg(long, value_name = "FILE")]
+    guide_in: Option<PathBuf>,
+    /// Write the learned field to FILE once the render ends (after the image), for --guide-in.
+    #[arg(long, value_name = "FILE")]
+    guide_out: Option<PathBuf>,
     /// Stop by this much render time (GPU time from timestamps on the GPU, wall clock on
     /// the CPU): no frame starts that would end past it, each judged to last as long as
     /// the frame before (the first always runs). --spp is then the upper bound.
@@ -129,7 +137,15 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
             shared::SAMPLES_PER_FRAME
         );
     }
-    let prepared = PreparedScene::new(&scene, &opts)?;
+    let mut prepared = PreparedScene::new(&scene, &opts)?;
+    if let Some(path) = &args.guide_in {
+        prepared.start_from(GuideField::load(path)?, path, &opts)?;
+    }
+    if prepared.guide.is_none() {
+        if let Some(path) = &args.guide_out {
+            bail!("--guide-out {} needs guiding on (--guiding sphere or octant)", path.display());
+        }
+    }
     warn_grid(&scene, &prepared);
     warn_memory(&opts, args.settings.device);
     // The learning frames come first, and the image's frames after them.
@@ -225,6 +241,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     }
     if let Some(path) = &args.stats {
         stats.save(path)?;
+    }
+    if let (Some(path), Some(cfg)) = (&args.guide_out, &prepared.guide) {
+        let table = renderer.table()?.expect("a guided renderer has a table");
+        GuideField::of_table(&table, cfg, scene_hash(&prepared)).save(path)?;
     }
     // Samples traced, the learning frames' included.
     let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME) as f64;

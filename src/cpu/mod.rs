@@ -371,7 +371,7 @@ impl CpuRenderer {
     pub fn new(scene: &PreparedScene) -> CpuRenderer {
         let (w, h) = (scene.params.width, scene.params.height);
         let learning = scene.guide.map(|g| Learning {
-            table: QTable::new(&g),
+            table: scene.guide_start.as_ref().map_or_else(|| QTable::new(&g), |f| f.table(&g)),
             schedule: guide::RecordSchedule::for_render(&g, w, h),
             pending: FrameSums::for_config(&g),
         });
@@ -411,6 +411,8 @@ impl CpuRenderer {
             self.film.frames = 0;
         }
         let (accum_frames, learned_frames) = (self.film.frames, self.learned_frames);
+        // A loaded field has learned: learned roulette need not wait for it.
+        let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
         let scene = &self.scene;
         let learning = self.learning.as_ref();
         let guide = scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide::new(cfg, &l.table));
@@ -430,7 +432,9 @@ impl CpuRenderer {
                         let pixel = y as u32 * p.width + x as u32;
                         let mut sum = Vec3::ZERO;
                         let estimate = match guide {
-                            Some(_) => guide::roulette_estimate(acc, accum_frames, learned_frames, frame),
+                            Some(_) => {
+                                guide::roulette_estimate(acc, accum_frames, learned_frames, frame + table_frames)
+                            }
                             None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {

@@ -69,6 +69,7 @@ use crate::shared;
 use std::f32::consts::PI;
 
 mod bins;
+mod field;
 mod fraction;
 mod grid;
 mod record;
@@ -77,6 +78,7 @@ mod sampler;
 mod table;
 
 pub use bins::*;
+pub use field::*;
 pub use fraction::*;
 pub use grid::*;
 pub use record::*;

@@ -6,7 +6,7 @@
 //! reads the same values, so precomputed normals, light probabilities and camera
 //! vectors agree exactly.
 
-use crate::guide::{self, Bins, Grid, GuideConfig, GuidingMode};
+use crate::guide::{self, Bins, FieldError, Grid, GuideConfig, GuideField, GuidingMode};
 use crate::layout::{v4, GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams, Room, SceneArrays};
 use crate::math::bvh;
 use crate::math::Vec3;
@@ -27,6 +27,8 @@ pub struct PreparedScene {
     pub arrays: SceneArrays,
     /// Guiding geometry, when guiding is on.
     pub guide: Option<GuideConfig>,
+    /// The learned field guiding starts from (`--guide-in`), else a blank table.
+    pub guide_start: Option<std::sync::Arc<GuideField>>,
 }
 
 impl std::ops::Deref for PreparedScene {
@@ -314,6 +316,7 @@ impl PreparedScene {
                 room,
             },
             guide: None,
+            guide_start: None,
         };
         let bins = match opts.guiding {
             GuidingMode::Off => None,
@@ -341,10 +344,7 @@ impl PreparedScene {
             p.guide_bins = bins.count();
             p.guide_rows = bins.rows;
             p.guide_cols = bins.cols;
-            p.guide_min = v4(grid.min, cfg.fraction);
-            p.guide_inv_cell = v4(grid.inv_cell_size(), bins.solid_angle());
-            [p.guide_res_x, p.guide_res_y, p.guide_res_z] = grid.res;
-            p.guide_cells = grid.cells();
+            set_grid(p, &cfg);
             p.guide_floor = cfg.floor;
             // 0: the default for whichever NEE and roulette flags the params hold.
             p.guide_vertices = opts.guided_vertices.unwrap_or(0);
@@ -352,6 +352,40 @@ impl PreparedScene {
         }
         Ok(prepared)
     }
+
+    /// Starts guiding from `field`, read from `path` (`--guide-in`): its grid takes
+    /// the place of the one this render's camera would give, so that a field
+    /// learned from one view serves another; its bins must be this render's, and
+    /// its scene this one. Learning frames are then 0 unless `opts` asks for some.
+    pub fn start_from(
+        &mut self,
+        field: GuideField,
+        path: &std::path::Path,
+        opts: &RenderOptions,
+    ) -> Result<(), FieldError> {
+        let hash = guide::scene_hash(&self.arrays);
+        let Some(cfg) = self.guide.as_mut() else {
+            return Err(FieldError(format!(
+                "--guide-in {} needs guiding on (--guiding sphere or octant)",
+                path.display()
+            )));
+        };
+        field.check(path, hash, cfg.bins)?;
+        cfg.grid = field.grid;
+        cfg.learning_frames = opts.learning_frames.unwrap_or(0);
+        let cfg = *cfg;
+        set_grid(&mut self.arrays.params, &cfg);
+        self.guide_start = Some(std::sync::Arc::new(field));
+        Ok(())
+    }
+}
+
+/// The params' copy of the guiding grid and the start fraction.
+fn set_grid(p: &mut RenderParams, cfg: &GuideConfig) {
+    p.guide_min = v4(cfg.grid.min, cfg.fraction);
+    p.guide_inv_cell = v4(cfg.grid.inv_cell_size(), cfg.bins.solid_angle());
+    [p.guide_res_x, p.guide_res_y, p.guide_res_z] = cfg.grid.res;
+    p.guide_cells = cfg.grid.cells();
 }
 
 #[cfg(test)]

@@ -269,6 +269,29 @@ impl Learning {
         after(1);
     }
 
+    /// Starts the table from a learned field (`--guide-in`): Q, visits, the
+    /// fraction states and the rows read copied in, then the sampling rows built
+    /// from them by the learning pass (whose fold finds no targets).
+    /// `crate::cpu::CpuRenderer::new` does the same through `GuideField::table`.
+    fn load_field(&self, ctx: &Arc<Context>, field: &crate::guide::GuideField) -> Result<(), GpuError> {
+        let rows_read: Vec<u32> = field.rows_read.iter().map(|&r| r as u32).collect();
+        let staged = [
+            (Buffer::with_data(ctx, "Q upload", bytes(&field.q), false)?, &self.q),
+            (Buffer::with_data(ctx, "visits upload", bytes(&field.visits), false)?, &self.visits),
+            (
+                Buffer::with_data(ctx, "fraction states upload", bytes(&field.fraction_states), false)?,
+                &self.fraction_states,
+            ),
+            (Buffer::with_data(ctx, "rows read upload", bytes(&rows_read), false)?, &self.rows_read),
+        ];
+        ctx.run_commands("load learned field", |cmd| {
+            for (from, to) in &staged {
+                from.cmd_copy_to(cmd, to);
+            }
+            self.cmd_learn(ctx, cmd, |_| {});
+        })
+    }
+
     /// learn.comp's push constants for a phase.
     fn push(&self, phase: u32) -> [u32; LEARN_PUSH_WORDS] {
         [
@@ -375,6 +398,9 @@ pub struct GpuRenderer {
     /// after `reset_accumulation`): learned roulette's estimate still counts them
     /// (the kernel's `learned_frames`).
     learned_frames: u32,
+    /// Frames the table learned from before this render: learned roulette need
+    /// not wait for a loaded field to learn (`GuideField::table_frames`).
+    table_frames: u32,
     /// `ABLATE_*` bits for `render_frame_profiled`: parts of guiding left out
     /// (profiling only: the image is then not what rlpt renders).
     pub ablate: u32,
@@ -396,6 +422,8 @@ struct PathPush {
     rows: u32,
     /// The learning frames left out of the image (`GpuRenderer::learned_frames`).
     learned_frames: u32,
+    /// Frames the table learned from before this render (`GuideField::table_frames`).
+    table_frames: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -527,6 +555,9 @@ impl GpuRenderer {
                 l.sampler.cmd_fill(cmd, crate::guide::UNLEARNED);
             }
         })?;
+        if let (Some(l), Some(field)) = (&learning, &scene.guide_start) {
+            l.load_field(ctx, field)?;
+        }
         scene_buffers.shrink_to_fit();
         let renderer = GpuRenderer {
             ctx: ctx.clone(),
@@ -550,6 +581,7 @@ impl GpuRenderer {
             frames_traced: 0,
             accum_frames: 0,
             learned_frames: 0,
+            table_frames: if scene.guide_start.is_some() { crate::guide::GuideField::table_frames() } else { 0 },
             ablate: 0,
             lose_device_after: std::env::var(DEVICE_LOST_HOOK).ok().and_then(|v| v.trim().parse().ok()),
         };
@@ -594,6 +626,7 @@ impl GpuRenderer {
             ablate: self.ablate,
             rows: 0,
             learned_frames: self.learned_frames,
+            table_frames: self.table_frames,
         };
         self.frames_traced += 1;
         self.accum_frames += 1;
