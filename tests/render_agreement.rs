@@ -456,8 +456,8 @@ fn the_subgroups_count_the_rays_of_their_longest_paths() {
             let pixel = y * p.width + x;
             let mut longest = 0u32;
             for sample in 0..rlpt::shared::SAMPLES_PER_FRAME {
-                let mut rng = rlpt::math::rng::Rng::new(p.seed, pixel, 0, sample);
-                let u = rlpt::camera::pixel_jitter(sample, rng.next_2d());
+                let mut rng = rlpt::math::sampler::PathSampler::for_flags(p.flags, p.seed, pixel, 0, sample);
+                let u = rng.sample_pixel(sample);
                 let (o, d) = camera_ray(p, x, y, u);
                 let (_, rays) = rlpt::cpu::trace_path(&prepared, None, o, d, &mut rng, 0.0, None);
                 cpu_rays += rays as u64;
