@@ -92,9 +92,8 @@
 // The samplers' dimension layout (sampler.glsl, docs/sampling.md): the camera's
 // jitter takes dimensions 0 and 1; the vertex of depth d takes SAMPLER_BOUNCE_DIMS
 // from SAMPLER_BOUNCE_BASE + d * SAMPLER_BOUNCE_DIMS, slot SAMPLE_* of them, used
-// or not, so that a dimension means the same in every path. Sobol points come in
-// blocks of SOBOL_BLOCK_DIMS dimensions (a 2D sample never straddles two).
-#define SOBOL_BLOCK_DIMS 4
+// or not, so that a dimension means the same in every path. A 2D sample at
+// dimension k takes k and k + 1.
 #define SAMPLE_CAMERA 0
 #define SAMPLER_BOUNCE_BASE 4
 #define SAMPLER_BOUNCE_DIMS 8

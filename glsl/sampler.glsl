@@ -6,22 +6,18 @@
 #define RLPT_SAMPLER_GLSL
 #include "rng.glsl"
 
-// Sobol generator matrices of the first SOBOL_BLOCK_DIMS dimensions, 32 columns
-// each: van der Corput, then Joe & Kuo's direction numbers (new-joe-kuo-6.21201,
-// d = 2..4). src/math/sampler.rs `SOBOL_MATRICES` derives the same from (s, a, m).
-const uint SOBOL_MATRICES[SOBOL_BLOCK_DIMS * 32] = uint[](
-    0x80000000u, 0x40000000u, 0x20000000u, 0x10000000u, 0x08000000u, 0x04000000u, 0x02000000u, 0x01000000u, 0x00800000u, 0x00400000u, 0x00200000u, 0x00100000u, 0x00080000u, 0x00040000u, 0x00020000u, 0x00010000u, 0x00008000u, 0x00004000u, 0x00002000u, 0x00001000u, 0x00000800u, 0x00000400u, 0x00000200u, 0x00000100u, 0x00000080u, 0x00000040u, 0x00000020u, 0x00000010u, 0x00000008u, 0x00000004u, 0x00000002u, 0x00000001u,
-    0x80000000u, 0xc0000000u, 0xa0000000u, 0xf0000000u, 0x88000000u, 0xcc000000u, 0xaa000000u, 0xff000000u, 0x80800000u, 0xc0c00000u, 0xa0a00000u, 0xf0f00000u, 0x88880000u, 0xcccc0000u, 0xaaaa0000u, 0xffff0000u, 0x80008000u, 0xc000c000u, 0xa000a000u, 0xf000f000u, 0x88008800u, 0xcc00cc00u, 0xaa00aa00u, 0xff00ff00u, 0x80808080u, 0xc0c0c0c0u, 0xa0a0a0a0u, 0xf0f0f0f0u, 0x88888888u, 0xccccccccu, 0xaaaaaaaau, 0xffffffffu,
-    0x80000000u, 0xc0000000u, 0x60000000u, 0x90000000u, 0xe8000000u, 0x5c000000u, 0x8e000000u, 0xc5000000u, 0x68800000u, 0x9cc00000u, 0xee600000u, 0x55900000u, 0x80680000u, 0xc09c0000u, 0x60ee0000u, 0x90550000u, 0xe8808000u, 0x5cc0c000u, 0x8e606000u, 0xc5909000u, 0x6868e800u, 0x9c9c5c00u, 0xeeee8e00u, 0x5555c500u, 0x8000e880u, 0xc0005cc0u, 0x60008e60u, 0x9000c590u, 0xe8006868u, 0x5c009c9cu, 0x8e00eeeeu, 0xc5005555u,
-    0x80000000u, 0xc0000000u, 0x20000000u, 0x50000000u, 0xf8000000u, 0x74000000u, 0xa2000000u, 0x93000000u, 0xd8800000u, 0x25400000u, 0x59e00000u, 0xe6d00000u, 0x78080000u, 0xb40c0000u, 0x82020000u, 0xc3050000u, 0x208f8000u, 0x51474000u, 0xfbea2000u, 0x75d93000u, 0xa0858800u, 0x914e5400u, 0xdbe79e00u, 0x25db6d00u, 0x58800080u, 0xe54000c0u, 0x79e00020u, 0xb6d00050u, 0x800800f8u, 0xc00c0074u, 0x200200a2u, 0x50050093u);
-
-// Sobol point `index` in dimension `dim` (< SOBOL_BLOCK_DIMS), as 32 fixed-point bits.
-uint sobol(uint index, uint dim) {
-    uint x = 0u;
-    for (uint bit = 0u; bit < 32u; bit++) {
-        x ^= SOBOL_MATRICES[dim * 32u + bit] & (0u - ((index >> bit) & 1u));
-    }
-    return x;
+// Sobol dimension 1 of point `index` before bit reversal (dimension 0's is the
+// index itself, van der Corput): digit r (bit r, the most significant once
+// reversed) is the XOR of the index bits k whose binomial C(k, r) is odd, those
+// k that hold r's bits (Pascal's matrix mod 2, Joe & Kuo's d = 2).
+uint sobol_digits_1(uint index) {
+    uint y = index;
+    y ^= (y >> 1u) & 0x55555555u;
+    y ^= (y >> 2u) & 0x33333333u;
+    y ^= (y >> 4u) & 0x0f0f0f0fu;
+    y ^= (y >> 8u) & 0x00ff00ffu;
+    y ^= (y >> 16u) & 0x0000ffffu;
+    return y;
 }
 
 // Burley's Laine-Karras style hash: a random permutation in which each bit is
@@ -41,8 +37,9 @@ uint nested_uniform_scramble(uint x, uint seed) {
     return bitfieldReverse(laine_karras_permutation(bitfieldReverse(x), seed));
 }
 
+// A seed for `v` of `seed`'s (one hash: the multiplier spreads small v over the word).
 uint hash_combine(uint seed, uint v) {
-    return pcg_hash(seed ^ pcg_hash(v + 0x9e3779b9u));
+    return pcg_hash(seed ^ ((v + 1u) * 0x9e3779b9u));
 }
 
 // The path's sampler. Independent: `state` is the PCG stream of rng_init and the
@@ -72,15 +69,18 @@ uint bounce_dim(uint depth, uint slot) {
     return SAMPLER_BOUNCE_BASE + depth * uint(SAMPLER_BOUNCE_DIMS) + slot;
 }
 
-// Owen-scrambled Sobol: dimension `dim` is component dim % SOBOL_BLOCK_DIMS of a
-// Sobol point whose block (dim / SOBOL_BLOCK_DIMS) has its own seed, which
-// shuffles the index (so blocks and pixels are decorrelated) and scrambles each component.
-uint sobol_block_seed(PathSampler s, uint dim) {
-    return hash_combine(s.state, dim / uint(SOBOL_BLOCK_DIMS));
+// Owen-scrambled Sobol (Burley 2020), padded: each 1D or 2D sample `dim` is a
+// block of its own, with a seed from the pixel's and `dim`, which shuffles the
+// index (nested uniform scrambling of its reversed bits: aligned runs of 2^k
+// indices map onto aligned runs, so each pixel's prefixes stay nets) and scrambles each
+// dimension. Both scrambles work on the digits before the last reversal.
+uint sobol_shuffled_index(PathSampler s, uint dim, out uint block_seed) {
+    block_seed = hash_combine(s.state, dim);
+    return nested_uniform_scramble(s.index, block_seed);
 }
 
-uint sobol_owen(uint shuffled, uint block_seed, uint component) {
-    return nested_uniform_scramble(sobol(shuffled, component), hash_combine(block_seed, component));
+uint sobol_owen(uint digits, uint block_seed, uint component) {
+    return bitfieldReverse(laine_karras_permutation(digits, hash_combine(block_seed, component)));
 }
 
 // The top 23 bits as a float in [0, 1) (rng_next's conversion).
@@ -90,18 +90,17 @@ float bits_to_unit(uint x) {
 
 float sample_1d(inout PathSampler s, uint dim) {
     if (!SAMPLER_SOBOL) return rng_next(s.state);
-    uint seed = sobol_block_seed(s, dim);
-    uint shuffled = nested_uniform_scramble(s.index, seed);
-    return bits_to_unit(sobol_owen(shuffled, seed, dim % uint(SOBOL_BLOCK_DIMS)));
+    uint seed;
+    uint i = sobol_shuffled_index(s, dim, seed);
+    return bits_to_unit(sobol_owen(i, seed, 0u));
 }
 
-// Dimensions dim and dim + 1, in one block (dim even).
+// Dimensions dim and dim + 1: one 2D sample.
 vec2 sample_2d(inout PathSampler s, uint dim) {
     if (!SAMPLER_SOBOL) return rng_next_2d(s.state);
-    uint seed = sobol_block_seed(s, dim);
-    uint shuffled = nested_uniform_scramble(s.index, seed);
-    uint c = dim % uint(SOBOL_BLOCK_DIMS);
-    return vec2(bits_to_unit(sobol_owen(shuffled, seed, c)), bits_to_unit(sobol_owen(shuffled, seed, c + 1u)));
+    uint seed;
+    uint i = sobol_shuffled_index(s, dim, seed);
+    return vec2(bits_to_unit(sobol_owen(i, seed, 0u)), bits_to_unit(sobol_owen(sobol_digits_1(i), seed, 1u)));
 }
 
 // Where in the pixel a sample looks ([0, 1)^2): an independent sample takes its

@@ -29,52 +29,18 @@ impl SamplerKind {
     }
 }
 
-const BLOCK_DIMS: usize = shared::SOBOL_BLOCK_DIMS as usize;
-
-/// Joe & Kuo's (s, a, m) for Sobol dimensions 2..=4 (new-joe-kuo-6.21201);
-/// dimension 1 is van der Corput's.
-const JOE_KUO: [(u32, u32, [u32; 3]); BLOCK_DIMS - 1] = [(1, 0, [1, 0, 0]), (2, 1, [1, 3, 0]), (3, 1, [1, 3, 1])];
-
-/// The generator matrices of the first `SOBOL_BLOCK_DIMS` Sobol dimensions, one
-/// column per index bit, from the primitive polynomials' recurrence.
-const fn sobol_matrices() -> [[u32; 32]; BLOCK_DIMS] {
-    let mut v = [[0u32; 32]; BLOCK_DIMS];
-    let mut i = 0;
-    while i < 32 {
-        v[0][i] = 1 << (31 - i);
-        i += 1;
-    }
-    let mut d = 1;
-    while d < BLOCK_DIMS {
-        let (s, a, m) = JOE_KUO[d - 1];
-        let s = s as usize;
-        let mut i = 0;
-        while i < 32 {
-            v[d][i] = if i < s {
-                m[i] << (31 - i)
-            } else {
-                let mut x = v[d][i - s] ^ (v[d][i - s] >> s);
-                let mut k = 1;
-                while k < s {
-                    x ^= ((a >> (s - 1 - k)) & 1) * v[d][i - k];
-                    k += 1;
-                }
-                x
-            };
-            i += 1;
-        }
-        d += 1;
-    }
-    v
-}
-
-/// `glsl/sampler.glsl` `SOBOL_MATRICES`.
-pub const SOBOL_MATRICES: [[u32; 32]; BLOCK_DIMS] = sobol_matrices();
-
-/// Sobol point `index` in dimension `dim` (< `SOBOL_BLOCK_DIMS`), as 32 fixed-point bits.
-pub fn sobol(index: u32, dim: u32) -> u32 {
-    let m = &SOBOL_MATRICES[dim as usize];
-    (0..32).fold(0, |x, bit| x ^ (m[bit] & 0u32.wrapping_sub((index >> bit) & 1)))
+/// Sobol dimension 1 of point `index` before bit reversal (dimension 0's is the
+/// index itself, van der Corput): digit r (bit r, the most significant once
+/// reversed) is the XOR of the index bits k whose binomial C(k, r) is odd, those
+/// k that hold r's bits (Pascal's matrix mod 2, Joe & Kuo's d = 2).
+pub fn sobol_digits_1(index: u32) -> u32 {
+    let mut y = index;
+    y ^= (y >> 1) & 0x5555_5555;
+    y ^= (y >> 2) & 0x3333_3333;
+    y ^= (y >> 4) & 0x0f0f_0f0f;
+    y ^= (y >> 8) & 0x00ff_00ff;
+    y ^= (y >> 16) & 0x0000_ffff;
+    y
 }
 
 /// Burley's Laine-Karras style hash: a random permutation in which each bit is
@@ -94,8 +60,9 @@ pub fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
     laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
 }
 
+/// A seed for `v` of `seed`'s (one hash: the multiplier spreads small v over the word).
 pub fn hash_combine(seed: u32, v: u32) -> u32 {
-    pcg_hash(seed ^ pcg_hash(v.wrapping_add(0x9e37_79b9)))
+    pcg_hash(seed ^ v.wrapping_add(1).wrapping_mul(0x9e37_79b9))
 }
 
 /// The top 23 bits as a float in [0, 1) ([`Rng::next_f32`]'s conversion).
@@ -141,10 +108,13 @@ impl PathSampler {
         PathSampler::new(kind, seed, pixel, frame, sample)
     }
 
-    /// Sobol's shuffled index and the seed of `dim`'s block: the block's own
-    /// seed shuffles the index, so blocks and pixels are decorrelated.
-    fn block(&self, dim: u32) -> (u32, u32) {
-        let seed = hash_combine(self.seed, dim / shared::SOBOL_BLOCK_DIMS);
+    /// Owen-scrambled Sobol (Burley 2020), padded: each 1D or 2D sample `dim`
+    /// is a block of its own, with a seed from the pixel's and `dim`, which
+    /// shuffles the index (nested uniform scrambling of its reversed bits: aligned
+    /// runs of 2^k indices map onto aligned runs, so each pixel's prefixes stay
+    /// nets) and scrambles each dimension. Returns (shuffled index, block seed).
+    fn shuffled_index(&self, dim: u32) -> (u32, u32) {
+        let seed = hash_combine(self.seed, dim);
         (nested_uniform_scramble(self.index, seed), seed)
     }
 
@@ -152,20 +122,19 @@ impl PathSampler {
         match self.kind {
             SamplerKind::Independent => self.rng.next_f32(),
             SamplerKind::Sobol => {
-                let (shuffled, seed) = self.block(dim);
-                bits_to_unit(sobol_owen(shuffled, seed, dim % shared::SOBOL_BLOCK_DIMS))
+                let (i, seed) = self.shuffled_index(dim);
+                bits_to_unit(sobol_owen(i, seed, 0))
             }
         }
     }
 
-    /// Dimensions `dim` and `dim + 1`, in one block (`dim` even).
+    /// Dimensions `dim` and `dim + 1`: one 2D sample.
     pub fn sample_2d(&mut self, dim: u32) -> [f32; 2] {
         match self.kind {
             SamplerKind::Independent => self.rng.next_2d(),
             SamplerKind::Sobol => {
-                let (shuffled, seed) = self.block(dim);
-                let c = dim % shared::SOBOL_BLOCK_DIMS;
-                [bits_to_unit(sobol_owen(shuffled, seed, c)), bits_to_unit(sobol_owen(shuffled, seed, c + 1))]
+                let (i, seed) = self.shuffled_index(dim);
+                [bits_to_unit(sobol_owen(i, seed, 0)), bits_to_unit(sobol_owen(sobol_digits_1(i), seed, 1))]
             }
         }
     }
@@ -183,10 +152,11 @@ impl PathSampler {
     }
 }
 
-/// Component `component` of a block's Sobol point `shuffled`, scrambled by a
-/// hash of the block's seed and the component.
-pub fn sobol_owen(shuffled: u32, block_seed: u32, component: u32) -> u32 {
-    nested_uniform_scramble(sobol(shuffled, component), hash_combine(block_seed, component))
+/// Sobol digits (before bit reversal) of dimension `component` Owen-scrambled by
+/// a seed of the block's, as 32 fixed-point bits: the scramble works on the digits
+/// as they come, and the reversal puts the first digit on top.
+pub fn sobol_owen(digits: u32, block_seed: u32, component: u32) -> u32 {
+    laine_karras_permutation(digits, hash_combine(block_seed, component)).reverse_bits()
 }
 
 #[cfg(test)]
@@ -222,21 +192,23 @@ mod tests {
         (first..first + n).map(|i| draw(&mut PathSampler::new(kind, 3, pixel, i / per_frame, i % per_frame))).collect()
     }
 
-    /// Unscrambled, the first two dimensions are a (0, 2)-sequence: every aligned
-    /// block of 2^k points is a (0, k, 2)-net; every dimension alone is stratified.
+    /// Dimension 1's digits are those of the generator matrix that Joe & Kuo's
+    /// direction numbers for d = 2 (s = 1, a = 0, m = 1) give, v_k = v_(k-1) ^
+    /// (v_(k-1) >> 1); with dimension 0 the points are a (0, 2)-sequence: every
+    /// aligned run of 2^k points is a (0, k, 2)-net.
     #[test]
-    fn sobol_matrices_give_a_0_2_sequence() {
-        let unit = |x: u32| x as f32 / 2f32.powi(32);
+    fn sobol_dimensions_0_and_1_are_a_0_2_sequence() {
+        let mut v = 1u32 << 31;
+        for k in 0..32 {
+            assert_eq!(sobol_digits_1(1 << k).reverse_bits(), v, "column {k}");
+            v ^= v >> 1;
+        }
+        let unit = |x: u32| x.reverse_bits() as f32 / 2f32.powi(32);
         for k in 0..=12 {
-            for block in [0u32, 1, 5] {
+            for run in [0u32, 1, 5] {
                 let n = 1u32 << k;
-                let points: Vec<_> =
-                    (block * n..(block + 1) * n).map(|i| [unit(sobol(i, 0)), unit(sobol(i, 1))]).collect();
-                assert!(is_net(&points), "2^{k} points from {}", block * n);
-                for d in 0..shared::SOBOL_BLOCK_DIMS {
-                    let v: Vec<_> = (block * n..(block + 1) * n).map(|i| unit(sobol(i, d))).collect();
-                    assert!(is_stratified(&v), "dimension {d}, 2^{k} points from {}", block * n);
-                }
+                let points: Vec<_> = (run * n..(run + 1) * n).map(|i| [unit(i), unit(sobol_digits_1(i))]).collect();
+                assert!(is_net(&points), "2^{k} points from {}", run * n);
             }
         }
     }
