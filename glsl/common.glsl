@@ -85,6 +85,27 @@
 // the light sample's estimate at the vertex it meets, where NEE is on
 // (src/guide/mod.rs `QTargets::Mis`); without the bit, the emission in full.
 #define FLAG_MIS_TARGETS 128
+// The paths' random numbers are Owen-scrambled Sobol points (sampler.glsl);
+// without the bit, independent PCG hashes.
+#define FLAG_SOBOL 256
+
+// The samplers' dimension layout (sampler.glsl, docs/sampling.md): the camera's
+// jitter takes dimensions 0 and 1; the vertex of depth d takes SAMPLER_BOUNCE_DIMS
+// from SAMPLER_BOUNCE_BASE + d * SAMPLER_BOUNCE_DIMS, slot SAMPLE_* of them, used
+// or not, so that a dimension means the same in every path. A 2D sample at
+// dimension k takes k and k + 1.
+#define SAMPLE_CAMERA 0
+#define SAMPLER_BOUNCE_BASE 4
+#define SAMPLER_BOUNCE_DIMS 8
+// The light sample's point (2D) and light choice, and the roulette that decides
+// whether the path goes on to this vertex.
+#define SAMPLE_LIGHT 0
+#define SAMPLE_LIGHT_SELECT 2
+#define SAMPLE_ROULETTE 3
+// The continuation: direction (2D), lobe or guided bin, guided-or-BSDF choice.
+#define SAMPLE_DIRECTION 4
+#define SAMPLE_LOBE 6
+#define SAMPLE_MIX 7
 
 // Profiling (`rlpt bench --ablate`): parts of guiding left out of a frame.
 #define ABLATE_RECORD 1

@@ -8,7 +8,6 @@
 // (guide.glsl takes the table's shape from them instead of params where this is set).
 #define RLPT_SPECIALIZED
 #include "common.glsl"
-#include "rng.glsl"
 #include "bsdf.glsl"
 #include "geometry.glsl"
 #include "camera.glsl"
@@ -27,6 +26,9 @@ layout(constant_id = SPEC_GUIDE_VERTICES) const uint GUIDE_VERTICES = 0u;
 // src/guide/mod.rs `record_vertices`: the rays that leave vertices of depth below
 // it record their targets.
 layout(constant_id = SPEC_RECORD_VERTICES) const uint RECORD_VERTICES = 0u;
+// The paths' random numbers: Owen-scrambled Sobol or independent (sampler.glsl).
+const bool SAMPLER_SOBOL = (FLAGS & FLAG_SOBOL) != 0u;
+#include "sampler.glsl"
 
 // The group's pixels, gl_WorkGroupSize.z, are a specialization constant: 4 for
 // the guided kernels, 2 for the unguided one (common.glsl).
@@ -180,7 +182,7 @@ const bool LAST_RAY_TO_LIGHTS =
 
 // src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
 // `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
-vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint segments) {
+vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, inout uint segments) {
     bool nee = (FLAGS & FLAG_NEE) != 0u && params.num_lights > 0u;
     bool power = (FLAGS & FLAG_POWER_HEURISTIC) != 0u;
     bool rr = (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
@@ -291,8 +293,8 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #endif
         bool last = DEPTH >= MAX_BOUNCES;
 
-        float u_sel = rng_next(rng);
-        vec2 u_light = rng_next_2d(rng);
+        float u_sel = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_LIGHT_SELECT));
+        vec2 u_light = sample_2d(rng, bounce_dim(DEPTH, SAMPLE_LIGHT));
 #if GUIDED
         // The light sample's estimate here, without the path's throughput: the
         // part of the target of the ray that arrived here that light sampling
@@ -334,9 +336,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
         wants_target = learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY;
 #endif
         if (last && !wants_target) break;
-        float u_mix = rng_next(rng);
-        float uc = rng_next(rng);
-        vec2 u = rng_next_2d(rng);
+        float u_mix = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_MIX));
+        float uc = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_LOBE));
+        vec2 u = sample_2d(rng, bounce_dim(DEPTH, SAMPLE_DIRECTION));
         vec3 wi = vec3(0.0);
         vec3 weight = vec3(0.0);
         float pdf = 0.0;
@@ -413,7 +415,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout uint rng, inout uint
 #if GUIDED
             if (pixel_estimate > 0.0 && prev_key != NO_KEY) q = survival_probability(mean3(beta) * q_table[prev_key], pixel_estimate);
 #endif
-            if (rng_next(rng) >= q) break;
+            if (sample_1d(rng, bounce_dim(DEPTH, SAMPLE_ROULETTE)) >= q) break;
             beta /= q;
         }
         if (max_component(beta) <= 0.0) break;
@@ -436,11 +438,10 @@ void main() {
     uint segments = 0u;
     uint zero = 0u;
     if (inside) {
-        uint rng = rng_init(params.seed, pixel, push.frame, sample_index);
-        // Stratified over the pixel: sample (x, y) of the 8 x 8 takes its own
-        // sub-square, jittered (src/cpu/mod.rs `pixel_jitter`).
-        vec2 j = rng_next_2d(rng);
-        vec2 u = (vec2(gl_LocalInvocationID.xy) + j) / vec2(SAMPLES_X, SAMPLES_Y);
+        PathSampler rng = sampler_init(params.seed, pixel, push.frame, sample_index);
+        // Stratified over the pixel: independent sample (x, y) of the 8 x 8 takes
+        // its own sub-square, jittered (src/math/sampler.rs `sample_pixel`).
+        vec2 u = sample_pixel(rng, gl_LocalInvocationID.xy);
         vec3 o, d;
         camera_ray(px, py, u, o, d);
         float estimate = 0.0;

@@ -108,6 +108,8 @@ pub struct BenchSetup {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub q_targets: Option<String>,
     pub nee: bool,
+    /// The paths' random numbers (`math::sampler::SamplerKind::name`).
+    pub sampler: String,
     pub warmup_frames: u32,
 }
 
@@ -166,7 +168,7 @@ impl BenchReport {
     pub fn table(&self) -> String {
         let s = &self.setup;
         let mut out = format!(
-            "{} on {} ({}), {}x{}, guiding {}{}{}, NEE {}: {} frames of 64 spp after {} warm-up ({})\n",
+            "{} on {} ({}), {}x{}, guiding {}{}{}, NEE {}, {} sampler: {} frames of 64 spp after {} warm-up ({})\n",
             s.scene,
             s.device,
             s.driver,
@@ -181,6 +183,7 @@ impl BenchReport {
             },
             s.q_targets.as_ref().map_or(String::new(), |t| format!(", {t} targets")),
             if s.nee { "on" } else { "off" },
+            s.sampler,
             self.frames.len(),
             s.warmup_frames,
             s.clock

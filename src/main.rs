@@ -6,6 +6,7 @@ use rlpt::cpu::CpuRenderer;
 use rlpt::gpu::{Context, ContextOptions};
 use rlpt::guide::{scene_hash, Bins, GuideField, GuidingMode};
 use rlpt::image::Image;
+use rlpt::math::sampler::SamplerKind;
 use rlpt::metrics;
 use rlpt::options::{Counters, RenderOptions};
 use rlpt::prepared::PreparedScene;
@@ -189,6 +190,11 @@ struct Settings {
     /// the two are the same [default: mis].
     #[arg(long, value_enum)]
     q_targets: Option<rlpt::guide::QTargets>,
+    /// The paths' random numbers: `independent` hashes (camera samples stratified over
+    /// the pixel) or `sobol`, Owen-scrambled Sobol points decorrelated between pixels
+    /// (docs/sampling.md).
+    #[arg(long, value_enum, default_value_t = SamplerKind::Independent)]
+    sampler: SamplerKind,
 }
 
 impl Settings {
@@ -221,6 +227,7 @@ impl Settings {
         opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
         opts.learning_frames = self.learning_frames;
         opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
+        opts.sampler = self.sampler;
         opts
     }
 

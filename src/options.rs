@@ -4,6 +4,7 @@
 
 use crate::guide::{self, Bins, GuidingMode};
 use crate::layout::{MAX_BOUNCES, MAX_IMAGE_SIDE, MAX_SPP};
+use crate::math::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::shared;
 
@@ -76,6 +77,8 @@ pub struct RenderOptions {
     /// What the GPU kernel counts per frame (`FrameTimings`). The CPU renderer
     /// counts paths and rays always.
     pub counters: Counters,
+    /// The paths' random numbers (`FLAG_SOBOL`): independent or Owen-scrambled Sobol.
+    pub sampler: SamplerKind,
 }
 
 /// What the GPU kernel counts per frame; what it does not count it is compiled
@@ -119,6 +122,7 @@ impl RenderOptions {
             q_targets: guide::QTargets::Mis,
             guided_vertices: None,
             counters: Counters::Off,
+            sampler: SamplerKind::Independent,
         }
     }
 

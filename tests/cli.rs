@@ -1098,4 +1098,26 @@ fn a_learned_field_written_by_one_render_starts_another() {
         run(&["render", "scenes/door.toml", "--spp", "64", "-o", unguided.to_str().unwrap(), "--guide-out", field]);
     assert!(!ok && err.contains("--guide-out") && err.contains("needs guiding on"), "{err}");
     assert!(std::fs::metadata(&unguided).is_err(), "nothing rendered");
+
+/// `--sampler sobol` renders on both devices, the summary names the sampler, and
+/// its image differs from the independent sampler's of the same seed; an unknown
+/// sampler is refused with the ones there are.
+#[test]
+fn the_sampler_option_renders_and_is_named() {
+    let mut images = Vec::new();
+    for (sampler, device) in [("sobol", "gpu"), ("sobol", "cpu"), ("independent", "gpu")] {
+        let out = tmp(&format!("door-{sampler}-{device}.exr"));
+        let o = rlpt()
+            .args(["render", "scenes/door.toml", "--width", "16", "--height", "8", "--spp", "64"])
+            .args(["--sampler", sampler, "--device", device, "-o"])
+            .arg(&out)
+            .checked_output();
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(stdout.contains(&format!("{sampler} sampler")), "{stdout}");
+        images.push(std::fs::read(&out).unwrap());
+    }
+    assert_ne!(images[0], images[2], "Sobol and independent images of one seed differ");
+    let (ok, err) = run(&["render", "scenes/door.toml", "-o", "x.png", "--sampler", "halton"]);
+    assert!(!ok && err.contains("independent") && err.contains("sobol"), "{err}");
 }

@@ -426,6 +426,41 @@ fn glsl_random_numbers_match_rust_bit_for_bit() {
     common::assert_no_validation_messages(&ctx);
 }
 
+/// The samplers of glsl/sampler.glsl match src/math/sampler.rs bit for bit, both
+/// kinds: pixel samples and dimensions of several vertices, over many pixels,
+/// samples, two seeds and two frames.
+#[test]
+fn glsl_samplers_match_rust_bit_for_bit() {
+    use rlpt::math::sampler::{bounce_dim, PathSampler, SamplerKind};
+    use rlpt::shared::{SAMPLE_DIRECTION, SAMPLE_LIGHT, SAMPLE_LIGHT_SELECT, SAMPLE_ROULETTE};
+    let ctx = common::gpu();
+    let n = 4096u32;
+    let output = Buffer::new(&ctx, "sampler outputs", n as u64 * 32, BufferUsage::Storage).unwrap();
+    let p = Pipeline::new(&ctx, "probe_sampler", shader("probe_sampler"), &[Binding::Storage], 16).unwrap();
+    p.bind(&[&output]);
+    for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+        for (seed, frame) in [(0u32, 0u32), (7, 123_456)] {
+            ctx.run_commands("probe sampler", |cmd| {
+                let push = [n, seed, frame, (kind == SamplerKind::Sobol) as u32];
+                p.cmd_dispatch(cmd, [n.div_ceil(64), 1, 1], bytemuck::cast_slice(&push));
+            })
+            .unwrap();
+            let got: Vec<[u32; 8]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &output));
+            for (i, g) in got.iter().enumerate() {
+                let mut s = PathSampler::new(kind, seed, i as u32, frame, i as u32 % 64);
+                let pix = s.sample_pixel(i as u32 % 64);
+                let sel = s.sample_1d(bounce_dim(0, SAMPLE_LIGHT_SELECT));
+                let light = s.sample_2d(bounce_dim(0, SAMPLE_LIGHT));
+                let rr = s.sample_1d(bounce_dim(3, SAMPLE_ROULETTE));
+                let dir = s.sample_2d(bounce_dim(7, SAMPLE_DIRECTION));
+                let want = [pix[0], pix[1], sel, light[0], light[1], rr, dir[0], dir[1]].map(f32::to_bits);
+                assert_eq!(*g, want, "{kind:?}, seed {seed}, frame {frame}, invocation {i}");
+            }
+        }
+    }
+    common::assert_no_validation_messages(&ctx);
+}
+
 /// The frame counters' 64-bit sums (glsl/counters.glsl): 100 000 invocations add
 /// values near 2^28 each to one pair, so that its low word wraps about 6000 times;
 /// the pair holds the exact total. (A 4K frame traces more rays than 32 bits

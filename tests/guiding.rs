@@ -16,6 +16,7 @@ use rlpt::guide::{
 };
 use rlpt::math::bsdf::Bsdf;
 use rlpt::math::rng::Rng;
+use rlpt::math::sampler::PathSampler;
 use rlpt::math::Vec3;
 use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
@@ -296,8 +297,13 @@ fn trace_recording_paths<R: Recorder>(
     let mut out = Vec::new();
     for pixel in 0..o.width * o.height {
         for sample in 0..16 {
-            let mut rng = Rng::new(o.seed, pixel, 4, sample);
-            let (ro, rd) = camera_ray(&prepared.params, pixel % o.width, pixel / o.width, rng.next_2d());
+            let mut rng = PathSampler::for_flags(prepared.params.flags, o.seed, pixel, 4, sample);
+            let (ro, rd) = camera_ray(
+                &prepared.params,
+                pixel % o.width,
+                pixel / o.width,
+                rng.sample_2d(rlpt::shared::SAMPLE_CAMERA),
+            );
             let mut r = recorder();
             let (l, segments) = trace_path(&prepared, Some(g), ro, rd, &mut rng, 0.0, Some(&mut r));
             out.push((l.to_array().map(f32::to_bits), segments, r));

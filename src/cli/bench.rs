@@ -181,6 +181,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
         exploration_floor: opts.exploration_floor_if_guided(),
         q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
+        sampler: opts.sampler.name().to_string(),
         warmup_frames: args.warmup,
     };
     let report = rlpt::bench::BenchReport::new(setup, &times, pipelines);

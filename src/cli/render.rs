@@ -163,7 +163,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let device_name = renderer.device_name();
     let mut stats = RenderStats {
         label: format!(
-            "{} guiding={}{}{}{}{} nee={}",
+            "{} guiding={}{}{}{}{} nee={}{}",
             file_name(&args.scene),
             opts.guiding.name(),
             opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
@@ -174,7 +174,8 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
                 .filter(|&f| f != rlpt::guide::DEFAULT_FLOOR)
                 .map_or(String::new(), |f| format!(" floor={f}")),
             opts.q_targets_if_guided().filter(|&t| t != "mis").map_or(String::new(), |t| format!(" targets={t}")),
-            opts.nee
+            opts.nee,
+            if opts.sampler == SamplerKind::Sobol { " sampler=sobol" } else { "" }
         ),
         scene: args.scene.display().to_string(),
         device: device_name.clone(),
@@ -274,13 +275,14 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         Stop::Finished => String::new(),
     };
     println!(
-        "{}: {}x{}, {} spp{cut}{learned}, guiding {}, NEE {} in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
+        "{}: {}x{}, {} spp{cut}{learned}, guiding {}, NEE {}, {} sampler in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
         opts.width,
         opts.height,
         spp,
         opts.guiding.name(),
         if opts.nee { "on" } else { "off" },
+        opts.sampler.name(),
         elapsed,
         device_name,
         samples / elapsed / 1e6,

@@ -2,14 +2,14 @@
 //! random numbers as `glsl/pathtrace.comp`, on all cores (rayon). It is the
 //! reference the GPU renderer is tested against.
 
-use crate::camera::{camera_ray, pixel_jitter};
+use crate::camera::camera_ray;
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
 use crate::math::geometry::{
     emitted, intersect, light_pdf, meets_light, occluded, offset_origin, sample_light, shadow_ray,
 };
-use crate::math::rng::Rng;
+use crate::math::sampler::{bounce_dim, PathSampler};
 use crate::math::sampling::mis_weight;
 use crate::math::{max_component, mean3, Frame, Vec3};
 use crate::prepared::PreparedScene;
@@ -53,7 +53,7 @@ pub fn trace_path(
     guide: Option<Guide>,
     mut o: Vec3,
     mut d: Vec3,
-    rng: &mut Rng,
+    rng: &mut PathSampler,
     pixel_estimate: f32,
     mut learn: Option<&mut dyn Recorder>,
 ) -> (Vec3, u32) {
@@ -183,8 +183,8 @@ pub fn trace_path(
         };
         let last = depth >= p.max_bounces;
 
-        let u_sel = rng.next_f32();
-        let u_light = rng.next_2d();
+        let u_sel = rng.sample_1d(bounce_dim(depth, shared::SAMPLE_LIGHT_SELECT));
+        let u_light = rng.sample_2d(bounce_dim(depth, shared::SAMPLE_LIGHT));
         // The light sample's estimate here, without the path's throughput: the
         // part of the target of the ray that arrived here that light sampling
         // found (`mis_targets`).
@@ -220,9 +220,9 @@ pub fn trace_path(
         if last && !wants_target {
             break;
         }
-        let u_mix = rng.next_f32();
-        let uc = rng.next_f32();
-        let u = rng.next_2d();
+        let u_mix = rng.sample_1d(bounce_dim(depth, shared::SAMPLE_MIX));
+        let uc = rng.sample_1d(bounce_dim(depth, shared::SAMPLE_LOBE));
+        let u = rng.sample_2d(bounce_dim(depth, shared::SAMPLE_DIRECTION));
         // First the direction, from the table or the BSDF; then, where the two are
         // mixed, one evaluation of the BSDF and the mixture density for either
         // choice (the GPU runs it once for a warp that holds both). A guided
@@ -285,7 +285,7 @@ pub fn trace_path(
                 }
                 _ => max_component(beta).min(0.95),
             };
-            if rng.next_f32() >= q {
+            if rng.sample_1d(bounce_dim(depth, shared::SAMPLE_ROULETTE)) >= q {
                 break;
             }
             beta /= q;
@@ -438,8 +438,8 @@ impl CpuRenderer {
                             None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
-                            let mut rng = Rng::new(p.seed, pixel, frame, sample);
-                            let u = pixel_jitter(sample, rng.next_2d());
+                            let mut rng = PathSampler::for_flags(p.flags, p.seed, pixel, frame, sample);
+                            let u = rng.sample_pixel(sample);
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
                             let learn = record.then_some(&mut sums as &mut dyn Recorder);
                             let (l, segs) = trace_path(scene, guide, o, d, &mut rng, estimate, learn);

@@ -6,6 +6,7 @@ pub mod bsdf;
 pub mod bvh;
 pub mod geometry;
 pub mod rng;
+pub mod sampler;
 pub mod sampling;
 pub mod triangle;
 

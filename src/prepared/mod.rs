@@ -9,6 +9,7 @@
 use crate::guide::{self, Bins, FieldError, Grid, GuideConfig, GuideField, GuidingMode};
 use crate::layout::{v4, GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams, Room, SceneArrays};
 use crate::math::bvh;
+use crate::math::sampler::SamplerKind;
 use crate::math::Vec3;
 use crate::options::{Counters, OptionError, RenderOptions};
 use crate::scene::Scene;
@@ -256,6 +257,9 @@ impl PreparedScene {
         }
         if !bvh && last_ray_to_lights(scene.environment, &lights, roulette) {
             flags |= shared::FLAG_LAST_RAY_TO_LIGHTS;
+        }
+        if opts.sampler == SamplerKind::Sobol {
+            flags |= shared::FLAG_SOBOL;
         }
         match opts.counters {
             Counters::Off => {}
