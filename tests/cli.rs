@@ -1098,6 +1098,7 @@ fn a_learned_field_written_by_one_render_starts_another() {
         run(&["render", "scenes/door.toml", "--spp", "64", "-o", unguided.to_str().unwrap(), "--guide-out", field]);
     assert!(!ok && err.contains("--guide-out") && err.contains("needs guiding on"), "{err}");
     assert!(std::fs::metadata(&unguided).is_err(), "nothing rendered");
+}
 
 /// `--sampler sobol` renders on both devices, the summary names the sampler, and
 /// its image differs from the independent sampler's of the same seed; an unknown
