@@ -91,8 +91,9 @@ Bsdf material_bsdf(uint mat) {
     b.albedo = m.albedo_roughness.xyz;
     b.alpha = m.albedo_roughness.w * m.albedo_roughness.w;
     b.ior = m.emission_ior.w;
-    b.eta = m.eta.xyz;
-    b.k = m.k.xyz;
+    // Read only where the kernel may meet a conductor: other scenes skip the loads.
+    b.eta = scene_has_material(MAT_CONDUCTOR) ? m.eta.xyz : vec3(1.0);
+    b.k = scene_has_material(MAT_CONDUCTOR) ? m.k.xyz : vec3(0.0);
     return b;
 }
 
