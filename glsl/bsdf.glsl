@@ -9,6 +9,8 @@ struct Bsdf {
     vec3 albedo;
     float alpha;
     float ior;
+    vec3 eta;      // a conductor's complex index eta + i k
+    vec3 k;
 };
 
 struct BsdfSample {
@@ -23,7 +25,13 @@ struct BsdfSample {
 // that kind: the BSDFs' code is compiled for the scene's kinds alone.
 bool is_kind(Bsdf b, uint kind) { return scene_has_material(kind) && b.kind == kind; }
 
-bool bsdf_is_delta(Bsdf b) { return is_kind(b, MAT_SPECULAR) || is_kind(b, MAT_DIELECTRIC); }
+bool bsdf_is_delta(Bsdf b) {
+    return is_kind(b, MAT_SPECULAR) || is_kind(b, MAT_DIELECTRIC) || (is_kind(b, MAT_CONDUCTOR) && b.alpha == 0.0);
+}
+
+// src/math/bsdf.rs `Bsdf::transmits`: the dielectrics keep the surface's front
+// normal; the other materials are shaded from wo's side.
+bool bsdf_transmits(Bsdf b) { return is_kind(b, MAT_DIELECTRIC) || is_kind(b, MAT_ROUGH_DIELECTRIC); }
 
 // GGX D(h) of a unit half vector, from its components: alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2).
 // Not from cos alone: 1 - cos^2 (1 - alpha^2) cancels in f32 where alpha is small (1.3 %
@@ -70,11 +78,94 @@ float fresnel_dielectric(float cos_i, float eta) {
     return 0.5 * (r_parl * r_parl + r_perp * r_perp);
 }
 
+// Complex arithmetic on vec2 (re, im) for the conductor's Fresnel.
+vec2 c_mul(vec2 a, vec2 b) { return vec2(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
+vec2 c_div(vec2 a, vec2 b) {
+    float n = b.x * b.x + b.y * b.y;
+    return vec2(a.x * b.x + a.y * b.y, a.y * b.x - a.x * b.y) / n;
+}
+// src/math/bsdf.rs `complex_sqrt`: the principal square root.
+vec2 c_sqrt(vec2 z) {
+    float n = sqrt(z.x * z.x + z.y * z.y);
+    if (n == 0.0) return vec2(0.0);
+    float t1 = sqrt(0.5 * (n + abs(z.x)));
+    float t2 = 0.5 * z.y / t1;
+    return z.x >= 0.0 ? vec2(t1, t2) : vec2(abs(t2), z.y < 0.0 ? -t1 : t1);
+}
+// src/math/bsdf.rs `fresnel_complex`: a conductor's exact unpolarised reflectance.
+float fresnel_complex(float cos_i, float eta, float k) {
+    float c = clamp(cos_i, 0.0, 1.0);
+    vec2 e = vec2(eta, k);
+    vec2 sin2_t = c_div(vec2(1.0 - c * c, 0.0), c_mul(e, e));
+    vec2 cos_t = c_sqrt(vec2(1.0 - sin2_t.x, -sin2_t.y));
+    vec2 r_parl = c_div(e * c - cos_t, e * c + cos_t);
+    vec2 ect = c_mul(e, cos_t);
+    vec2 r_perp = c_div(vec2(c, 0.0) - ect, vec2(c, 0.0) + ect);
+    return 0.5 * (dot(r_parl, r_parl) + dot(r_perp, r_perp));
+}
+vec3 fresnel_complex3(float cos_i, vec3 eta, vec3 k) {
+    return vec3(fresnel_complex(cos_i, eta.x, k.x), fresnel_complex(cos_i, eta.y, k.y), fresnel_complex(cos_i, eta.z, k.z));
+}
+
+// src/math/bsdf.rs `rough_dielectric_eval_pdf`: GGX reflection and transmission
+// (Walter et al. 2007, as pbrt-v4), transmitted radiance scaled by 1/etap^2.
+vec3 rough_dielectric_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
+    float co = wo.z;
+    float ci = wi.z;
+    if (co == 0.0 || ci == 0.0) return vec3(0.0);
+    bool refl = co * ci > 0.0;
+    float etap = refl ? 1.0 : (co > 0.0 ? b.ior : 1.0 / b.ior);
+    vec3 wm = wi * etap + wo;
+    if (dot(wm, wm) == 0.0) return vec3(0.0);
+    wm = normalize(wm);
+    if (wm.z < 0.0) wm = -wm;
+    float dot_i = dot(wm, wi);
+    float dot_o = dot(wm, wo);
+    if (dot_i * ci < 0.0 || dot_o * co < 0.0) return vec3(0.0);
+    float fr = fresnel_dielectric(dot_o, b.ior);
+    float d = ggx_d(wm, b.alpha);
+    float g2 = ggx_g2(co, ci, b.alpha);
+    float vis = ggx_g1(co, b.alpha) * d * abs(dot_o) / abs(co);
+    if (refl) {
+        pdf = vis / (4.0 * abs(dot_o)) * fr;
+        return b.albedo * (d * g2 * fr / abs(4.0 * ci * co));
+    }
+    float s = dot_i + dot_o / etap;
+    float denom = s * s;
+    if (denom == 0.0) return vec3(0.0);
+    pdf = vis * abs(dot_i) / denom * (1.0 - fr);
+    return b.albedo * (d * (1.0 - fr) * g2 * abs(dot_i * dot_o / (ci * co * denom)) / (etap * etap));
+}
+
+// src/math/bsdf.rs `coated_coat_chance`.
+float coated_coat_chance(Bsdf b, float cos_o) {
+    float fo = fresnel_dielectric(cos_o, b.ior);
+    float base = (1.0 - fo) * (b.albedo.x + b.albedo.y + b.albedo.z) / 3.0;
+    return clamp(fo / max(fo + base, 1e-12), 0.1, 0.9);
+}
+
+// src/math/bsdf.rs `coated_eval_pdf`: a GGX dielectric coat's reflection plus a
+// Lambertian base seen through it (an approximation; docs/SCENE_FORMAT.md).
+vec3 coated_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
+    vec3 h = normalize(wo + wi);
+    float d = ggx_d(h, b.alpha);
+    float lambda_o = ggx_lambda(wo.z, b.alpha);
+    float g1 = 1.0 / (1.0 + lambda_o);
+    float g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+    float coat = fresnel_dielectric(dot(wo, h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
+    float through = (1.0 - fresnel_dielectric(wo.z, b.ior)) * (1.0 - fresnel_dielectric(wi.z, b.ior));
+    float p = coated_coat_chance(b, wo.z);
+    pdf = p * g1 * d / (4.0 * wo.z) + (1.0 - p) * cosine_hemisphere_pdf(wi.z);
+    return vec3(coat) + b.albedo * (through / PI);
+}
+
 // src/math/bsdf.rs `bsdf_eval_pdf`: f(wo, wi) without the cosine, and in `pdf`
 // the density with which bsdf_sample picks wi; the glossy lobe's half vector,
 // distribution and masking computed once for both.
 vec3 bsdf_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
     pdf = 0.0;
+    if (is_kind(b, MAT_ROUGH_DIELECTRIC)) return rough_dielectric_eval_pdf(b, wo, wi, pdf);
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
     if (is_kind(b, MAT_DIFFUSE)) {
         pdf = cosine_hemisphere_pdf(wi.z);
@@ -89,6 +180,16 @@ vec3 bsdf_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
         pdf = g1 * d / (4.0 * wo.z);
         return b.albedo * (d * g2 / (4.0 * wo.z * wi.z));
     }
+    if (is_kind(b, MAT_CONDUCTOR) && b.alpha > 0.0) {
+        vec3 h = normalize(wo + wi);
+        float d = ggx_d(h, b.alpha);
+        float lambda_o = ggx_lambda(wo.z, b.alpha);
+        float g1 = 1.0 / (1.0 + lambda_o);
+        float g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+        pdf = g1 * d / (4.0 * wo.z);
+        return b.albedo * fresnel_complex3(dot(wo, h), b.eta, b.k) * (d * g2 / (4.0 * wo.z * wi.z));
+    }
+    if (is_kind(b, MAT_COATED)) return coated_eval_pdf(b, wo, wi, pdf);
     return vec3(0.0);
 }
 
@@ -151,6 +252,60 @@ BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
         s.weight = b.albedo / (etap * etap);
         s.pdf = 1.0 - f;
         s.ok = true;
+    } else if (is_kind(b, MAT_CONDUCTOR)) {
+        if (wo.z <= 0.0) return s;
+        if (b.alpha == 0.0) {
+            s.wi = vec3(-wo.x, -wo.y, wo.z);
+            s.weight = b.albedo * fresnel_complex3(wo.z, b.eta, b.k);
+            s.pdf = 1.0;
+            s.delta = true;
+            s.ok = true;
+            return s;
+        }
+        vec3 h = ggx_sample_vndf(wo, b.alpha, u);
+        s.wi = 2.0 * dot(wo, h) * h - wo;
+        if (s.wi.z <= 0.0) return s;
+        s.pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
+        s.weight = b.albedo * fresnel_complex3(dot(wo, h), b.eta, b.k)
+            * (ggx_g2(wo.z, s.wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
+        s.ok = s.pdf > 0.0;
+    } else if (is_kind(b, MAT_ROUGH_DIELECTRIC)) {
+        if (wo.z == 0.0) return s;
+        vec3 wm = ggx_sample_vndf(wo.z < 0.0 ? -wo : wo, b.alpha, u);
+        float fr = fresnel_dielectric(dot(wo, wm), b.ior);
+        if (uc < fr) {
+            s.wi = 2.0 * dot(wo, wm) * wm - wo;
+            if (s.wi.z * wo.z <= 0.0) return s;
+        } else {
+            bool outside = dot(wo, wm) > 0.0;
+            float etap = outside ? b.ior : 1.0 / b.ior;
+            vec3 n = outside ? wm : -wm;
+            float cos_i = dot(wo, n);
+            float sin2_t = max(0.0, 1.0 - cos_i * cos_i) / (etap * etap);
+            if (sin2_t >= 1.0) return s;
+            float cos_t = sqrt(1.0 - sin2_t);
+            s.wi = -wo / etap + (cos_i / etap - cos_t) * n;
+            if (s.wi.z * wo.z >= 0.0) return s;
+        }
+        float pdf;
+        vec3 f = rough_dielectric_eval_pdf(b, wo, s.wi, pdf);
+        s.pdf = pdf;
+        s.ok = pdf > 0.0;
+        s.weight = s.ok ? f * (abs(s.wi.z) / pdf) : vec3(0.0);
+    } else if (is_kind(b, MAT_COATED)) {
+        if (wo.z <= 0.0) return s;
+        if (uc < coated_coat_chance(b, wo.z)) {
+            vec3 h = ggx_sample_vndf(wo, b.alpha, u);
+            s.wi = 2.0 * dot(wo, h) * h - wo;
+        } else {
+            s.wi = cosine_hemisphere(u);
+        }
+        if (s.wi.z <= 0.0) return s;
+        float pdf;
+        vec3 f = coated_eval_pdf(b, wo, s.wi, pdf);
+        s.pdf = pdf;
+        s.ok = pdf > 0.0;
+        s.weight = s.ok ? f * (s.wi.z / pdf) : vec3(0.0);
     }
     return s;
 }

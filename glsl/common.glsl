@@ -28,6 +28,12 @@
 #define MAT_GLOSSY 2
 #define MAT_DIELECTRIC 3
 #define MAT_EMISSIVE 4
+// GGX conductor with the complex Fresnel of eta + i k (a mirror at roughness 0).
+#define MAT_CONDUCTOR 5
+// GGX dielectric, reflection and transmission (the smooth one is MAT_DIELECTRIC).
+#define MAT_ROUGH_DIELECTRIC 6
+// A GGX dielectric coat over a Lambertian base (src/math/bsdf.rs `coated_eval_pdf`).
+#define MAT_COATED 7
 
 // Light kinds and the "not a light" marker.
 #define LIGHT_SPHERE 0
@@ -60,7 +66,7 @@
 // (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough
 // to take guided directions (src/guide/mod.rs `glossy_share`).
 #define SCENE_KIND_LIGHT_SHIFT 8
-#define SCENE_KIND_GUIDED_GLOSSY 5
+#define SCENE_KIND_GUIDED_GLOSSY 15
 
 // RenderParams.flags bits.
 #define FLAG_NEE 1
@@ -296,6 +302,8 @@
 struct Material {
     vec4 albedo_roughness;   // xyz albedo, w GGX roughness
     vec4 emission_ior;       // xyz emitted radiance, w index of refraction
+    vec4 eta;                // xyz a conductor's eta (real part of its index)
+    vec4 k;                  // xyz a conductor's k (imaginary part)
     uint kind;               // MAT_*
     uint two_sided;          // emission leaves both sides
     uint pad0;

@@ -96,6 +96,9 @@ Bsdf material_bsdf(uint mat) {
     b.albedo = m.albedo_roughness.xyz;
     b.alpha = m.albedo_roughness.w * m.albedo_roughness.w;
     b.ior = m.emission_ior.w;
+    // Read only where the kernel may meet a conductor: other scenes skip the loads.
+    b.eta = scene_has_material(MAT_CONDUCTOR) ? m.eta.xyz : vec3(1.0);
+    b.k = scene_has_material(MAT_CONDUCTOR) ? m.k.xyz : vec3(0.0);
     return b;
 }
 
@@ -129,11 +132,20 @@ float glossy_share(float alpha) {
     return GLOSSY_UNGUIDED || s * float(GLOSSY_SHARE_MIN_INV) < 1.0 ? 0.0 : min(s, 1.0);
 }
 
+// src/guide/sampler.rs `lobe_share`: a conductor's lobe shares as a glossy one
+// of its alpha (not through glossy_share, which GLOSSY_UNGUIDED zeroes).
+float conductor_share(float alpha) {
+    float s = 4.0 * alpha * alpha;
+    return s * float(GLOSSY_SHARE_MIN_INV) < 1.0 ? 0.0 : min(s, 1.0);
+}
+
 // src/guide/mod.rs `lobe_share`: the share of the guided fraction at a vertex,
 // less than 1 on glossy lobes narrower than the cosine lobe, 0 on the narrowest
 // and on every glossy lobe of a scene whose kinds say none takes any.
 float lobe_share(Bsdf b) {
     if (scene_has_material(MAT_GLOSSY) && b.kind == MAT_GLOSSY) return glossy_share(b.alpha);
+    if (scene_has_material(MAT_CONDUCTOR) && b.kind == MAT_CONDUCTOR) return conductor_share(b.alpha);
+    if (is_kind(b, MAT_ROUGH_DIELECTRIC)) return 0.0;
     return 1.0;
 }
 // src/cpu/mod.rs `record_to`: the target of the ray that left through `key`,
@@ -245,7 +257,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
             radiance += beta * le * w_le;
         }
         Bsdf bsdf = material_bsdf(hit.material);
-        vec3 n = (is_kind(bsdf, MAT_DIELECTRIC) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
+        vec3 n = (bsdf_transmits(bsdf) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
         vec3 ns = SCENE_SMOOTH ? shading_side(n, hit, wo) : n;
         mat3 frame = make_frame(ns);
         vec3 wo_local = to_local(frame, wo);

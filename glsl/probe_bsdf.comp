@@ -11,6 +11,8 @@ layout(std430, set = 0, binding = 1) writeonly buffer Outputs { vec4 outputs[]; 
 layout(push_constant) uniform Push {
     vec4 albedo;
     vec4 wo;
+    vec4 eta;
+    vec4 k;
     uint kind;
     uint mode;
     float alpha;
@@ -26,6 +28,8 @@ void main() {
     b.albedo = push.albedo.xyz;
     b.alpha = push.alpha;
     b.ior = push.ior;
+    b.eta = push.eta.xyz;
+    b.k = push.k.xyz;
     vec4 x = inputs[i];
     if (push.mode == 0u) {
         BsdfSample s = bsdf_sample(b, push.wo.xyz, x.x, x.yz);

@@ -18,6 +18,10 @@ pub(crate) fn v4(v: Vec3, w: f32) -> [f32; 4] {
 pub struct GpuMaterial {
     pub albedo_roughness: [f32; 4],
     pub emission_ior: [f32; 4],
+    /// xyz: a conductor's eta, the real part of its complex index per channel.
+    pub eta: [f32; 4],
+    /// xyz: a conductor's k, the imaginary part.
+    pub k: [f32; 4],
     pub kind: u32,
     pub two_sided: u32,
     pub pad: [u32; 2],
@@ -217,7 +221,7 @@ pub struct AccumPixel {
     pub m2_frame_mean: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);

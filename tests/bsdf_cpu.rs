@@ -13,8 +13,8 @@ fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
 }
 
 fn continuous_cases() -> Vec<(Bsdf, Vec3)> {
-    let glossy = |r: f32| Bsdf { kind: MaterialKind::Glossy, albedo: Vec3::new(0.9, 0.6, 0.5), alpha: r * r, ior: 1.0 };
-    let diffuse = Bsdf { kind: MaterialKind::Diffuse, albedo: Vec3::new(0.7, 0.5, 0.3), alpha: 1.0, ior: 1.0 };
+    let glossy = |r: f32| Bsdf::new(MaterialKind::Glossy, Vec3::new(0.9, 0.6, 0.5), r * r, 1.0);
+    let diffuse = Bsdf::new(MaterialKind::Diffuse, Vec3::new(0.7, 0.5, 0.3), 1.0, 1.0);
     vec![
         (diffuse, dir(0.0, 0.0)),
         (diffuse, dir(60.0, 30.0)),
@@ -28,11 +28,62 @@ fn continuous_cases() -> Vec<(Bsdf, Vec3)> {
         (glossy(0.8), dir(5.0, 0.0)),
         (glossy(1.0), dir(85.0, 300.0)),
     ]
+    .into_iter()
+    .chain(new_material_cases())
+    .collect()
+}
+
+/// pbrt's gold and copper (their RGB eta and k) at the sRGB primaries.
+const GOLD: ([f32; 3], [f32; 3]) = ([0.143119, 0.374957, 1.44248], [3.98316, 2.38572, 1.60322]);
+const COPPER: ([f32; 3], [f32; 3]) = ([0.200438, 0.924033, 1.10221], [3.91295, 2.45285, 2.14219]);
+
+fn conductor(metal: ([f32; 3], [f32; 3]), roughness: f32) -> Bsdf {
+    Bsdf::conductor(Vec3::from(metal.0), Vec3::from(metal.1), roughness * roughness)
+}
+
+fn rough_glass(roughness: f32, ior: f32) -> Bsdf {
+    Bsdf::new(MaterialKind::RoughDielectric, Vec3::ONE, roughness * roughness, ior)
+}
+
+fn coated(roughness: f32, ior: f32) -> Bsdf {
+    Bsdf::new(MaterialKind::Coated, Vec3::new(0.6, 0.3, 0.2), roughness * roughness, ior)
+}
+
+/// The conductor, the rough dielectric (wo outside: from inside its transmitted
+/// radiance is scaled up by ior^2, which `reflectance_never_exceeds_albedo` would
+/// count) and the coated material.
+fn new_material_cases() -> Vec<(Bsdf, Vec3)> {
+    vec![
+        (conductor(GOLD, 0.05), dir(30.0, 10.0)),
+        (conductor(GOLD, 0.3), dir(0.0, 0.0)),
+        (conductor(GOLD, 0.3), dir(45.0, 70.0)),
+        (conductor(COPPER, 0.6), dir(80.0, 200.0)),
+        (conductor(COPPER, 1.0), dir(20.0, 300.0)),
+        (rough_glass(0.3, 1.5), dir(30.0, 40.0)),
+        (rough_glass(0.6, 1.5), dir(70.0, 100.0)),
+        (rough_glass(0.15, 1.33), dir(0.0, 0.0)),
+        (coated(0.2, 1.5), dir(10.0, 0.0)),
+        (coated(0.2, 1.5), dir(70.0, 120.0)),
+        (coated(0.6, 2.0), dir(45.0, 250.0)),
+    ]
+}
+
+/// The rough dielectric seen from inside, where transmission leaves the denser side.
+fn rough_glass_inside_cases() -> Vec<(Bsdf, Vec3)> {
+    let inside = |theta: f32, phi: f32| {
+        let d = dir(theta, phi);
+        Vec3::new(d.x, d.y, -d.z)
+    };
+    vec![
+        (rough_glass(0.3, 1.5), inside(20.0, 30.0)),
+        (rough_glass(0.3, 1.5), inside(60.0, 200.0)),
+        (rough_glass(0.7, 1.5), inside(40.0, 90.0)),
+    ]
 }
 
 #[test]
 fn continuous_bsdfs_sample_their_pdf() {
-    let cases = continuous_cases();
+    let cases: Vec<_> = continuous_cases().into_iter().chain(rough_glass_inside_cases()).collect();
     let zoomed = cases.iter().filter(|(b, wo)| narrow_lobe_zoom(b, *wo).is_some()).count();
     let significance = sidak(0.01, cases.len() + zoomed);
     for (i, (b, wo)) in cases.iter().enumerate() {
@@ -62,20 +113,20 @@ fn continuous_bsdfs_sample_their_pdf() {
 /// alpha spreads the lobe's core (some 2 alpha radians wide) over tens of degrees.
 /// The plain bins test its tails; the zoomed ones its core.
 fn narrow_lobe_zoom(b: &Bsdf, wo: Vec3) -> Option<Zoom> {
-    (b.kind == MaterialKind::Glossy && b.alpha < 0.01)
+    (matches!(b.kind, MaterialKind::Glossy | MaterialKind::Conductor) && b.alpha < 0.01)
         .then(|| Zoom::new([-wo.x as f64, -wo.y as f64, wo.z as f64], 0.5 / b.alpha as f64))
 }
 
 #[test]
 fn sample_weight_is_f_cos_over_pdf() {
-    for (i, (b, wo)) in continuous_cases().iter().enumerate() {
+    for (i, (b, wo)) in continuous_cases().iter().chain(&rough_glass_inside_cases()).enumerate() {
         let mut rng = Rng::new(2, i as u32, 0, 0);
         for _ in 0..10_000 {
             let Some(s) = bsdf_sample(b, *wo, rng.next_f32(), rng.next_2d()) else { continue };
             let f = bsdf_eval(b, *wo, s.wi);
             let pdf = bsdf_pdf(b, *wo, s.wi);
             assert!((pdf - s.pdf).abs() <= 1e-3 * pdf.max(1e-3), "{b:?}: pdf {} vs sampled {}", pdf, s.pdf);
-            let expect = f * s.wi.z / pdf;
+            let expect = f * s.wi.z.abs() / pdf;
             assert!(
                 (expect - s.weight).abs().max_element() <= 2e-3 * expect.max_element().max(1.0),
                 "{b:?}: weight {:?} vs {:?}",
@@ -89,6 +140,7 @@ fn sample_weight_is_f_cos_over_pdf() {
 #[test]
 fn reflectance_never_exceeds_albedo() {
     // Energy: the directional albedo (mean of the sample weights) is at most the albedo.
+    // For the rough dielectric that is wo outside, where transmission scales radiance down.
     for (i, (b, wo)) in continuous_cases().iter().enumerate() {
         let mut rng = Rng::new(3, i as u32, 0, 0);
         let n = 200_000;
@@ -99,7 +151,10 @@ fn reflectance_never_exceeds_albedo() {
             }
         }
         let albedo = sum / n as f64;
-        assert!(albedo.x <= b.albedo.x as f64 * 1.005, "{b:?} wo={wo:?}: directional albedo {albedo:?}");
+        // The coated material's clear coat reflects on top of its base's albedo: its bound is 1
+        // (`coated_albedo_stays_at_most_one`).
+        let bound = if b.kind == MaterialKind::Coated { 1.0 } else { b.albedo.x as f64 };
+        assert!(albedo.x <= bound * 1.005, "{b:?} wo={wo:?}: directional albedo {albedo:?}");
         if b.kind == MaterialKind::Diffuse {
             assert!(
                 (albedo - b.albedo.as_dvec3()).abs().max_element() < 1e-9,
@@ -111,7 +166,7 @@ fn reflectance_never_exceeds_albedo() {
 
 #[test]
 fn mirror_reflects_exactly() {
-    let b = Bsdf { kind: MaterialKind::Specular, albedo: Vec3::splat(0.8), alpha: 1.0, ior: 1.0 };
+    let b = Bsdf::new(MaterialKind::Specular, Vec3::splat(0.8), 1.0, 1.0);
     let wo = dir(40.0, 70.0);
     let s = bsdf_sample(&b, wo, 0.3, [0.2, 0.9]).unwrap();
     assert!(s.delta);
@@ -139,7 +194,7 @@ fn fresnel_has_known_values() {
 
 #[test]
 fn dielectric_chooses_lobes_by_fresnel_and_obeys_snell() {
-    let b = Bsdf { kind: MaterialKind::Dielectric, albedo: Vec3::ONE, alpha: 1.0, ior: 1.5 };
+    let b = Bsdf::new(MaterialKind::Dielectric, Vec3::ONE, 1.0, 1.5);
     for (theta, outside) in [(30.0f32, true), (70.0, true), (20.0, false), (60.0, false)] {
         let mut wo = dir(theta, 25.0);
         if !outside {
@@ -183,7 +238,9 @@ fn dielectric_chooses_lobes_by_fresnel_and_obeys_snell() {
 fn eval_pdf_is_the_microfacet_brdf_and_its_sampling_density() {
     use rlpt::math::bsdf::{bsdf_eval_pdf, ggx_d, ggx_g1, ggx_g2};
     let mut rng = Rng::new(3, 0, 0, 0);
-    for (b, wo) in continuous_cases() {
+    let cases =
+        continuous_cases().into_iter().filter(|(b, _)| matches!(b.kind, MaterialKind::Diffuse | MaterialKind::Glossy));
+    for (b, wo) in cases {
         for _ in 0..1000 {
             let u = rng.next_2d();
             let wi = dir(u[0] * 100.0, u[1] * 360.0);
@@ -225,7 +282,7 @@ fn eval_pdf_is_the_microfacet_brdf_and_its_sampling_density() {
 fn glossy_albedo_sampled_matches_its_integral() {
     use rayon::prelude::*;
     use std::f64::consts::PI;
-    let glossy = |r: f32| Bsdf { kind: MaterialKind::Glossy, albedo: Vec3::ONE, alpha: r * r, ior: 1.0 };
+    let glossy = |r: f32| Bsdf::new(MaterialKind::Glossy, Vec3::ONE, r * r, 1.0);
     let integral = |b: &Bsdf, wo: Vec3, n: usize| -> f64 {
         let alpha = b.alpha as f64;
         let wo64 = wo.as_dvec3();
@@ -281,4 +338,134 @@ fn glossy_albedo_sampled_matches_its_integral() {
         }
     }
     assert!(failures.is_empty(), "sampled and integrated albedos differ:\n{}", failures.join("\n"));
+}
+
+/// pbrt-v4's `FrComplex` by its known values: at normal incidence
+/// ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2); with k = 0 the dielectric's
+/// reflectance at every angle; 1 at grazing; within [0, 1]; and for gold the red
+/// channel reflects more than the blue short of grazing.
+#[test]
+fn conductor_fresnel_has_known_values() {
+    use rlpt::math::bsdf::{fresnel_complex, fresnel_complex3};
+    for (eta, k) in [(0.2f32, 3.9f32), (1.65, 9.2), (0.14, 3.98), (2.5, 0.0)] {
+        let f0 = ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k);
+        assert!((fresnel_complex(1.0, eta, k) - f0).abs() < 1e-5, "eta {eta} k {k}: {}", fresnel_complex(1.0, eta, k));
+        assert!((fresnel_complex(1e-7, eta, k) - 1.0).abs() < 1e-3, "eta {eta} k {k}: grazing");
+    }
+    for i in 0..=90 {
+        let c = (i as f32).to_radians().cos();
+        for eta in [1.2f32, 1.5, 2.4] {
+            let (a, b) = (fresnel_complex(c, eta, 0.0), fresnel_dielectric(c, eta));
+            assert!((a - b).abs() < 1e-5, "eta {eta} at {i} degrees: complex {a}, dielectric {b}");
+        }
+        let gold = fresnel_complex3(c, Vec3::from(GOLD.0), Vec3::from(GOLD.1));
+        assert!(gold.max_element() <= 1.0 && gold.min_element() >= 0.0, "{i} degrees: {gold}");
+        assert!(i > 85 || gold.x > gold.z, "{i} degrees: gold reflects red more than blue: {gold}");
+    }
+}
+
+/// The rough conductor is the glossy lobe of its alpha times the complex Fresnel
+/// at the sampled microfacet: with the same random numbers both sample the same
+/// direction, and the weights differ by F(wo . h) exactly (the glossy lobe's
+/// albedo is checked against quadrature in `glossy_albedo_sampled_matches_its_integral`).
+#[test]
+fn rough_conductor_is_the_glossy_lobe_times_fresnel() {
+    use rlpt::math::bsdf::fresnel_complex3;
+    for r in [0.1f32, 0.4, 0.8] {
+        let c = conductor(GOLD, r);
+        let g = Bsdf::new(MaterialKind::Glossy, Vec3::ONE, r * r, 1.0);
+        for theta in [0.0f32, 45.0, 85.0] {
+            let wo = dir(theta, 20.0);
+            let mut rng = Rng::new(8, (r * 10.0) as u32, theta as u32, 0);
+            for _ in 0..20_000 {
+                let (uc, u) = (rng.next_f32(), rng.next_2d());
+                let (sc, sg) = (bsdf_sample(&c, wo, uc, u), bsdf_sample(&g, wo, uc, u));
+                assert_eq!(sc.is_some(), sg.is_some());
+                let (Some(sc), Some(sg)) = (sc, sg) else { continue };
+                assert_eq!((sc.wi, sc.pdf), (sg.wi, sg.pdf));
+                let f = fresnel_complex3(wo.dot((wo + sc.wi).normalize()), c.eta, c.k);
+                let want = f * sg.weight;
+                assert!((sc.weight - want).abs().max_element() <= 1e-4 * want.max_element(), "{sc:?} vs {want}");
+                let (fc, fg) = (bsdf_eval(&c, wo, sc.wi), bsdf_eval(&g, wo, sc.wi));
+                assert!((fc - f * fg).abs().max_element() <= 1e-4 * fc.max_element(), "f {fc} vs {}", f * fg);
+            }
+        }
+    }
+}
+
+/// The smooth conductor: a mirror whose weight is the complex Fresnel at wo.
+#[test]
+fn smooth_conductor_is_a_mirror_with_fresnel() {
+    use rlpt::math::bsdf::fresnel_complex3;
+    let b = conductor(GOLD, 0.0);
+    assert!(b.is_delta());
+    let wo = dir(50.0, 30.0);
+    let s = bsdf_sample(&b, wo, 0.7, [0.3, 0.1]).unwrap();
+    assert!(s.delta && (s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+    assert_eq!(s.weight, fresnel_complex3(wo.z, Vec3::from(GOLD.0), Vec3::from(GOLD.1)));
+    assert_eq!(bsdf_eval(&b, wo, s.wi), Vec3::ZERO, "delta lobes cannot be evaluated");
+}
+
+/// Energy of the rough dielectric, albedo 1, from both sides: reflected plus
+/// transmitted energy (the transmitted weight times etap^2, undoing the radiance
+/// scaling) is at most 1 and, at small roughness where single scattering loses
+/// little, near 1; the reflected share there is the smooth interface's Fresnel.
+#[test]
+fn rough_dielectric_keeps_energy_and_tends_to_the_smooth_one() {
+    for (r, wo) in [(0.05f32, dir(30.0, 10.0)), (0.05, dir(70.0, 80.0)), (0.05, -dir(20.0, 0.0)), (0.5, dir(40.0, 0.0))]
+    {
+        let b = rough_glass(r, 1.5);
+        let mut rng = Rng::new(9, (r * 100.0) as u32, (wo.z * 100.0).abs() as u32, 0);
+        let n = 400_000;
+        let (mut energy, mut reflected, mut reflected_energy) = (0.0f64, 0usize, 0.0f64);
+        for _ in 0..n {
+            let Some(s) = bsdf_sample(&b, wo, rng.next_f32(), rng.next_2d()) else { continue };
+            let w = s.weight.x as f64;
+            if s.wi.z * wo.z > 0.0 {
+                reflected += 1;
+                reflected_energy += w;
+                energy += w;
+            } else {
+                let etap = if wo.z > 0.0 { 1.5f64 } else { 1.0 / 1.5 };
+                energy += w * etap * etap;
+            }
+        }
+        let (energy, share) = (energy / n as f64, reflected as f64 / n as f64);
+        assert!(energy <= 1.0 + 2e-3, "roughness {r} wo {wo}: energy {energy}");
+        if r < 0.1 {
+            let f = fresnel_dielectric(wo.z, 1.5) as f64;
+            assert!(energy > 0.97, "roughness {r} wo {wo}: energy {energy} (reflected {reflected_energy})");
+            assert!((share - f).abs() < 0.01 + 0.05 * f, "roughness {r} wo {wo}: reflected share {share}, Fresnel {f}");
+        }
+    }
+}
+
+/// The coated approximation keeps energy: with a white base its directional
+/// albedo stays at most 1 over directions, roughnesses and coat indices.
+#[test]
+fn coated_albedo_stays_at_most_one() {
+    for r in [0.05f32, 0.3, 1.0] {
+        for ior in [1.2f32, 1.5, 2.5] {
+            let b = Bsdf::new(MaterialKind::Coated, Vec3::ONE, r * r, ior);
+            for theta in [0.0f32, 30.0, 60.0, 80.0, 89.0] {
+                let wo = dir(theta, 15.0);
+                let mut rng = Rng::new(10, (r * 100.0) as u32, (ior * 10.0) as u32, theta as u32);
+                let n = 200_000;
+                let (mut s1, mut s2) = (0.0f64, 0.0f64);
+                for _ in 0..n {
+                    if let Some(s) = bsdf_sample(&b, wo, rng.next_f32(), rng.next_2d()) {
+                        let w = s.weight.x as f64;
+                        s1 += w;
+                        s2 += w * w;
+                    }
+                }
+                let mean = s1 / n as f64;
+                let sd = ((s2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+                assert!(mean <= 1.0 + 3.0 * sd, "roughness {r} ior {ior} at {theta}: albedo {mean} +- {sd}");
+                if theta <= 60.0 {
+                    assert!(mean > 0.5, "roughness {r} ior {ior} at {theta}: a white base under a clear coat returns most light: {mean}");
+                }
+            }
+        }
+    }
 }

@@ -60,7 +60,7 @@ fn edited_scene(name: &str, from: &str, to: &str) -> Scene {
 }
 
 fn share_of(kind: MaterialKind, roughness: f32) -> f32 {
-    lobe_share(&Bsdf { kind, albedo: Vec3::splat(0.75), alpha: roughness * roughness, ior: 1.5 })
+    lobe_share(&Bsdf::new(kind, Vec3::splat(0.75), roughness * roughness, 1.5))
 }
 
 /// The share of the guided fraction is 1 on diffuse surfaces and 4 alpha^2 on

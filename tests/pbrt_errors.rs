@@ -116,17 +116,13 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
     };
     let (ok, stdout, stderr) = run(false);
     assert!(ok, "{stderr}");
-    assert!(stdout.contains("mapped paint: coateddiffuse -> diffuse"), "{stdout}");
+    assert!(stdout.contains("mapped paint: coateddiffuse -> coated"), "{stdout}");
     assert!(
-        stdout.contains("note: ")
-            && stdout.contains("scene.pbrt:2: material \"paint\": coateddiffuse rendered as diffuse"),
+        stdout.contains("note: ") && stdout.contains("scene.pbrt:2: material \"paint\": a smooth coat (alpha 0)"),
         "{stdout}"
     );
     let (ok, _, stderr) = run(true);
-    assert!(
-        !ok && stderr.contains("scene.pbrt:2:1: material \"paint\": coateddiffuse rendered as diffuse"),
-        "{stderr}"
-    );
+    assert!(!ok && stderr.contains("scene.pbrt:2:1: material \"paint\": a smooth coat (alpha 0)"), "{stderr}");
     assert!(stderr.contains("--strict"), "{stderr}");
 }
 

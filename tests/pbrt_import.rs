@@ -128,38 +128,54 @@ fn materials_map_onto_rlpt_kinds() {
     assert_eq!((m.kind, m.albedo), (MaterialKind::Diffuse, Vec3::new(0.2, 0.3, 0.4)));
     assert!(s.material_mappings.iter().any(|l| l.starts_with("wall: diffuse -> diffuse")), "{:?}", s.material_mappings);
 
-    // Conductor: albedo the normal-incidence Fresnel of eta and k; v4 remaps
-    // roughness r to alpha sqrt(r), and rlpt's roughness is sqrt(alpha).
+    // Conductor: eta and k as given (named spectra through pbrt's RGB table); v4
+    // remaps roughness r to alpha sqrt(r), and rlpt's roughness is sqrt(alpha).
     let (eta, k) = (Vec3::new(0.2, 0.9, 1.1), Vec3::new(3.9, 2.4, 2.1));
     let (s, m) = material_of(
         "conductor",
         "Material \"conductor\" \"rgb eta\" [0.2 0.9 1.1] \"rgb k\" [3.9 2.4 2.1] \"float roughness\" 0.0625",
     );
-    assert_eq!(m.kind, MaterialKind::Glossy);
-    assert!(close(m.albedo, fresnel(eta, k)), "{}", m.albedo);
+    assert_eq!((m.kind, m.eta, m.k), (MaterialKind::Conductor, eta, k));
     assert!((m.roughness - 0.5).abs() < 1e-6, "{}", m.roughness);
-    assert!(s.material_mappings.iter().any(|l| l.contains("conductor -> glossy")));
+    assert!(s.material_mappings.iter().any(|l| l.contains("conductor -> conductor")));
     let (_, m) =
         material_of("unremapped", "Material \"conductor\" \"float roughness\" 0.01 \"bool remaproughness\" false");
-    assert!((m.roughness - 0.1).abs() < 1e-6 && m.albedo.x > m.albedo.z, "copper by default: {m:?}");
+    assert!((m.roughness - 0.1).abs() < 1e-6, "{m:?}");
+    assert_eq!(
+        (m.eta, m.k),
+        (Vec3::new(0.200438, 0.924033, 1.10221), Vec3::new(3.91295, 2.45285, 2.14219)),
+        "copper by default"
+    );
+    // Smooth (alpha below pbrt-v4's 1e-3): a mirror, roughness 0.
     let (_, m) =
         material_of("smooth", "Material \"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\"");
-    assert_eq!(m.kind, MaterialKind::Specular);
-    assert!(m.albedo.x > m.albedo.z, "gold is yellow: {}", m.albedo);
+    assert_eq!((m.kind, m.roughness), (MaterialKind::Conductor, 0.0));
+    assert_eq!((m.eta, m.k), (Vec3::new(0.143119, 0.374957, 1.44248), Vec3::new(3.98316, 2.38572, 1.60322)));
+    // reflectance instead of eta and k: as pbrt-v4, eta 1 and k = 2 sqrt(r) / sqrt(1 - r),
+    // whose normal-incidence reflectance is r.
+    let (_, m) = material_of("reflectance", "Material \"conductor\" \"rgb reflectance\" [0.9 0.5 0.1]");
+    assert!(close(fresnel(m.eta, m.k), Vec3::new(0.9, 0.5, 0.1)), "{m:?}");
     // pbrt-v3 metal with u/v roughness, not remapped.
     let (_, m) = material_of(
         "metal",
         "Material \"metal\" \"float uroughness\" 0.25 \"float vroughness\" 0.25 \"bool remaproughness\" \"false\"",
     );
-    assert!((m.kind, (m.roughness - 0.5).abs() < 1e-6) == (MaterialKind::Glossy, true), "{m:?}");
+    assert!((m.kind, (m.roughness - 0.5).abs() < 1e-6) == (MaterialKind::Conductor, true), "{m:?}");
 
+    // Rough dielectric: alpha sqrt(0.1) (v4 remapping), rlpt roughness its root.
     let (s, m) = material_of("dielectric", "Material \"dielectric\" \"float eta\" 1.33 \"float roughness\" 0.1");
-    assert_eq!((m.kind, m.ior), (MaterialKind::Dielectric, 1.33));
-    note(&s, "rough dielectric");
+    assert_eq!((m.kind, m.ior), (MaterialKind::RoughDielectric, 1.33));
+    assert!((m.roughness - 0.1f32.sqrt().sqrt()).abs() < 1e-6, "{m:?}");
+    assert!(
+        s.material_mappings.iter().any(|l| l.contains("dielectric -> roughdielectric")),
+        "{:?}",
+        s.material_mappings
+    );
+    assert!(!s.notes.iter().any(|n| n.contains("rough")), "{:#?}", s.notes);
     let (s, m) = material_of("glass", "Material \"glass\" \"float index\" 1.7");
     assert_eq!((m.kind, m.ior), (MaterialKind::Dielectric, 1.7));
     // pbrt-v3 glass at roughness 0 is smooth although its remapping of 0 is not.
-    assert!(!s.notes.iter().any(|n| n.contains("rough dielectric")), "{:#?}", s.notes);
+    assert!(!s.notes.iter().any(|n| n.contains("rough")), "{:#?}", s.notes);
     let (_, m) = material_of("mirror", "Material \"mirror\" \"rgb Kr\" [0.5 0.6 0.7]");
     assert_eq!((m.kind, m.albedo), (MaterialKind::Specular, Vec3::new(0.5, 0.6, 0.7)));
     let (s, m) = material_of("interface", "Material \"interface\"");
@@ -169,19 +185,32 @@ fn materials_map_onto_rlpt_kinds() {
 
 #[test]
 fn approximated_materials_are_noted_once_with_their_line() {
-    for (ty, key) in [
-        ("coateddiffuse", "reflectance"),
-        ("diffusetransmission", "reflectance"),
-        ("plastic", "Kd"),
-        ("substrate", "Kd"),
-        ("uber", "Kd"),
-        ("translucent", "Kd"),
-    ] {
+    for (ty, key) in [("diffusetransmission", "reflectance"), ("uber", "Kd"), ("translucent", "Kd")] {
         let (s, m) = material_of(ty, &format!("\nMaterial \"{ty}\" \"rgb {key}\" [0.1 0.2 0.3]"));
         assert_eq!((m.kind, m.albedo), (MaterialKind::Diffuse, Vec3::new(0.1, 0.2, 0.3)), "{ty}");
         let n = note(&s, &format!("{ty} rendered as diffuse"));
         assert!(n.contains("scene.pbrt:3:"), "{n}");
         assert_eq!(s.notes.iter().filter(|n| n.contains("rendered as")).count(), 1, "{ty}: {:#?}", s.notes);
+    }
+    // The coated ones: rlpt's coated material, with no note where it takes every
+    // parameter given; pbrt-v3's plastic and substrate by their v3 remapping.
+    let (s, m) = material_of(
+        "coateddiffuse",
+        "Material \"coateddiffuse\" \"rgb reflectance\" [0.1 0.2 0.3] \"float roughness\" 0.04 \"float eta\" 1.6",
+    );
+    assert_eq!((m.kind, m.albedo, m.ior), (MaterialKind::Coated, Vec3::new(0.1, 0.2, 0.3), 1.6));
+    assert!((m.roughness - 0.04f32.sqrt().sqrt()).abs() < 1e-6, "{m:?}");
+    assert!(!s.notes.iter().any(|n| n.contains("material")), "{:#?}", s.notes);
+    for (ty, key) in [("plastic", "Kd"), ("substrate", "Kd")] {
+        let (s, m) =
+            material_of(ty, &format!("\nMaterial \"{ty}\" \"rgb {key}\" [0.1 0.2 0.3] \"rgb Ks\" [0.4 0.4 0.4]"));
+        assert_eq!((m.kind, m.albedo, m.ior), (MaterialKind::Coated, Vec3::new(0.1, 0.2, 0.3), 1.5), "{ty}");
+        // pbrt-v3's default roughness 0.1, remapped by its polynomial.
+        let x = 0.1f64.ln();
+        let alpha = 1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x.powi(3) + 0.000640711 * x.powi(4);
+        assert!((m.roughness as f64 - alpha.sqrt()).abs() < 1e-5, "{ty}: {m:?}");
+        let n = note(&s, "Ks [0.4, 0.4, 0.4] dropped");
+        assert!(n.contains("scene.pbrt:3:"), "{n}");
     }
     // mix: two diffuse materials blend by amount (the second's share).
     let (s, m) = material_of(
@@ -348,10 +377,7 @@ fn strict_refuses_what_would_be_noted() {
     let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
     assert!(Scene::load(&p).is_ok());
     let e = Scene::load_with(&p, true).unwrap_err().to_string();
-    assert!(
-        e.contains("scene.pbrt:2:1: ") && e.contains("coateddiffuse rendered as diffuse") && e.contains("--strict"),
-        "{e}"
-    );
+    assert!(e.contains("scene.pbrt:2:1: ") && e.contains("a smooth coat (alpha 0)") && e.contains("--strict"), "{e}");
     // Render settings rlpt takes from its own options stay notes.
     let p = write(&d, "ok.pbrt", &format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
     assert!(Scene::load_with(&p, true).is_ok());

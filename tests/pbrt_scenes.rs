@@ -48,7 +48,9 @@ fn veach_ajar_loads_with_its_instances_and_the_jpeg_textures_named() {
     assert_eq!(light.len(), 1);
     assert_eq!((light[0].emission, light[0].two_sided), (Vec3::splat(1000.0), false));
     let floor = s.materials.iter().find(|m| m.name == "Floor").unwrap();
-    assert_eq!(floor.kind, MaterialKind::Glossy);
+    // Aluminium (pbrt-v3 metal, u/v roughness 0.1 not remapped: alpha 0.1).
+    assert_eq!(floor.kind, MaterialKind::Conductor);
+    assert!((floor.roughness - 0.1f32.sqrt()).abs() < 1e-6 && floor.k.x > 9.0, "{floor:?}");
     assert!(s.material_mappings.iter().any(|l| l.starts_with("Material: glass -> dielectric")));
 }
 
@@ -60,7 +62,9 @@ fn bmw_loads_with_a_uniform_sky_for_its_missing_environment_map() {
     let n = note(&s, "the environment image \"textures/sunflowers_equiarea.exr\"");
     assert!(n.contains("does not exist") && n.contains("uniform sky"), "{n}");
     assert_eq!(s.environment, Vec3::ONE);
-    note(&s, "material \"CarPaint\": coateddiffuse rendered as diffuse");
+    let paint = s.materials.iter().find(|m| m.name == "CarPaint").unwrap();
+    assert_eq!((paint.kind, paint.ior, paint.albedo), (MaterialKind::Coated, 1.5, Vec3::splat(0.7)));
+    note(&s, "material \"CarPaint\": a smooth coat (alpha 0) given roughness");
     note(&s, "material \"LEATHER\" (mix)");
     assert!((s.camera.vfov_deg - 30.0).abs() < 1e-6, "1400x1000 is landscape: fov is vertical");
 }

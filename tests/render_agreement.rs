@@ -800,3 +800,79 @@ fn variance_estimates_are_calibrated_on_the_gpu() {
 fn variance_estimates_are_calibrated_on_the_cpu() {
     check_calibrated(render_cpu, "CPU");
 }
+
+/// The conductor (rough and smooth), the rough dielectric and the coated
+/// material in a lit box: the GPU kernel specialized to these kinds, unguided and
+/// guided, agrees with the CPU renderer. Light reaches the lamp through the rough
+/// glass by both refraction and NEE (it is not a delta BSDF).
+#[test]
+fn gpu_and_cpu_agree_on_conductor_rough_glass_and_coated() {
+    let mut t = String::from(
+        r#"
+[camera]
+position = [50.0, 40.0, 200.0]
+look_at = [50.0, 35.0, 0.0]
+vfov = 45.0
+
+[render]
+width = 32
+height = 24
+spp = 64
+max_bounces = 5
+
+[[material]]
+name = "white"
+type = "diffuse"
+albedo = [0.75, 0.75, 0.75]
+
+[[material]]
+name = "gold"
+type = "conductor"
+eta = [0.143119, 0.374957, 1.44248]
+k = [3.98316, 2.38572, 1.60322]
+roughness = 0.4
+
+[[material]]
+name = "copper mirror"
+type = "conductor"
+eta = [0.200438, 0.924033, 1.10221]
+k = [3.91295, 2.45285, 2.14219]
+
+[[material]]
+name = "frosted"
+type = "dielectric"
+ior = 1.5
+roughness = 0.3
+
+[[material]]
+name = "paint"
+type = "coated"
+albedo = [0.7, 0.2, 0.1]
+roughness = 0.2
+ior = 1.5
+
+[[material]]
+name = "lamp"
+type = "emissive"
+emission = [12.0, 12.0, 12.0]
+"#,
+    );
+    for (x, material) in [(15.0, "gold"), (38.0, "copper mirror"), (62.0, "frosted"), (85.0, "paint")] {
+        t += &format!("\n[[sphere]]\ncenter = [{x}, 12.0, 60.0]\nradius = 11.0\nmaterial = \"{material}\"\n");
+    }
+    for (origin, u, v, material) in [
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], "white"),
+        ([0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"),
+        ([0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 80.0, 0.0], "white"),
+        ([0.0, 0.0, 0.0], [0.0, 80.0, 0.0], [0.0, 0.0, 160.0], "white"),
+        ([100.0, 0.0, 0.0], [0.0, 0.0, 160.0], [0.0, 80.0, 0.0], "white"),
+        ([35.0, 79.9, 40.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0], "lamp"),
+    ] {
+        t += &format!("\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n");
+    }
+    let scene = Scene::parse(&t, "new materials").expect("the test scene loads");
+    let mut opts = options(&scene, 32, 24, 512);
+    let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [41, 42], "conductor, rough glass, coated");
+    let (mean, _, _) = region_stats(&g, |_, _| true);
+    assert!(mean > 0.01, "the scene renders lit (mean {mean})");
+}

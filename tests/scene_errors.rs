@@ -172,13 +172,56 @@ fn albedo_is_unknown_for_emissive() {
 }
 
 #[test]
-fn roughness_is_unknown_for_specular_and_dielectric() {
+fn roughness_is_unknown_for_specular() {
     let text = with_material(
         "[[material]]\nname = \"white\"\ntype = \"specular\"\nalbedo = [0.5, 0.5, 0.5]\nroughness = 0.1\n",
     );
     expect(&text, "9:1", &["unknown key `roughness` for a material of type \"specular\""]);
-    let text = with_material("[[material]]\nname = \"white\"\ntype = \"dielectric\"\nior = 1.5\nroughness = 0.1\n");
-    expect(&text, "9:1", &["unknown key `roughness` for a material of type \"dielectric\""]);
+}
+
+#[test]
+fn dielectric_roughness_out_of_range() {
+    let text = with_material("[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nior = 1.5\nroughness = 1.5\n");
+    expect(
+        &text,
+        "9:13",
+        &["[[material]] \"glass\": key `roughness` must be a number in [0, 1] (0: smooth), found 1.5"],
+    );
+}
+
+#[test]
+fn conductor_needs_eta_and_k_in_range() {
+    let text = with_material("[[material]]\nname = \"gold\"\ntype = \"conductor\"\nk = [3, 2, 1]\n");
+    expect(&text, "5:1", &["[[material]] \"gold\": missing key `eta` ([r, g, b], components in (0, 100])"]);
+    let text =
+        with_material("[[material]]\nname = \"gold\"\ntype = \"conductor\"\neta = [0.1, 0, 1.4]\nk = [3, 2, 1]\n");
+    expect(
+        &text,
+        "8:13",
+        &["[[material]] \"gold\": key `eta` must have every component in (0, 100], found 0 (component 2)"],
+    );
+    let text =
+        with_material("[[material]]\nname = \"gold\"\ntype = \"conductor\"\neta = [0.1, 0.4, 1.4]\nk = [3, -2, 1]\n");
+    expect(
+        &text,
+        "9:9",
+        &["[[material]] \"gold\": key `k` must have every component in [0, 100], found -2 (component 2)"],
+    );
+    let text = with_material(
+        "[[material]]\nname = \"gold\"\ntype = \"conductor\"\neta = [0.1, 0.4, 1.4]\nk = [3, 2, 1]\nroughness = -0.1\n",
+    );
+    expect(&text, "10:13", &["key `roughness` must be a number in [0, 1] (0: a mirror), found -0.1"]);
+}
+
+#[test]
+fn coated_needs_a_rough_coat() {
+    let text =
+        with_material("[[material]]\nname = \"paint\"\ntype = \"coated\"\nalbedo = [0.5, 0.2, 0.1]\nroughness = 0\n");
+    expect(&text, "9:13", &["[[material]] \"paint\": key `roughness` must be a number in (0, 1]"]);
+    let text = with_material(
+        "[[material]]\nname = \"paint\"\ntype = \"coated\"\nalbedo = [0.5, 0.2, 0.1]\nroughness = 0.2\nior = 0.8\n",
+    );
+    expect(&text, "10:7", &["key `ior` must be a number from 1 to 100, found 0.8"]);
 }
 
 #[test]
@@ -246,7 +289,10 @@ fn missing_material_name_and_type() {
     expect(
         &text,
         "5:1",
-        &["[[material]] \"white\": missing key `type`", "diffuse, specular, glossy, dielectric, emissive"],
+        &[
+            "[[material]] \"white\": missing key `type`",
+            "diffuse, specular, glossy, dielectric, conductor, coated, emissive",
+        ],
     );
 }
 
@@ -374,7 +420,10 @@ fn unknown_material_type() {
     expect(
         &text,
         "7:8",
-        &["key `type` must be one of diffuse, specular, glossy, dielectric, emissive", "found \"metal\""],
+        &[
+            "key `type` must be one of diffuse, specular, glossy, dielectric, conductor, coated, emissive",
+            "found \"metal\"",
+        ],
     );
 }
 

@@ -200,6 +200,34 @@ fn dielectric_albedo_defaults_to_one() {
 }
 
 #[test]
+fn dielectric_roughness_zero_is_the_smooth_dielectric_and_above_zero_the_rough_one() {
+    for (key, kind, roughness) in [
+        ("", MaterialKind::Dielectric, 1.0),
+        ("\nroughness = 0", MaterialKind::Dielectric, 1.0),
+        ("\nroughness = 0.3", MaterialKind::RoughDielectric, 0.3),
+    ] {
+        let text = MINIMAL
+            .replace("type = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]", &format!("type = \"dielectric\"\nior = 1.5{key}"));
+        let m = &Scene::parse(&text, "t").unwrap().materials[0];
+        assert_eq!((m.kind, m.roughness, m.ior), (kind, roughness, 1.5), "{key:?}");
+    }
+}
+
+#[test]
+fn conductor_and_coated_keep_their_keys() {
+    let text = MINIMAL.replace(
+        "type = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]",
+        "type = \"conductor\"\neta = [0.2, 0.9, 1.1]\nk = [3.9, 2.5, 2.1]",
+    );
+    let m = &Scene::parse(&text, "t").unwrap().materials[0];
+    assert_eq!((m.kind, m.roughness), (MaterialKind::Conductor, 0.0), "roughness defaults to 0, a mirror");
+    assert_eq!((m.eta, m.k), (Vec3::new(0.2, 0.9, 1.1), Vec3::new(3.9, 2.5, 2.1)));
+    let text = MINIMAL.replace("type = \"diffuse\"", "type = \"coated\"\nroughness = 0.2");
+    let m = &Scene::parse(&text, "t").unwrap().materials[0];
+    assert_eq!((m.kind, m.roughness, m.ior, m.albedo), (MaterialKind::Coated, 0.2, 1.5, Vec3::splat(0.5)));
+}
+
+#[test]
 fn glossy_keeps_its_roughness() {
     let text = MINIMAL.replace("type = \"diffuse\"", "type = \"glossy\"\nroughness = 0.25");
     let scene = Scene::parse(&text, "t").unwrap();

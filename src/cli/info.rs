@@ -67,11 +67,15 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         let a = m.albedo;
         let e = m.emission;
         let mut line = format!("    [{i}] {}: {:?}, albedo {}", m.name, m.kind, v(a));
-        if m.kind == rlpt::scene::MaterialKind::Glossy {
+        use rlpt::scene::MaterialKind as K;
+        if matches!(m.kind, K::Glossy | K::Conductor | K::RoughDielectric | K::Coated) {
             line += &format!(", roughness {}", m.roughness);
         }
-        if m.kind == rlpt::scene::MaterialKind::Dielectric {
+        if matches!(m.kind, K::Dielectric | K::RoughDielectric | K::Coated) {
             line += &format!(", ior {}", m.ior);
+        }
+        if m.kind == K::Conductor {
+            line += &format!(", eta {}, k {}", v(m.eta), v(m.k));
         }
         if m.emits() {
             line += &format!(", emission {}{}", v(e), if m.two_sided { " (two-sided)" } else { "" });

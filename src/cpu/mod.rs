@@ -119,7 +119,7 @@ pub fn trace_path(
         let le_target = if mis_targets { le_counted } else { mean3(le) };
         let bsdf = material_bsdf(scene, hit.material);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
-        let n = if bsdf.kind == MaterialKind::Dielectric || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
+        let n = if bsdf.transmits() || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
         let ns = shading_side(n, hit, wo);
         let frame = Frame::from_normal(ns);
         let wo_local = frame.to_local(wo);

@@ -83,9 +83,15 @@ pub fn learned(row: &[AliasBin]) -> bool {
 /// and the mixture density uses it wherever it is evaluated, so the estimate
 /// stays unbiased.
 /// `glsl/pathtrace.comp` `lobe_share`.
+/// A conductor shares as a glossy lobe of its alpha. A rough dielectric takes no
+/// guided directions: its lobes lie on both sides of the surface and the guiding
+/// table's bins of one cell serve both sides' light alike. The coated material
+/// takes them as diffuse (share 1): its base is Lambertian and its coat lobe is
+/// still sampled by the BSDF's part of the mixture.
 pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
     match b.kind {
-        crate::scene::MaterialKind::Glossy => glossy_share(b.alpha),
+        crate::scene::MaterialKind::Glossy | crate::scene::MaterialKind::Conductor => glossy_share(b.alpha),
+        crate::scene::MaterialKind::RoughDielectric => 0.0,
         _ => 1.0,
     }
 }

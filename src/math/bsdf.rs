@@ -3,9 +3,10 @@
 //! `glsl/bsdf.glsl` holds the same functions.
 //!
 //! Directions are in the local shading frame, +z the normal. Reflecting
-//! materials (diffuse, specular, glossy) are two-sided: the caller flips the
-//! normal to `wo`'s side, so `wo.z >= 0`. For the dielectric the frame's +z is
-//! the surface's outward (front) normal and `wo` may lie on either side.
+//! materials (diffuse, specular, glossy, conductor, coated) are two-sided: the
+//! caller flips the normal to `wo`'s side, so `wo.z >= 0`. For the dielectrics
+//! (smooth and rough) the frame's +z is the surface's outward (front) normal and
+//! `wo` may lie on either side ([`Bsdf::transmits`]).
 
 use super::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use super::Vec3;
@@ -22,6 +23,9 @@ pub struct Bsdf {
     /// GGX alpha = roughness^2.
     pub alpha: f32,
     pub ior: f32,
+    /// A conductor's complex index of refraction eta + i k, per channel.
+    pub eta: Vec3,
+    pub k: Vec3,
 }
 
 /// A sampled direction. `weight` is f * |cos| / pdf; for delta lobes `pdf` is
@@ -35,9 +39,29 @@ pub struct BsdfSample {
 }
 
 impl Bsdf {
+    /// A BSDF of `kind` with no conductor index (eta 1, k 0).
+    pub fn new(kind: MaterialKind, albedo: Vec3, alpha: f32, ior: f32) -> Bsdf {
+        Bsdf { kind, albedo, alpha, ior, eta: Vec3::ONE, k: Vec3::ZERO }
+    }
+
+    /// A conductor of complex index `eta` + i `k` and GGX `alpha` (0: a mirror).
+    pub fn conductor(eta: Vec3, k: Vec3, alpha: f32) -> Bsdf {
+        Bsdf { kind: MaterialKind::Conductor, albedo: Vec3::ONE, alpha, ior: 1.0, eta, k }
+    }
+
     /// True if the BSDF is a Dirac delta (no direction can be evaluated or light-sampled).
     pub fn is_delta(&self) -> bool {
-        matches!(self.kind, MaterialKind::Specular | MaterialKind::Dielectric)
+        match self.kind {
+            MaterialKind::Specular | MaterialKind::Dielectric => true,
+            MaterialKind::Conductor => self.alpha == 0.0,
+            _ => false,
+        }
+    }
+
+    /// True for the dielectrics, whose frame keeps the surface's front normal
+    /// (`wo` on either side); the other materials are shaded from `wo`'s side.
+    pub fn transmits(&self) -> bool {
+        matches!(self.kind, MaterialKind::Dielectric | MaterialKind::RoughDielectric)
     }
 }
 
@@ -58,8 +82,94 @@ pub fn bsdf_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
             let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
             (b.albedo * (d * g2 / (4.0 * wo.z * wi.z)), g1 * d / (4.0 * wo.z))
         }
+        MaterialKind::Conductor if wo.z > 0.0 && wi.z > 0.0 && b.alpha > 0.0 => {
+            let h = (wo + wi).normalize();
+            let d = ggx_d(h, b.alpha);
+            let lambda_o = ggx_lambda(wo.z, b.alpha);
+            let g1 = 1.0 / (1.0 + lambda_o);
+            let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+            let f = fresnel_complex3(wo.dot(h), b.eta, b.k);
+            (b.albedo * f * (d * g2 / (4.0 * wo.z * wi.z)), g1 * d / (4.0 * wo.z))
+        }
+        MaterialKind::RoughDielectric => rough_dielectric_eval_pdf(b, wo, wi),
+        MaterialKind::Coated if wo.z > 0.0 && wi.z > 0.0 => coated_eval_pdf(b, wo, wi),
         _ => (Vec3::ZERO, 0.0),
     }
+}
+
+/// The rough dielectric (pbrt-v4's `DielectricBxDF`, after Walter et al. 2007):
+/// GGX reflection and transmission through the generalized half vector, each lobe
+/// chosen by the Fresnel reflectance of the microfacet; transmitted radiance
+/// scaled by 1/etap^2 as the smooth dielectric's. `glsl/bsdf.glsl` has the twin.
+fn rough_dielectric_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    let (co, ci) = (wo.z, wi.z);
+    if co == 0.0 || ci == 0.0 {
+        return (Vec3::ZERO, 0.0);
+    }
+    let reflect = co * ci > 0.0;
+    let etap = if reflect {
+        1.0
+    } else if co > 0.0 {
+        b.ior
+    } else {
+        1.0 / b.ior
+    };
+    let wm = wi * etap + wo;
+    if wm.length_squared() == 0.0 {
+        return (Vec3::ZERO, 0.0);
+    }
+    let mut wm = wm.normalize();
+    if wm.z < 0.0 {
+        wm = -wm;
+    }
+    let (dot_i, dot_o) = (wm.dot(wi), wm.dot(wo));
+    // Microfacets seen from behind by either direction carry nothing.
+    if dot_i * ci < 0.0 || dot_o * co < 0.0 {
+        return (Vec3::ZERO, 0.0);
+    }
+    let fr = fresnel_dielectric(dot_o, b.ior);
+    let d = ggx_d(wm, b.alpha);
+    let g2 = ggx_g2(co, ci, b.alpha);
+    // The visible-normal density of wm seen from wo: G1(wo) D(wm) |wo.wm| / |cos_o|.
+    let vis = ggx_g1(co, b.alpha) * d * dot_o.abs() / co.abs();
+    if reflect {
+        let f = d * g2 * fr / (4.0 * ci * co).abs();
+        (b.albedo * f, vis / (4.0 * dot_o.abs()) * fr)
+    } else {
+        let denom = (dot_i + dot_o / etap) * (dot_i + dot_o / etap);
+        if denom == 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let f = d * (1.0 - fr) * g2 * (dot_i * dot_o / (ci * co * denom)).abs() / (etap * etap);
+        (b.albedo * f, vis * dot_i.abs() / denom * (1.0 - fr))
+    }
+}
+
+/// The chance that the coated BSDF samples its coat rather than its base, from
+/// `wo` alone: the coat's Fresnel reflectance against the light the base returns,
+/// kept within [0.1, 0.9] so that both lobes are always sampled.
+fn coated_coat_chance(b: &Bsdf, cos_o: f32) -> f32 {
+    let fo = fresnel_dielectric(cos_o, b.ior);
+    let base = (1.0 - fo) * (b.albedo.x + b.albedo.y + b.albedo.z) / 3.0;
+    (fo / (fo + base).max(1e-12)).clamp(0.1, 0.9)
+}
+
+/// The coated material, an approximation of a layer: a GGX dielectric coat's
+/// reflection plus a Lambertian base seen through it, albedo (1 - F(cos_o))
+/// (1 - F(cos_i)) / pi, F the coat's Fresnel reflectance. It ignores refraction
+/// of the base's light by the coat, reflections between coat and base, and
+/// absorption; docs/SCENE_FORMAT.md says so. `glsl/bsdf.glsl` has the twin.
+pub fn coated_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+    let h = (wo + wi).normalize();
+    let d = ggx_d(h, b.alpha);
+    let lambda_o = ggx_lambda(wo.z, b.alpha);
+    let g1 = 1.0 / (1.0 + lambda_o);
+    let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+    let coat = fresnel_dielectric(wo.dot(h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
+    let through = (1.0 - fresnel_dielectric(wo.z, b.ior)) * (1.0 - fresnel_dielectric(wi.z, b.ior));
+    let p = coated_coat_chance(b, wo.z);
+    let pdf = p * g1 * d / (4.0 * wo.z) + (1.0 - p) * cosine_hemisphere_pdf(wi.z);
+    (Vec3::splat(coat) + b.albedo * (through / PI), pdf)
 }
 
 /// f(wo, wi), without the cosine. Zero for delta BSDFs.
@@ -121,6 +231,78 @@ pub fn bsdf_sample(b: &Bsdf, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSampl
             // Radiance is compressed by 1/etap^2 when it crosses into the denser medium (pbrt-v4 9.5.2).
             Some(BsdfSample { wi, weight: b.albedo / (etap * etap), pdf: 1.0 - f, delta: true })
         }
+        MaterialKind::Conductor => {
+            if wo.z <= 0.0 {
+                return None;
+            }
+            if b.alpha == 0.0 {
+                let f = fresnel_complex3(wo.z, b.eta, b.k);
+                return Some(BsdfSample {
+                    wi: Vec3::new(-wo.x, -wo.y, wo.z),
+                    weight: b.albedo * f,
+                    pdf: 1.0,
+                    delta: true,
+                });
+            }
+            let h = ggx_sample_vndf(wo, b.alpha, u);
+            let wi = reflect(wo, h);
+            if wi.z <= 0.0 {
+                return None;
+            }
+            let pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
+            if !(pdf > 0.0) {
+                return None;
+            }
+            let f = fresnel_complex3(wo.dot(h), b.eta, b.k);
+            let weight = b.albedo * f * (ggx_g2(wo.z, wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
+            Some(BsdfSample { wi, weight, pdf, delta: false })
+        }
+        MaterialKind::RoughDielectric => {
+            if wo.z == 0.0 {
+                return None;
+            }
+            // A normal visible from wo (wo turned to the upper side, as its density assumes),
+            // then reflection or refraction by its Fresnel reflectance.
+            let wm = ggx_sample_vndf(if wo.z < 0.0 { -wo } else { wo }, b.alpha, u);
+            let fr = fresnel_dielectric(wo.dot(wm), b.ior);
+            let wi = if uc < fr {
+                let wi = reflect(wo, wm);
+                if wi.z * wo.z <= 0.0 {
+                    return None;
+                }
+                wi
+            } else {
+                let (etap, n) = if wo.dot(wm) > 0.0 { (b.ior, wm) } else { (1.0 / b.ior, -wm) };
+                let wi = refract(wo, n, etap)?;
+                if wi.z * wo.z >= 0.0 {
+                    return None;
+                }
+                wi
+            };
+            let (f, pdf) = rough_dielectric_eval_pdf(b, wo, wi);
+            if !(pdf > 0.0) {
+                return None;
+            }
+            Some(BsdfSample { wi, weight: f * (wi.z.abs() / pdf), pdf, delta: false })
+        }
+        MaterialKind::Coated => {
+            if wo.z <= 0.0 {
+                return None;
+            }
+            let wi = if uc < coated_coat_chance(b, wo.z) {
+                reflect(wo, ggx_sample_vndf(wo, b.alpha, u))
+            } else {
+                cosine_hemisphere(u)
+            };
+            if wi.z <= 0.0 {
+                return None;
+            }
+            let (f, pdf) = coated_eval_pdf(b, wo, wi);
+            if !(pdf > 0.0) {
+                return None;
+            }
+            Some(BsdfSample { wi, weight: f * (wi.z / pdf), pdf, delta: false })
+        }
         MaterialKind::Emissive => None,
     }
 }
@@ -160,6 +342,52 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     0.5 * (r_parl * r_parl + r_perp * r_perp)
+}
+
+/// Unpolarised Fresnel reflectance of a conductor of complex index eta + i k
+/// (relative to the outside) at `cos_i` in [0, 1]: the exact formula, as
+/// pbrt-v4's `FrComplex`, in complex f32 arithmetic.
+pub fn fresnel_complex(cos_i: f32, eta: f32, k: f32) -> f32 {
+    type C = (f32, f32);
+    let mul = |a: C, b: C| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+    let div = |a: C, b: C| {
+        let n = b.0 * b.0 + b.1 * b.1;
+        ((a.0 * b.0 + a.1 * b.1) / n, (a.1 * b.0 - a.0 * b.1) / n)
+    };
+    let norm = |a: C| a.0 * a.0 + a.1 * a.1;
+    let c = cos_i.clamp(0.0, 1.0);
+    let e: C = (eta, k);
+    let sin2_t = div((1.0 - c * c, 0.0), mul(e, e));
+    let cos_t = complex_sqrt((1.0 - sin2_t.0, -sin2_t.1));
+    let ec = (e.0 * c, e.1 * c);
+    let r_parl = div((ec.0 - cos_t.0, ec.1 - cos_t.1), (ec.0 + cos_t.0, ec.1 + cos_t.1));
+    let ect = mul(e, cos_t);
+    let r_perp = div((c - ect.0, -ect.1), (c + ect.0, ect.1));
+    0.5 * (norm(r_parl) + norm(r_perp))
+}
+
+/// The principal square root of a complex number (re, im), as pbrt-v4's `pstd::sqrt`.
+fn complex_sqrt(z: (f32, f32)) -> (f32, f32) {
+    let n = (z.0 * z.0 + z.1 * z.1).sqrt();
+    if n == 0.0 {
+        return (0.0, 0.0);
+    }
+    let t1 = (0.5 * (n + z.0.abs())).sqrt();
+    let t2 = 0.5 * z.1 / t1;
+    if z.0 >= 0.0 {
+        (t1, t2)
+    } else {
+        (t2.abs(), t1.copysign(z.1))
+    }
+}
+
+/// [`fresnel_complex`] per RGB channel.
+pub fn fresnel_complex3(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    Vec3::new(
+        fresnel_complex(cos_i, eta.x, k.x),
+        fresnel_complex(cos_i, eta.y, k.y),
+        fresnel_complex(cos_i, eta.z, k.z),
+    )
 }
 
 /// GGX (Trowbridge-Reitz) normal distribution D(h) of a unit half vector:
@@ -220,9 +448,20 @@ impl GpuMaterial {
             shared::MAT_SPECULAR => MaterialKind::Specular,
             shared::MAT_GLOSSY => MaterialKind::Glossy,
             shared::MAT_DIELECTRIC => MaterialKind::Dielectric,
+            shared::MAT_CONDUCTOR => MaterialKind::Conductor,
+            shared::MAT_ROUGH_DIELECTRIC => MaterialKind::RoughDielectric,
+            shared::MAT_COATED => MaterialKind::Coated,
             _ => MaterialKind::Emissive,
         };
         let [r, g, b, roughness] = self.albedo_roughness;
-        Bsdf { kind, albedo: Vec3::new(r, g, b), alpha: roughness * roughness, ior: self.emission_ior[3] }
+        let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        Bsdf {
+            kind,
+            albedo: Vec3::new(r, g, b),
+            alpha: roughness * roughness,
+            ior: self.emission_ior[3],
+            eta: v(self.eta),
+            k: v(self.k),
+        }
     }
 }

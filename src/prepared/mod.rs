@@ -142,6 +142,8 @@ impl PreparedScene {
             .map(|m| GpuMaterial {
                 albedo_roughness: v4(m.albedo, m.roughness),
                 emission_ior: v4(m.emission, m.ior),
+                eta: v4(m.eta, 0.0),
+                k: v4(m.k, 0.0),
                 kind: m.kind as u32,
                 two_sided: m.two_sided as u32,
                 pad: [0; 2],

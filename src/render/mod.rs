@@ -927,12 +927,21 @@ impl GpuRenderer {
 /// Pixels per workgroup of the path-tracing kernel, its `local_size_z`
 /// (`SPEC_PIXELS_PER_GROUP`), for a scene of the material kinds `scene_kinds`
 /// (`RenderParams::scene_kinds`): 4 for the guided kernels of scenes with
-/// mirror, glass or glossy materials, 2 for the others and for the unguided
+/// mirror, glass, glossy, conductor or coated materials, 2 for the others and for the unguided
 /// kernel. Smaller groups free an SM's slots sooner after their longest path;
 /// the guided kernels that carry the glass and GGX code were slower with 2
 /// (docs/ARCHITECTURE.md, "Workgroups").
 pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
-    let lobes = (1 << shared::MAT_SPECULAR) | (1 << shared::MAT_DIELECTRIC) | (1 << shared::MAT_GLOSSY);
+    let lobes = [
+        shared::MAT_SPECULAR,
+        shared::MAT_DIELECTRIC,
+        shared::MAT_GLOSSY,
+        shared::MAT_CONDUCTOR,
+        shared::MAT_ROUGH_DIELECTRIC,
+        shared::MAT_COATED,
+    ]
+    .iter()
+    .fold(0, |k, m| k | 1 << m);
     if guided && scene_kinds & lobes != 0 {
         shared::PIXELS_PER_GROUP
     } else {

@@ -116,13 +116,19 @@ const ENVIRONMENT_KEYS: &[&str] = &["radiance"];
 const GUIDING_KEYS: &[&str] = &["bounds_min", "bounds_max", "resolution"];
 const SPHERE_KEYS: &[&str] = &["center", "radius", "material"];
 const QUAD_KEYS: &[&str] = &["origin", "edge_u", "edge_v", "material"];
-const MATERIAL_TYPES: &[&str] = &["diffuse", "specular", "glossy", "dielectric", "emissive"];
+const MATERIAL_TYPES: &[&str] = &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive"];
+/// Largest accepted component of a conductor's `eta` and `k` (measured metals lie well below).
+const MAX_CONDUCTOR_INDEX: f64 = 100.0;
 
 fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
     match kind {
         MaterialKind::Diffuse | MaterialKind::Specular => &["name", "type", "albedo", "emission", "two_sided"],
         MaterialKind::Glossy => &["name", "type", "albedo", "roughness", "emission", "two_sided"],
-        MaterialKind::Dielectric => &["name", "type", "ior", "albedo", "emission", "two_sided"],
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
+            &["name", "type", "ior", "albedo", "roughness", "emission", "two_sided"]
+        }
+        MaterialKind::Conductor => &["name", "type", "eta", "k", "roughness", "emission", "two_sided"],
+        MaterialKind::Coated => &["name", "type", "albedo", "roughness", "ior", "emission", "two_sided"],
         MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
     }
 }
@@ -132,7 +138,9 @@ fn type_name(kind: MaterialKind) -> &'static str {
         MaterialKind::Diffuse => "diffuse",
         MaterialKind::Specular => "specular",
         MaterialKind::Glossy => "glossy",
-        MaterialKind::Dielectric => "dielectric",
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => "dielectric",
+        MaterialKind::Conductor => "conductor",
+        MaterialKind::Coated => "coated",
         MaterialKind::Emissive => "emissive",
     }
 }
@@ -836,6 +844,8 @@ fn parse_material(
         "specular" => MaterialKind::Specular,
         "glossy" => MaterialKind::Glossy,
         "dielectric" => MaterialKind::Dielectric,
+        "conductor" => MaterialKind::Conductor,
+        "coated" => MaterialKind::Coated,
         "emissive" => MaterialKind::Emissive,
         other => {
             return Err(t.error_at(type_value.span(), format!("key `type` must be one of {types}, found \"{other}\"")))
@@ -858,6 +868,8 @@ fn parse_material(
         albedo: Vec3::ZERO,
         roughness: 1.0,
         ior: 1.0,
+        eta: Vec3::ONE,
+        k: Vec3::ZERO,
         emission: emission.unwrap_or(Vec3::ZERO),
         two_sided: match t.get("two_sided") {
             None => false,
@@ -880,16 +892,56 @@ fn parse_material(
                 "a number in (0, 1] (0 < roughness <= 1)",
             )?;
         }
-        MaterialKind::Dielectric => {
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
             material.ior = t.ranged(
                 "ior",
                 t.required("ior", "index of refraction, a number >= 1")?,
                 |x| x >= 1.0,
                 "a number >= 1",
             )?;
+            // Roughness 0 (or none) is the smooth dielectric, unchanged; above 0 the GGX one.
+            if let Some(v) = t.get("roughness") {
+                material.roughness =
+                    t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: smooth)")?;
+                if material.roughness > 0.0 {
+                    material.kind = MaterialKind::RoughDielectric;
+                } else {
+                    material.roughness = 1.0;
+                }
+            }
             material.albedo = match t.get("albedo") {
                 None => Vec3::ONE,
                 Some(v) => to_vec3(t.vec3("albedo", v, |x| (0.0..=1.0).contains(&x), "in [0, 1]")?),
+            };
+        }
+        MaterialKind::Conductor => {
+            let index = |key: &str, ok: fn(f64) -> bool, expected: &str| -> Result<Vec3, SceneError> {
+                let hint = format!("[r, g, b], components {expected}");
+                Ok(to_vec3(t.vec3(key, t.required(key, &hint)?, ok, expected)?))
+            };
+            material.eta = index("eta", |x| x > 0.0 && x <= MAX_CONDUCTOR_INDEX, "in (0, 100]")?;
+            material.k = index("k", |x| (0.0..=MAX_CONDUCTOR_INDEX).contains(&x), "in [0, 100]")?;
+            material.albedo = Vec3::ONE;
+            material.roughness = match t.get("roughness") {
+                None => 0.0,
+                Some(v) => {
+                    t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: a mirror)")?
+                }
+            };
+        }
+        MaterialKind::Coated => {
+            material.albedo = albedo("the base's reflectance [r, g, b], components in [0, 1]")?;
+            material.roughness = t.ranged(
+                "roughness",
+                t.required("roughness", "the coat's GGX roughness, a number in (0, 1]")?,
+                |x| x > 0.0 && x <= 1.0,
+                "a number in (0, 1] (0 < roughness <= 1)",
+            )?;
+            material.ior = match t.get("ior") {
+                None => 1.5,
+                Some(v) => {
+                    t.ranged("ior", v, |x| (1.0..=MAX_CONDUCTOR_INDEX).contains(&x), "a number from 1 to 100")?
+                }
             };
         }
         MaterialKind::Emissive => {

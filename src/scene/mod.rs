@@ -54,6 +54,13 @@ pub enum MaterialKind {
     Glossy = 2,
     Dielectric = 3,
     Emissive = 4,
+    /// GGX conductor, Fresnel of the complex index eta + i k; a mirror at roughness 0.
+    Conductor = 5,
+    /// A dielectric of roughness > 0 (GGX reflection and transmission); the
+    /// scene file's `dielectric` with a `roughness` key above 0.
+    RoughDielectric = 6,
+    /// A GGX dielectric coat over a Lambertian base (an approximation; docs/SCENE_FORMAT.md).
+    Coated = 7,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -62,10 +69,15 @@ pub struct Material {
     pub kind: MaterialKind,
     /// Reflectance in [0, 1]^3 (diffuse, specular, glossy, dielectric; zero for emissive).
     pub albedo: Vec3,
-    /// GGX roughness in (0,1] for glossy (alpha = roughness^2); 1 otherwise.
+    /// GGX roughness (alpha = roughness^2): in (0, 1] for glossy, rough dielectric and
+    /// coated, in [0, 1] for conductor (0 a mirror); 1 otherwise.
     pub roughness: f32,
-    /// Index of refraction >= 1 for dielectric; 1 otherwise.
+    /// Index of refraction >= 1 for dielectric, rough dielectric and coated; 1 otherwise.
     pub ior: f32,
+    /// A conductor's complex index of refraction eta + i k per channel (eta > 0,
+    /// k >= 0); (1, 0) otherwise.
+    pub eta: Vec3,
+    pub k: Vec3,
     /// Emitted radiance, components >= 0 and finite.
     pub emission: Vec3,
     /// Emission leaves both sides (default: the front side only).

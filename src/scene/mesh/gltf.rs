@@ -538,6 +538,8 @@ fn map_material(m: &gltf::Material<'_>, index: usize, ignored: &mut Ignored) -> 
         albedo: base,
         roughness: 1.0,
         ior: 1.0,
+        eta: Vec3::ONE,
+        k: Vec3::ZERO,
         emission,
         two_sided: m.double_sided(),
     };

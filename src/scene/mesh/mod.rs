@@ -408,6 +408,8 @@ mod tests {
                 albedo: Vec3::splat(0.5),
                 roughness: 1.0,
                 ior: 1.0,
+                eta: Vec3::ONE,
+                k: Vec3::ZERO,
                 emission: Vec3::ZERO,
                 two_sided: false,
             },

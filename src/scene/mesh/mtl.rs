@@ -214,6 +214,8 @@ pub(super) fn map(m: &MtlMaterial, ignored: &mut Ignored) -> FileMaterial {
         albedo: kd,
         roughness: 1.0,
         ior: 1.0,
+        eta: Vec3::ONE,
+        k: Vec3::ZERO,
         emission,
         two_sided: false,
     };

@@ -1,4 +1,4 @@
-//! pbrt's materials (v4 names and v3 names) mapped onto rlpt's five kinds by the
+//! pbrt's materials (v4 names and v3 names) mapped onto rlpt's kinds by the
 //! rules of `docs/pbrt.md`; what a mapping approximates is noted.
 
 use std::collections::HashMap;
@@ -8,7 +8,6 @@ use glam::Vec3;
 use super::lexer::Loc;
 use super::params::{Param, Params};
 use super::{Importer, Notes};
-use crate::scene::mesh::SPECULAR_BELOW_ROUGHNESS;
 use crate::scene::{Material, MaterialKind, SceneError};
 
 /// A `Texture` as the materials see it: its mean colour where its image reads.
@@ -48,7 +47,17 @@ const GLASSES: &[(&str, f32)] = &[
 ];
 
 fn plain(kind: MaterialKind, albedo: Vec3) -> Material {
-    Material { name: String::new(), kind, albedo, roughness: 1.0, ior: 1.0, emission: Vec3::ZERO, two_sided: false }
+    Material {
+        name: String::new(),
+        kind,
+        albedo,
+        roughness: 1.0,
+        ior: 1.0,
+        eta: Vec3::ONE,
+        k: Vec3::ZERO,
+        emission: Vec3::ZERO,
+        two_sided: false,
+    }
 }
 
 fn text(v: Vec3) -> String {
@@ -217,40 +226,50 @@ impl Reader<'_> {
         Ok((au * av).sqrt())
     }
 
-    /// Glossy with rlpt roughness sqrt(alpha), or specular below
-    /// [`SPECULAR_BELOW_ROUGHNESS`]; the mapping's roughness text.
-    fn reflector(&mut self, albedo: Vec3, alpha: f64) -> Result<(Material, String), SceneError> {
-        let mut roughness = alpha.sqrt() as f32;
-        if roughness > 1.0 {
+    /// rlpt's roughness, sqrt(alpha), from a GGX alpha: 0 below pbrt-v4's
+    /// "effectively smooth" alpha (1e-3), at most 1 (noted where clamped).
+    fn roughness(&mut self, alpha: f64) -> Result<f32, SceneError> {
+        if alpha < SMOOTH_ALPHA {
+            return Ok(0.0);
+        }
+        if alpha > 1.0 {
             self.note(format!("GGX alpha {alpha} above 1, clamped to 1"))?;
-            roughness = 1.0;
+            return Ok(1.0);
         }
-        if roughness < SPECULAR_BELOW_ROUGHNESS {
-            return Ok((plain(MaterialKind::Specular, albedo), format!("alpha {} -> specular", alpha as f32)));
-        }
-        let mut m = plain(MaterialKind::Glossy, albedo);
-        m.roughness = roughness;
-        Ok((m, format!("alpha {} -> roughness {roughness}", alpha as f32)))
+        Ok(alpha.sqrt() as f32)
     }
 
-    /// Conductor albedo: `reflectance` if given, else the normal-incidence
-    /// Fresnel reflectance of eta and k (default copper).
-    fn conductor(&mut self, prefix: &str) -> Result<(Vec3, String), SceneError> {
+    /// A conductor's complex index eta + i k: `reflectance` if given (as pbrt-v4,
+    /// eta 1 and k = 2 sqrt(r) / sqrt(1 - r)), else `eta` and `k` (default copper).
+    fn conductor(&mut self, prefix: &str) -> Result<(Vec3, Vec3, String), SceneError> {
         if self.params.get(&format!("{prefix}reflectance"), &["rgb", "color", "spectrum", "float", "texture"]).is_some()
         {
             let r = self.colour(&format!("{prefix}reflectance"), Vec3::ONE)?;
-            return Ok((self.albedo(r, "reflectance")?, "reflectance".to_string()));
+            let r = self.albedo(r, "reflectance")?.min(Vec3::splat(0.9999));
+            let k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
+            return Ok((Vec3::ONE, k, format!("reflectance {} -> eta 1, k {}", text(r), text(k))));
         }
         let (cu_eta, cu_k) = (Vec3::from(METALS[0].1), Vec3::from(METALS[0].2));
         let eta = self.colour(&format!("{prefix}eta"), cu_eta)?;
         let k = self.colour(&format!("{prefix}k"), cu_k)?;
-        if eta.min_element() <= 0.0 || k.min_element() < 0.0 {
-            return Err(self.loc.error(format!("{}: eta {} must be > 0 and k {} >= 0", self.what, text(eta), text(k))));
+        if eta.min_element() <= 0.0 || k.min_element() < 0.0 || eta.max_element() > 100.0 || k.max_element() > 100.0 {
+            return Err(self.loc.error(format!(
+                "{}: eta {} must be in (0, 100] and k {} in [0, 100]",
+                self.what,
+                text(eta),
+                text(k)
+            )));
         }
-        let f0 = ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k);
-        Ok((f0, format!("F0 {} from eta {} k {}", text(f0), text(eta), text(k))))
+        Ok((eta, k, format!("eta {} k {}", text(eta), text(k))))
     }
 }
+
+/// GGX alpha below which pbrt-v4 treats a surface as smooth (`EffectivelySmooth`).
+const SMOOTH_ALPHA: f64 = 1e-3;
+
+/// The roughness of a coat pbrt gives as smooth: rlpt's coated material needs a
+/// GGX coat, and sqrt(SMOOTH_ALPHA) is the roughest pbrt would still call smooth.
+const SMOOTH_COAT_ROUGHNESS: f32 = 0.0316;
 
 /// Maps material `ty` (its parameters in `r`) onto rlpt's; `mix` is the
 /// importer's (it needs the named materials).
@@ -283,10 +302,12 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                     r.params.touch(p);
                 }
             }
-            let (albedo, from) = r.conductor(prefix)?;
+            let (eta, k, from) = r.conductor(prefix)?;
             let alpha = r.alpha(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
-            let (m, rough) = r.reflector(albedo, alpha)?;
-            (m, format!("{from}, {rough}"))
+            let mut m = plain(MaterialKind::Conductor, Vec3::ONE);
+            (m.eta, m.k, m.roughness) = (eta, k, r.roughness(alpha)?);
+            let rough = if m.roughness == 0.0 { "a mirror".to_string() } else { format!("roughness {}", m.roughness) };
+            (m, format!("{from}, alpha {} -> {rough}", alpha as f32))
         }
         "mirror" => {
             let a = r.colour("Kr", Vec3::splat(0.9))?;
@@ -307,11 +328,13 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 return Err(r.loc.error(format!("{}: eta {eta} below 1; rlpt's dielectrics need eta >= 1", r.what)));
             }
             let alpha = r.alpha("", 0.0, v3, true)?;
-            if alpha > 0.0 {
-                r.note(format!("rough dielectric (alpha {alpha}) rendered smooth"))?;
-            }
+            let mut roughness = r.roughness(alpha)?;
             if ty == "thindielectric" {
                 r.note("thindielectric rendered as a solid dielectric".to_string())?;
+                if roughness > 0.0 {
+                    r.note(format!("thindielectric's roughness (alpha {alpha}) dropped: rendered smooth"))?;
+                    roughness = 0.0;
+                }
             }
             let mut albedo = Vec3::ONE;
             if ty == "glass" {
@@ -324,7 +347,42 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             }
             let mut m = plain(MaterialKind::Dielectric, albedo);
             m.ior = eta;
-            (m, format!("eta {eta}"))
+            if roughness > 0.0 {
+                (m.kind, m.roughness) = (MaterialKind::RoughDielectric, roughness);
+                (m, format!("eta {eta}, alpha {} -> roughness {roughness}", alpha as f32))
+            } else {
+                (m, format!("eta {eta}"))
+            }
+        }
+        "coateddiffuse" | "plastic" | "substrate" => {
+            let (key, default) = if ty == "coateddiffuse" { ("reflectance", 0.5) } else { ("Kd", 0.25) };
+            let default = if ty == "substrate" { 0.5 } else { default };
+            let a = r.colour(key, Vec3::splat(default))?;
+            let albedo = r.albedo(a, key)?;
+            // pbrt-v3's plastic and substrate: a dielectric interface of index 1.5 over
+            // the diffuse layer; their Ks scales what rlpt's coat reflects by its Fresnel.
+            let ior = if ty == "coateddiffuse" { r.scalar("eta", 1.5)? as f32 } else { 1.5 };
+            if !(1.0..=100.0).contains(&ior) {
+                return Err(r.loc.error(format!("{}: eta {ior} must be from 1 to 100 for a coat", r.what)));
+            }
+            if ty != "coateddiffuse" && r.params.get("Ks", &["rgb", "color", "spectrum", "float", "texture"]).is_some()
+            {
+                let ks = r.colour("Ks", Vec3::ONE)?;
+                r.note(format!("Ks {} dropped: the coat reflects by its Fresnel at index 1.5", text(ks)))?;
+            }
+            let default_roughness = if ty == "coateddiffuse" { 0.0 } else { 0.1 };
+            let alpha = r.alpha("", default_roughness, v3, false)?;
+            let mut roughness = r.roughness(alpha)?;
+            if roughness == 0.0 {
+                r.note(format!(
+                    "a smooth coat (alpha {}) given roughness {SMOOTH_COAT_ROUGHNESS}: rlpt's coat is GGX",
+                    alpha as f32
+                ))?;
+                roughness = SMOOTH_COAT_ROUGHNESS;
+            }
+            let mut m = plain(MaterialKind::Coated, albedo);
+            (m.ior, m.roughness) = (ior, roughness);
+            (m, format!("{key} {}, eta {ior}, alpha {} -> roughness {roughness}", text(albedo), alpha as f32))
         }
         "interface" | "none" | "" => {
             r.note("no surface (a medium boundary): rendered as a dielectric of eta 1, which light passes straight through".to_string())?;
@@ -334,10 +392,7 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
         }
         _ => {
             let (key, default, what) = match ty {
-                "coateddiffuse" => ("reflectance", 0.5, "its dielectric coat dropped"),
                 "diffusetransmission" => ("reflectance", 0.25, "its transmission dropped"),
-                "plastic" => ("Kd", 0.25, "its specular layer (Ks) dropped"),
-                "substrate" => ("Kd", 0.5, "its specular layer (Ks) dropped"),
                 "uber" => ("Kd", 0.25, "its specular, mirror and transmission layers dropped"),
                 "translucent" => ("Kd", 0.25, "its transmission dropped"),
                 "subsurface" | "kdsubsurface" => ("reflectance", 0.5, "subsurface scattering dropped"),

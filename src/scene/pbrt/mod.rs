@@ -120,6 +120,8 @@ pub(super) fn load(path: &Path, strict: bool) -> Result<Scene, SceneError> {
             albedo: Vec3::splat(0.5),
             roughness: 1.0,
             ior: 1.0,
+            eta: Vec3::ONE,
+            k: Vec3::ZERO,
             emission: Vec3::ZERO,
             two_sided: false,
         },
