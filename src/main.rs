@@ -8,6 +8,7 @@ use rlpt::guide::{scene_hash, Bins, GuideField, GuidingMode};
 use rlpt::image::Image;
 use rlpt::metrics;
 use rlpt::options::{Counters, RenderOptions};
+use rlpt::parts::{Part, PartImage, PartInfo};
 use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
@@ -21,6 +22,7 @@ use std::time::Instant;
 mod cli;
 use cli::bench::*;
 use cli::info::*;
+use cli::merge::*;
 use cli::render::*;
 use cli::tools::*;
 use cli::view::*;
@@ -42,6 +44,9 @@ enum Command {
     /// Ctrl-C ended, so that a script does not take the image for the render it asked for.
     /// A second Ctrl-C quits at once, writing nothing.
     Render(RenderArgs),
+    /// Merge the parts of a split render (`render --part K/N`) into one image, weighting
+    /// each by its samples, after checking that they belong together (docs/cluster.md).
+    Merge(MergeArgs),
     /// Open a window that shows the render converge; move around, switch guiding and NEE.
     View(ViewArgs),
     /// List the Vulkan devices, their drivers and subgroup sizes, and what rlpt needs that they lack.
@@ -338,6 +343,7 @@ fn main() {
                 std::process::exit(EXIT_INTERRUPTED);
             }
         }),
+        Command::Merge(args) => merge(args),
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),
