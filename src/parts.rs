@@ -171,15 +171,13 @@ impl PartImage {
         let get = |key: &str| -> std::result::Result<&String, String> {
             text.get(key).ok_or_else(|| format!("{name} is a damaged part: its header has {ATTR_PART} but no {key}"))
         };
-        fn number<T: std::str::FromStr>(
+        // A header number, decimal or hexadecimal, that fits T.
+        fn number<T: TryFrom<u64>>(
             name: &impl fmt::Display,
             key: &str,
             v: &str,
             radix16: bool,
-        ) -> std::result::Result<T, String>
-        where
-            T: TryFrom<u64>,
-        {
+        ) -> std::result::Result<T, String> {
             let parsed = if radix16 { u64::from_str_radix(v, 16).ok() } else { v.parse::<u64>().ok() };
             parsed
                 .and_then(|x| T::try_from(x).ok())
