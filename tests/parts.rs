@@ -325,3 +325,41 @@ fn the_command_line_refuses_bad_parts() {
     let out = run(&["merge", s(&a), s(&b), "-o", s(&merged)]).unwrap();
     assert!(out.contains("merged 2 part(s) of 2") && merged.exists(), "{out}");
 }
+
+/// Guided parts that start from one saved field (`--guide-in`), merged, agree
+/// within noise with an unguided render of another seed: each part is unbiased
+/// whatever its table, and merge says nothing of guiding but that the parts share it.
+#[test]
+fn guided_parts_from_one_field_merge_to_the_image() {
+    let base = ["scenes/cornell-box.toml", "--device", "cpu", "--width", "24", "--height", "18"];
+    let field = tmp("field.bin");
+    let preview = tmp("preview.png");
+    let learn = ["render", "--guiding", "sphere", "--spp", "128", "--guide-out", s(&field), "-o", s(&preview)];
+    run(&[&learn[..], &base[..]].concat()).unwrap();
+    let mut parts = Vec::new();
+    for k in 0..2 {
+        let path = tmp(&format!("guided-{k}.exr"));
+        let spec = format!("{k}/2");
+        let part = ["render", "--guiding", "sphere", "--guide-in", s(&field), "--spp", "512", "--part", &spec];
+        run(&[&part[..], &base[..], &["-o", s(&path)]].concat()).unwrap();
+        assert_eq!(PartImage::load(&path).unwrap().info.guiding, "sphere");
+        parts.push(path);
+    }
+    let (merged, merged_var) = (tmp("guided-merged.exr"), tmp("guided-merged-var.exr"));
+    run(&["merge", s(&parts[0]), s(&parts[1]), "-o", s(&merged), "--variance", s(&merged_var)]).unwrap();
+    let (plain, plain_var) = (tmp("plain-unsplit.exr"), tmp("plain-unsplit-var.exr"));
+    let render = ["render", "--seed", "1", "--spp", "512", "-o", s(&plain), "--variance", s(&plain_var)];
+    run(&[&render[..], &base[..]].concat()).unwrap();
+    let compare = [
+        "compare",
+        s(&merged),
+        s(&plain),
+        "--reference-variance",
+        s(&plain_var),
+        "--image-variance",
+        s(&merged_var),
+        "--max-z",
+        "5",
+    ];
+    run(&compare).unwrap();
+}
