@@ -262,9 +262,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
             let variance = film.variance_of_mean();
             if variance.is_none() {
                 eprintln!(
-                    "note: {} holds 1 frame, and no variance: a pixel's variance is measured from the spread of \
-                     at least 2",
-                    args.output.display()
+                    "note: {} holds {} frame(s), and no variance: a pixel's variance is measured from the spread \
+                     of at least 2",
+                    args.output.display(),
+                    info.frames
                 );
             }
             PartImage { info, mean: image.clone(), variance }.save(&args.output)?;
