@@ -43,7 +43,7 @@ layout(std430, set = 0, binding = BINDING_ACCUM) buffer Accum { AccumPixel accum
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
 #include "counters.glsl"
 
-// frame: frames traced so far (decorrelates the random numbers);
+// frame: frames traced so far (the recording schedule, learned roulette's wait);
 // accum_frames: frames in the accumulation buffer (restarts keep learning going);
 // ablate: ABLATE_* bits, parts of guiding left out (profiling only, else 0);
 // rows: the pixel rows this dispatch traces (ROWS_* | phase << 8 | stride << 16);
@@ -51,9 +51,11 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // keeps for learned roulette's estimate (guide::GuideConfig::learning_frames):
 // where accum_frames is 0, the frames the buffer still holds, which the first
 // accumulation replaces;
-// table_frames: frames the table learned from before this render (a loaded field).
+// table_frames: frames the table learned from before this render (a loaded field);
+// rng_frame: the frame index of the random numbers: frame, plus a part's offset on
+// the image's frames (src/render/mod.rs `rng_frame`), so that parts draw disjoint samples.
 layout(push_constant) uniform Push {
-    uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames;
+    uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames; uint rng_frame;
 } push;
 
 // src/render/mod.rs `pixel_row`: the pixel row of workgroup row `g`.
@@ -450,7 +452,7 @@ void main() {
     uint segments = 0u;
     uint zero = 0u;
     if (inside) {
-        PathSampler rng = sampler_init(params.seed, pixel, push.frame, sample_index);
+        PathSampler rng = sampler_init(params.seed, pixel, push.rng_frame, sample_index);
         // Stratified over the pixel: independent sample (x, y) of the 8 x 8 takes
         // its own sub-square, jittered (src/math/sampler.rs `sample_pixel`).
         vec2 u = sample_pixel(rng, gl_LocalInvocationID.xy);

@@ -19,6 +19,7 @@
 //! - [`image`], [`metrics`]: image files and error metrics; [`output`]: checks on
 //!   the files a command will write; [`stats`], [`plot`]: convergence statistics
 //!   and their plot;
+//! - [`parts`]: parts of a render split across machines, and their merge;
 //! - [`bench`](mod@bench): per-pass GPU timings (`rlpt bench`);
 //!
 //! docs/ARCHITECTURE.md walks through the modules and a scene's path to the pixel.
@@ -40,6 +41,7 @@ pub mod math;
 pub mod metrics;
 pub mod options;
 pub mod output;
+pub mod parts;
 pub mod plot;
 pub mod prepared;
 pub mod render;

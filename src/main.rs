@@ -9,6 +9,7 @@ use rlpt::image::Image;
 use rlpt::math::sampler::SamplerKind;
 use rlpt::metrics;
 use rlpt::options::{Counters, RenderOptions};
+use rlpt::parts::{Part, PartImage, PartInfo};
 use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
@@ -22,6 +23,7 @@ use std::time::Instant;
 mod cli;
 use cli::bench::*;
 use cli::info::*;
+use cli::merge::*;
 use cli::render::*;
 use cli::tools::*;
 use cli::view::*;
@@ -43,6 +45,9 @@ enum Command {
     /// Ctrl-C ended, so that a script does not take the image for the render it asked for.
     /// A second Ctrl-C quits at once, writing nothing.
     Render(RenderArgs),
+    /// Merge the parts of a split render (`render --part K/N`) into one image, weighting
+    /// each by its samples, after checking that they belong together (docs/cluster.md).
+    Merge(MergeArgs),
     /// Open a window that shows the render converge; move around, switch guiding and NEE.
     View(ViewArgs),
     /// List the Vulkan devices, their drivers and subgroup sizes, and what rlpt needs that they lack.
@@ -345,6 +350,7 @@ fn main() {
                 std::process::exit(EXIT_INTERRUPTED);
             }
         }),
+        Command::Merge(args) => merge(args),
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Devices => devices(),

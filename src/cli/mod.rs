@@ -4,6 +4,7 @@
 
 pub(crate) mod bench;
 pub(crate) mod info;
+pub(crate) mod merge;
 pub(crate) mod render;
 pub(crate) mod tools;
 pub(crate) mod view;

@@ -42,6 +42,10 @@ pub(crate) struct RenderArgs {
     /// the frame before (the first always runs). --spp is then the upper bound.
     #[arg(long, value_parser = parse_seconds)]
     time: Option<f64>,
+    /// Render part K (from 0) of N of the render that --spp asks for: its K-th of N
+    /// disjoint ranges of frames, into an EXR whose header `rlpt merge` reads (docs/cluster.md).
+    #[arg(long, value_name = "K/N", value_parser = rlpt::parts::Part::parse)]
+    part: Option<Part>,
 }
 
 /// The sentence of a render whose device was lost after `frames` frames (the
@@ -72,6 +76,14 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     // has; during the set-up (scene, device, kernels) it stops after the first frame.
     catch_interrupt();
     check_output("output", &args.output, Some(&["png", "exr"]))?;
+    if let Some(part) = args.part {
+        if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+            bail!(
+                "--part {part} writes an EXR whose header `rlpt merge` reads, and {} is not .exr: name the output .exr",
+                args.output.display()
+            );
+        }
+    }
     if let Some(stats) = &args.stats {
         check_output("--stats", stats, None)?;
     }
@@ -121,7 +133,20 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         }
         None => None,
     };
-    let frames = opts.frames();
+    // The image's frames: all of them, or the part's range of them.
+    let total_frames = opts.frames();
+    let range = args.part.map_or(0..total_frames, |p| p.frames(total_frames));
+    if let (Some(part), true) = (args.part, range.is_empty()) {
+        bail!(
+            "--part {part}: a render of {total_frames} frame(s) ({} samples per pixel) cannot be split into {} \
+             parts, each of at least one frame of {}: ask for at least {} samples per pixel",
+            total_frames * shared::SAMPLES_PER_FRAME,
+            part.count,
+            shared::SAMPLES_PER_FRAME,
+            part.count * shared::SAMPLES_PER_FRAME
+        );
+    }
+    let frames = range.len() as u32;
     if args.variance.is_some() && frames < 2 {
         bail!(
             "--variance needs at least 2 frames ({} samples per pixel): a pixel's variance is measured \
@@ -129,7 +154,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
             2 * shared::SAMPLES_PER_FRAME
         );
     }
-    let rounded = frames * shared::SAMPLES_PER_FRAME;
+    let rounded = total_frames * shared::SAMPLES_PER_FRAME;
     if rounded != opts.spp && args.time.is_none() {
         eprintln!(
             "note: {} samples per pixel rounded up to {rounded}: rlpt renders frames of {} samples per pixel",
@@ -153,11 +178,18 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let traced_frames = frames + learning_frames;
 
     let start = Instant::now();
+    // A part's image frames draw the random numbers of its range's frames.
     let renderer: Box<dyn Renderer> = match args.settings.device {
-        DeviceKind::Cpu => Box::new(CpuRenderer::new(&prepared)),
+        DeviceKind::Cpu => {
+            let mut r = CpuRenderer::new(&prepared);
+            r.set_frame_offset(range.start);
+            Box::new(r)
+        }
         DeviceKind::Gpu => {
             let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
-            Box::new(GpuRenderer::new(&ctx, &prepared)?)
+            let mut r = GpuRenderer::new(&ctx, &prepared)?;
+            r.set_frame_offset(range.start);
+            Box::new(r)
         }
     };
     let device_name = renderer.device_name();
@@ -215,7 +247,32 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     }
     let elapsed = start.elapsed().as_secs_f64();
     let image = film.mean();
-    image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    match args.part {
+        Some(part) => {
+            let info = PartInfo {
+                part,
+                scene_hash: scene_hash(&prepared),
+                settings_hash: rlpt::parts::settings_hash(&prepared.params),
+                seed: opts.seed,
+                total_frames,
+                first_frame: range.start,
+                // Cut short within the learning frames, the film holds no image frame.
+                frames: if traced > learning_frames { film.frames } else { 0 },
+                guiding: opts.guiding.name().into(),
+            };
+            let variance = film.variance_of_mean();
+            if variance.is_none() {
+                eprintln!(
+                    "note: {} holds {} frame(s), and no variance: a pixel's variance is measured from the spread \
+                     of at least 2",
+                    args.output.display(),
+                    info.frames
+                );
+            }
+            PartImage { info, mean: image.clone(), variance }.save(&args.output)?;
+        }
+        None => image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?,
+    }
     if let Some(path) = &args.variance {
         let v = film.variance_of_mean().ok_or_else(|| {
             let why = match stop {
@@ -269,13 +326,16 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     };
     // The samples per pixel of an image cut short, and why, beside those asked for.
     let asked = frames * shared::SAMPLES_PER_FRAME;
+    let part = args.part.map_or(String::new(), |p| {
+        format!(" (part {p}: frames {}..{} of {total_frames})", range.start, range.start + film.frames)
+    });
     let cut = match stop {
         Stop::Interrupted => format!(" (interrupted: {asked} asked)"),
         Stop::DeviceLost(_) => format!(" (the GPU stopped responding: {asked} asked)"),
         Stop::Finished => String::new(),
     };
     println!(
-        "{}: {}x{}, {} spp{cut}{learned}, guiding {}, NEE {}, {} sampler in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
+        "{}: {}x{}, {} spp{part}{cut}{learned}, guiding {}, NEE {}, {} sampler in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
         opts.width,
         opts.height,

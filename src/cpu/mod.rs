@@ -361,6 +361,9 @@ pub struct CpuRenderer {
     film: Film,
     /// Frames traced so far (decorrelates random numbers; not reset with the film).
     frames_traced: u32,
+    /// Added to the random numbers' frame index on the image's frames
+    /// (`crate::render::rng_frame`).
+    frame_offset: u32,
     /// The learning frames left out of the image once it starts (0 until then, and
     /// after `reset_film`): learned roulette's estimate still counts them.
     learned_frames: u32,
@@ -380,6 +383,7 @@ impl CpuRenderer {
             learning,
             film: Film::new(w, h),
             frames_traced: 0,
+            frame_offset: 0,
             learned_frames: 0,
             last_counters: FrameCounters::default(),
         }
@@ -391,6 +395,14 @@ impl CpuRenderer {
 
     pub fn table(&self) -> Option<&QTable> {
         self.learning.as_ref().map(|l| &l.table)
+    }
+
+    /// Sets the random numbers' frame offset of the image's frames
+    /// (`crate::render::rng_frame`), before the first frame: a part of a split
+    /// render (`crate::parts`).
+    pub fn set_frame_offset(&mut self, offset: u32) {
+        assert_eq!(self.frames_traced, 0, "the frame offset is set before the first frame");
+        self.frame_offset = offset;
     }
 
     /// Starts a new accumulation; what guiding learned is kept.
@@ -411,6 +423,7 @@ impl CpuRenderer {
             self.film.frames = 0;
         }
         let (accum_frames, learned_frames) = (self.film.frames, self.learned_frames);
+        let rng_frame = crate::render::rng_frame(frame, self.scene.learning_frames(), self.frame_offset);
         // A loaded field has learned: learned roulette need not wait for it.
         let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
         let scene = &self.scene;
@@ -438,7 +451,7 @@ impl CpuRenderer {
                             None => 0.0,
                         };
                         for sample in 0..shared::SAMPLES_PER_FRAME {
-                            let mut rng = PathSampler::for_flags(p.flags, p.seed, pixel, frame, sample);
+                            let mut rng = PathSampler::for_flags(p.flags, p.seed, pixel, rng_frame, sample);
                             let u = rng.sample_pixel(sample);
                             let (o, d) = camera_ray(&p, x as u32, y as u32, u);
                             let learn = record.then_some(&mut sums as &mut dyn Recorder);

@@ -321,6 +321,19 @@ pub struct RowDispatch {
     pub groups_y: u32,
 }
 
+/// The frame index of the random numbers of the frame traced after `traced`
+/// frames: the learning frames keep theirs, so that every part of a split render
+/// learns the table an unsplit render would; the image's frames add `offset`, the
+/// part's first frame (`crate::parts::Part::frames`), so that parts draw disjoint
+/// samples. Recording and learned roulette go by `traced` alone.
+pub fn rng_frame(traced: u32, learning_frames: u32, offset: u32) -> u32 {
+    if traced < learning_frames {
+        traced
+    } else {
+        traced + offset
+    }
+}
+
 /// The dispatches that trace frame `frame` (frames traced before it) of an image
 /// `height` rows high: every row once, the rows whose paths record their targets
 /// (`schedule`, with guiding) by the recording kernel, the others by the kernel
@@ -392,6 +405,8 @@ pub struct GpuRenderer {
     params: crate::layout::RenderParams,
     /// Frames traced so far (decorrelates random numbers; not reset with the accumulation).
     frames_traced: u32,
+    /// Added to the random numbers' frame index on the image's frames (`rng_frame`).
+    frame_offset: u32,
     /// Frames in the accumulation buffer.
     accum_frames: u32,
     /// The learning frames left out of the image once it starts (0 until then, and
@@ -412,7 +427,7 @@ pub struct GpuRenderer {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct PathPush {
-    /// Frames traced before this one (decorrelates the random numbers).
+    /// Frames traced before this one (the recording schedule, learned roulette).
     frame: u32,
     /// Frames in the accumulation before this one.
     accum_frames: u32,
@@ -424,6 +439,8 @@ struct PathPush {
     learned_frames: u32,
     /// Frames the table learned from before this render (`GuideField::table_frames`).
     table_frames: u32,
+    /// The random numbers' frame index (`rng_frame`).
+    rng_frame: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -579,6 +596,7 @@ impl GpuRenderer {
             height: p.height,
             params: *p,
             frames_traced: 0,
+            frame_offset: 0,
             accum_frames: 0,
             learned_frames: 0,
             table_frames: if scene.guide_start.is_some() { crate::guide::GuideField::table_frames() } else { 0 },
@@ -622,6 +640,7 @@ impl GpuRenderer {
         }
         let push = PathPush {
             frame: self.frames_traced,
+            rng_frame: rng_frame(self.frames_traced, learning_frames, self.frame_offset),
             accum_frames: self.accum_frames,
             ablate: self.ablate,
             rows: 0,
@@ -648,6 +667,13 @@ impl GpuRenderer {
 
     pub fn context(&self) -> &Arc<Context> {
         &self.ctx
+    }
+
+    /// Sets the random numbers' frame offset of the image's frames (`rng_frame`),
+    /// before the first frame: a part of a split render (`crate::parts`).
+    pub fn set_frame_offset(&mut self, offset: u32) {
+        assert_eq!(self.frames_traced, 0, "the frame offset is set before the first frame");
+        self.frame_offset = offset;
     }
 
     /// Frames in the accumulation.
