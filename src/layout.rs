@@ -192,7 +192,11 @@ pub struct RenderParams {
     pub num_triangles: u32,
     /// Nodes of the BVH; 0 where the kernel walks the primitives itself.
     pub bvh_nodes: u32,
-    pub pad: [u32; 2],
+    /// The image environment's texels across and down ([`SceneArrays::env_texels`]);
+    /// 0 where the environment is the uniform sky. Its rotation about +y, in
+    /// radians, is `environment[3]`.
+    pub env_width: u32,
+    pub env_height: u32,
 }
 
 impl RenderParams {
@@ -320,4 +324,9 @@ pub struct SceneArrays {
     /// The walls found by one slab test (`crate::prepared::room_walls`);
     /// [`Room::NONE`] where there are none.
     pub room: Room,
+    /// The image environment (`crate::math::envmap`): per texel its scaled RGB and
+    /// its density over the image's unit square; empty for the uniform sky.
+    pub env_texels: Vec<[f32; 4]>,
+    /// The environment's sampling cdfs: over rows, then per row over its texels.
+    pub env_cdf: Vec<f32>,
 }

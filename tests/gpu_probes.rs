@@ -110,7 +110,8 @@ fn struct_layout_matches_the_rust_mirrors() {
         scene_kinds: 519,
         num_triangles: 520,
         bvh_nodes: 521,
-        pad: [0; 2],
+        env_width: 0,
+        env_height: 0,
     };
     let mut v3 = || [next(), next(), next()];
     let tri = GpuTriangle { v0: v3(), material: 601, v1: v3(), light: 602, v2: v3(), normals: 603 };

@@ -520,6 +520,7 @@ impl Importer {
             camera,
             render: self.render,
             environment,
+            environment_map: None,
             materials,
             spheres,
             quads: Vec::new(),
