@@ -121,9 +121,12 @@ pub fn env_sample(scene: &SceneArrays, u: [f32; 2]) -> Option<(Vec3, Vec3, f32)>
 /// with which [`env_sample`] picks `d`. `glsl/geometry.glsl` `env_lookup`.
 pub fn env_lookup(scene: &SceneArrays, d: Vec3) -> (Vec3, f32) {
     let (w, h) = (scene.params.env_width, scene.params.env_height);
-    let (u, v) = env_uv(d, scene.params.environment[3]);
+    let angle = scene.params.environment[3];
+    let (u, v) = env_uv(d, angle);
     let t = scene.env_texels[env_texel(u, v, w, h)];
-    let sin_theta = (PI * v).sin();
+    // sin(theta) from the direction itself: acos near the poles loses it.
+    let l = rotate_y(d, -angle);
+    let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
     let pdf = if sin_theta > 0.0 { t[3] / (2.0 * PI * PI * sin_theta) } else { 0.0 };
     (Vec3::new(t[0], t[1], t[2]), pdf)
 }

@@ -243,9 +243,10 @@ impl PreparedScene {
         // half the choices where there are other lights, else all of them. A
         // fixed share, as its power depends on the scene's extent as much as on
         // the map; the map's own distribution does the rest.
-        let env = scene.environment_map.as_ref().and_then(|m| {
-            crate::math::envmap::env_distribution(m.width, m.height, &m.texels).map(|d| (m, d))
-        });
+        let env = scene
+            .environment_map
+            .as_ref()
+            .and_then(|m| crate::math::envmap::env_distribution(m.width, m.height, &m.texels).map(|d| (m, d)));
         if env.is_some() {
             let share = if lights.is_empty() { 1.0 } else { ENV_LIGHT_SHARE };
             for l in &mut lights {

@@ -24,7 +24,9 @@ impl EnvironmentMap {
     /// error is one sentence naming the file.
     pub fn read(written: &str, base: &Path, scale: f32, rotate_deg: f32) -> Result<EnvironmentMap, String> {
         let path = base.join(written);
-        let shown = if path.as_os_str() == written { format!("\"{written}\"") } else {
+        let shown = if path.as_os_str() == written {
+            format!("\"{written}\"")
+        } else {
             format!("\"{written}\" (resolved to {})", path.display())
         };
         if !path.is_file() {

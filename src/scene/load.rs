@@ -722,7 +722,9 @@ fn parse_environment(
     let Some(file) = t.get("file") else {
         for key in ["scale", "rotate"] {
             if let Some(v) = t.get(key) {
-                return Err(t.error_at(v.span(), format!("key `{key}` applies to an image environment: give `file` too")));
+                return Err(
+                    t.error_at(v.span(), format!("key `{key}` applies to an image environment: give `file` too"))
+                );
             }
         }
         return match t.get("radiance") {
