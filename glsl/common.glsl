@@ -355,7 +355,7 @@ struct RenderParams {
     vec4 cam_forward_tan;    // xyz unit forward, w tan(vfov / 2)
     vec4 cam_right_aspect;   // xyz unit right, w width / height
     vec4 cam_up;             // xyz unit up (orthogonal to forward)
-    vec4 environment;        // xyz uniform sky radiance, w the image environment's rotation about +y (radians)
+    vec4 environment;        // xyz uniform sky radiance
     uint width;
     uint height;
     uint max_bounces;
@@ -382,6 +382,7 @@ struct RenderParams {
     uint bvh_nodes;          // nodes of the BVH; 0 where the kernel walks the primitives itself
     uint env_width;          // the image environment's texels across and down; 0 for the uniform sky
     uint env_height;
+    vec4 env_frame[3];       // rows of the rotation from world directions to the image environment's frame
 };
 
 // The material and light kinds (SCENE_KIND_* bits) the including kernel is

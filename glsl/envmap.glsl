@@ -6,13 +6,16 @@
 #include "sampling.glsl"
 
 // The map's convention:
-// row v = 0 is +y, the image centre (u = 0.5) is -z, u grows towards +x; the map
-// is turned by params.environment.w about +y. Nearest texel lookup.
+// row v = 0 is +y, the image centre (u = 0.5) is -z, u grows towards +x, in the
+// map's frame, which params.env_frame turns against the world's. Nearest texel lookup.
 
-// src/math/envmap.rs `rotate_y`.
-vec3 rotate_y(vec3 d, float angle) {
-    float s = sin(angle), c = cos(angle);
-    return vec3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+// src/math/envmap.rs `env_to_map` and `env_to_world`: between the world's
+// directions and the map's frame (params.env_frame, the rows of the rotation).
+vec3 env_to_map(vec3 d) {
+    return vec3(dot(params.env_frame[0].xyz, d), dot(params.env_frame[1].xyz, d), dot(params.env_frame[2].xyz, d));
+}
+vec3 env_to_world(vec3 l) {
+    return l.x * params.env_frame[0].xyz + l.y * params.env_frame[1].xyz + l.z * params.env_frame[2].xyz;
 }
 
 // src/math/envmap.rs `env_find`: the first i of n with u < cdf[base + i + 1], and
@@ -41,7 +44,7 @@ bool env_sample(vec2 u, out vec3 wi, out vec3 le, out float pdf) {
     float s = sin(theta);
     pdf = t.w / (2.0 * PI * PI * s);
     le = t.xyz;
-    wi = normalize(rotate_y(vec3(s * sin(phi), cos(theta), -s * cos(phi)), params.environment.w));
+    wi = normalize(env_to_world(vec3(s * sin(phi), cos(theta), -s * cos(phi))));
     return pdf > 0.0 && !isinf(pdf);
 }
 
@@ -49,7 +52,7 @@ bool env_sample(vec2 u, out vec3 wi, out vec3 le, out float pdf) {
 // env_sample for d.
 vec3 env_lookup(vec3 d, out float pdf) {
     uint w = params.env_width, h = params.env_height;
-    vec3 l = rotate_y(d, -params.environment.w);
+    vec3 l = env_to_map(d);
     float u = atan(l.x, -l.z) / (2.0 * PI) + 0.5;
     float v = acos(clamp(l.y, -1.0, 1.0)) / PI;
     uint x = min(uint(u * float(w)), w - 1u);

@@ -193,10 +193,12 @@ pub struct RenderParams {
     /// Nodes of the BVH; 0 where the kernel walks the primitives itself.
     pub bvh_nodes: u32,
     /// The image environment's texels across and down ([`SceneArrays::env_texels`]);
-    /// 0 where the environment is the uniform sky. Its rotation about +y, in
-    /// radians, is `environment[3]`.
+    /// 0 where the environment is the uniform sky.
     pub env_width: u32,
     pub env_height: u32,
+    /// The image environment's frame: the rows of the rotation that takes world
+    /// directions to the map's own (`crate::math::envmap`); w unused.
+    pub env_frame: [[f32; 4]; 3],
 }
 
 impl RenderParams {
@@ -228,7 +230,7 @@ const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuTriangleNormals>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
-const _: () = assert!(std::mem::size_of::<RenderParams>() == 208);
+const _: () = assert!(std::mem::size_of::<RenderParams>() == 256);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 // The specialization constants' layout (glsl/common.glsl): the quads' slots
 // follow the scalar constants, the spheres' follow the quads', and nothing after.

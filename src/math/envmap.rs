@@ -4,9 +4,10 @@
 //!
 //! Convention: row v = 0 of the image is straight up (+y), the last row straight
 //! down; the image centre (u = 0.5) is the direction -z, and u grows towards +x
-//! (seen from inside, the image is not mirrored). `rotate` turns the map about
-//! +y by that angle (counter-clockwise seen from above). Texels are looked up
-//! nearest (piecewise constant), the same values the sampler's weights come from.
+//! (seen from inside, the image is not mirrored). The map's frame is turned
+//! against the world's by `RenderParams::env_frame` (`[environment] rotate`
+//! turns it about +y). Texels are looked up nearest (piecewise constant), the
+//! same values the sampler's weights come from.
 
 use super::Vec3;
 use crate::layout::SceneArrays;
@@ -20,15 +21,20 @@ pub fn env_local_direction(u: f32, v: f32) -> Vec3 {
     Vec3::new(s * phi.sin(), theta.cos(), -s * phi.cos())
 }
 
-/// Turns `d` by `angle` (radians) about +y: the map's frame to the world's.
-pub fn rotate_y(d: Vec3, angle: f32) -> Vec3 {
-    let (s, c) = angle.sin_cos();
-    Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z)
+/// World direction `d` in the map's frame (`RenderParams::env_frame`'s rows).
+pub fn env_to_map(frame: &[[f32; 4]; 3], d: Vec3) -> Vec3 {
+    let row = |r: [f32; 4]| Vec3::new(r[0], r[1], r[2]).dot(d);
+    Vec3::new(row(frame[0]), row(frame[1]), row(frame[2]))
 }
 
-/// The image coordinates (u, v) of world direction `d` under rotation `angle`.
-pub fn env_uv(d: Vec3, angle: f32) -> (f32, f32) {
-    let l = rotate_y(d, -angle);
+/// Direction `l` of the map's frame in the world's (the transpose of [`env_to_map`]).
+pub fn env_to_world(frame: &[[f32; 4]; 3], l: Vec3) -> Vec3 {
+    let col = |r: [f32; 4]| Vec3::new(r[0], r[1], r[2]);
+    l.x * col(frame[0]) + l.y * col(frame[1]) + l.z * col(frame[2])
+}
+
+/// The image coordinates (u, v) of `l`, a unit direction in the map's frame.
+pub fn env_uv(l: Vec3) -> (f32, f32) {
     let u = l.x.atan2(-l.z) / (2.0 * PI) + 0.5;
     let v = l.y.clamp(-1.0, 1.0).acos() / PI;
     (u, v)
@@ -113,7 +119,7 @@ pub fn env_sample(scene: &SceneArrays, u: [f32; 2]) -> Option<(Vec3, Vec3, f32)>
     if !(pdf > 0.0 && pdf.is_finite()) {
         return None;
     }
-    let d = rotate_y(env_local_direction(uu, vv), scene.params.environment[3]);
+    let d = env_to_world(&scene.params.env_frame, env_local_direction(uu, vv));
     Some((d.normalize(), Vec3::new(t[0], t[1], t[2]), pdf))
 }
 
@@ -121,11 +127,10 @@ pub fn env_sample(scene: &SceneArrays, u: [f32; 2]) -> Option<(Vec3, Vec3, f32)>
 /// with which [`env_sample`] picks `d`. `glsl/geometry.glsl` `env_lookup`.
 pub fn env_lookup(scene: &SceneArrays, d: Vec3) -> (Vec3, f32) {
     let (w, h) = (scene.params.env_width, scene.params.env_height);
-    let angle = scene.params.environment[3];
-    let (u, v) = env_uv(d, angle);
+    let l = env_to_map(&scene.params.env_frame, d);
+    let (u, v) = env_uv(l);
     let t = scene.env_texels[env_texel(u, v, w, h)];
     // sin(theta) from the direction itself: acos near the poles loses it.
-    let l = rotate_y(d, -angle);
     let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
     let pdf = if sin_theta > 0.0 { t[3] / (2.0 * PI * PI * sin_theta) } else { 0.0 };
     (Vec3::new(t[0], t[1], t[2]), pdf)

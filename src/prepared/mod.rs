@@ -289,7 +289,7 @@ impl PreparedScene {
             cam_forward_tan: [0.0; 4],
             cam_right_aspect: [0.0; 4],
             cam_up: [0.0; 4],
-            environment: v4(scene.environment, env.as_ref().map_or(0.0, |(m, _)| m.rotate_deg.to_radians())),
+            environment: v4(scene.environment, 0.0),
             width: opts.width,
             height: opts.height,
             max_bounces: opts.max_bounces,
@@ -316,6 +316,10 @@ impl PreparedScene {
             bvh_nodes: 0,
             env_width: env.as_ref().map_or(0, |(m, _)| m.width),
             env_height: env.as_ref().map_or(0, |(m, _)| m.height),
+            env_frame: env.as_ref().map_or([[0.0; 4]; 3], |(m, _)| {
+                let r = m.to_map.transpose();
+                [v4(r.x_axis, 0.0), v4(r.y_axis, 0.0), v4(r.z_axis, 0.0)]
+            }),
         };
         params.set_camera(&scene.camera);
         let (mut bvh_nodes, mut prim_refs) = (Vec::new(), Vec::new());

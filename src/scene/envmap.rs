@@ -15,13 +15,15 @@ pub struct EnvironmentMap {
     pub height: u32,
     /// Linear RGB per texel, rows from the top, times the scene's `scale`.
     pub texels: Vec<[f32; 3]>,
-    /// The map's turn about +y, in degrees (counter-clockwise seen from above).
-    pub rotate_deg: f32,
+    /// The rotation from world directions to the map's frame: `[environment]
+    /// rotate` turns the map about +y, pbrt's light transform any way.
+    pub to_map: glam::Mat3,
 }
 
 impl EnvironmentMap {
-    /// Reads `written` (as the scene wrote it), resolved against `base`; the
-    /// error is one sentence naming the file.
+    /// Reads `written` (as the scene wrote it), resolved against `base`, the map
+    /// turned by `rotate_deg` about +y (right-handed: the image centre, -z, turns
+    /// towards -x); the error is one sentence naming the file.
     pub fn read(written: &str, base: &Path, scale: f32, rotate_deg: f32) -> Result<EnvironmentMap, String> {
         let path = base.join(written);
         let shown = if path.as_os_str() == written {
@@ -33,6 +35,17 @@ impl EnvironmentMap {
             return Err(format!("the environment image {shown} does not exist"));
         }
         let image = image::open(&path).map_err(|e| format!("the environment image {shown} cannot be read: {e}"))?;
+        // Integer images hold sRGB-encoded colour, float ones linear (as pbrt reads them).
+        let srgb = !matches!(image, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
+        let decode = |c: f32| {
+            if !srgb {
+                c
+            } else if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        };
         let rgb = image.to_rgb32f();
         let (width, height) = rgb.dimensions();
         let mut texels = Vec::with_capacity(width as usize * height as usize);
@@ -42,12 +55,13 @@ impl EnvironmentMap {
                     "the environment image {shown} has texel ({x}, {y}) of value {c}: texels must be finite and not negative"
                 ));
             }
-            texels.push(p.0.map(|c| c * scale));
+            texels.push(p.0.map(|c| decode(c) * scale));
         }
         if texels.iter().flatten().any(|c| !c.is_finite()) {
             return Err(format!("the environment image {shown} times scale {scale} overflows a 32-bit float"));
         }
-        Ok(EnvironmentMap { file: path, width, height, texels, rotate_deg })
+        let to_map = glam::Mat3::from_rotation_y(-rotate_deg.to_radians());
+        Ok(EnvironmentMap { file: path, width, height, texels, to_map })
     }
 
     /// The mean radiance over the sphere (rows weighted by their solid angle).
