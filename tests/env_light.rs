@@ -252,6 +252,40 @@ fn spot_lit_scene_agrees_with_nee_on_and_off() {
     assert!(sum(&gon) > 2.0 * dim, "the spot adds {} to the dim sky's {dim}", sum(&gon) - dim);
 }
 
+/// Learned guiding counts the image environment as it counts the uniform sky
+/// (its escaping rays' targets, MIS-weighted where the targets are): guided
+/// renders of the spot-lit scene, both Q-target kinds, agree with the unguided
+/// one (GPU), and the CPU's guided render too.
+#[test]
+fn guided_renders_of_an_image_environment_agree_with_unguided() {
+    use rlpt::guide::{GuidingMode, QTargets};
+    let dir = temp_dir("guided");
+    write_image(&dir.join("sky.exr"), 16, 8, |x, y| {
+        if (9..11).contains(&x) && y == 2 {
+            [20.0, 16.0, 12.0]
+        } else {
+            [0.05, 0.06, 0.08]
+        }
+    });
+    let scene = ball_scene("file = \"sky.exr\"\nrotate = 20.0", &dir);
+    let off = options(&scene, 24, 18, 64 * 12);
+    let ctx = gpu();
+    let reference = render_gpu(&ctx, &scene, &off);
+    for targets in [QTargets::Mis, QTargets::Full] {
+        let mut o = off.clone();
+        o.guiding = GuidingMode::Sphere;
+        o.q_targets = targets;
+        for block in [6, 24] {
+            let what = format!("image environment: GPU guided ({targets:?} targets) vs unguided");
+            assert_films_agree(&render_gpu(&ctx, &scene, &o), &reference, block, K, &what);
+        }
+        if targets == QTargets::Mis {
+            let what = "image environment: CPU guided vs GPU unguided";
+            assert_films_agree(&render_cpu(&scene, &o), &reference, 24, K, what);
+        }
+    }
+}
+
 fn load_error(env: &str, dir: &Path) -> String {
     let text = format!(
         "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 40.0\n[environment]\n{env}\n\
