@@ -1,5 +1,5 @@
 //! The image environment light: an equirectangular (latitude-longitude) map,
-//! importance sampled by luminance times solid angle. `glsl/geometry.glsl`
+//! importance sampled by luminance times solid angle. `glsl/envmap.glsl`
 //! (`env_*`) has the same functions for the GPU.
 //!
 //! Convention: row v = 0 of the image is straight up (+y), the last row straight
@@ -89,7 +89,7 @@ pub fn env_distribution(w: u32, h: u32, rgb: &[[f32; 3]]) -> Option<(Vec<[f32; 4
 
 /// The interval of `n` whose cdf (n + 1 values from `base`) holds `u`: the first
 /// i with u < cdf[i + 1], and u's place within it in [0, 1).
-/// `glsl/geometry.glsl` `env_find`.
+/// `glsl/envmap.glsl` `env_find`.
 pub fn env_find(cdf: &[f32], base: usize, n: u32, u: f32) -> (u32, f32) {
     let (mut lo, mut hi) = (0u32, n - 1);
     while lo < hi {
@@ -107,7 +107,7 @@ pub fn env_find(cdf: &[f32], base: usize, n: u32, u: f32) -> (u32, f32) {
 
 /// A direction sampled from the map by `u`: (world direction, radiance, solid-angle
 /// density of the map alone, without the light's choice). None where the map has
-/// no distribution or the density is degenerate. `glsl/geometry.glsl` `env_sample`.
+/// no distribution or the density is degenerate. `glsl/envmap.glsl` `env_sample`.
 pub fn env_sample(scene: &SceneArrays, u: [f32; 2]) -> Option<(Vec3, Vec3, f32)> {
     let (w, h) = (scene.params.env_width, scene.params.env_height);
     let (y, ty) = env_find(&scene.env_cdf, 0, h, u[1]);
@@ -124,7 +124,7 @@ pub fn env_sample(scene: &SceneArrays, u: [f32; 2]) -> Option<(Vec3, Vec3, f32)>
 }
 
 /// The map's radiance towards -`d` (seen along `d`), and the solid-angle density
-/// with which [`env_sample`] picks `d`. `glsl/geometry.glsl` `env_lookup`.
+/// with which [`env_sample`] picks `d`. `glsl/envmap.glsl` `env_lookup`.
 pub fn env_lookup(scene: &SceneArrays, d: Vec3) -> (Vec3, f32) {
     let (w, h) = (scene.params.env_width, scene.params.env_height);
     let l = env_to_map(&scene.params.env_frame, d);
