@@ -4,6 +4,7 @@
 //! off, and the loader's errors. The images are written here, into a temporary
 //! directory.
 
+mod bvh_support;
 mod common;
 
 use common::{assert_films_agree, gpu, options, readback, render_cpu, render_gpu};
@@ -213,6 +214,54 @@ fn constant_image_renders_as_the_uniform_sky() {
     let g = render_gpu(&ctx, &image, &o);
     let c = render_cpu(&image, &o);
     assert_films_agree(&g, &c, 6, K, "constant image environment, GPU vs CPU");
+}
+
+/// The open furnace under a constant image of radiance 1, its ball made of
+/// triangles (the BVH's shadow rays to infinity): a convex ball of albedo 0.5
+/// renders 0.5 and the background 1, NEE on and off, GPU and CPU.
+#[test]
+fn tessellated_ball_in_an_image_furnace_renders_its_albedo() {
+    let dir = temp_dir("furnace");
+    write_image(&dir.join("sky.exr"), 8, 4, |_, _| [1.0; 3]);
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/furnace-open.toml")).unwrap();
+    let text = text.replace("radiance = [1.0, 1.0, 1.0]", "file = \"sky.exr\"\nrotate = 33.0");
+    let path = dir.join("furnace.toml");
+    std::fs::write(&path, text).unwrap();
+    let mut scene = Scene::load(&path).unwrap();
+    let grey = scene.spheres[0].material;
+    scene.spheres.clear();
+    let (unit, triangles) = bvh_support::icosphere(3);
+    scene.meshes.push(rlpt::scene::Mesh {
+        source: PathBuf::from("icosphere"),
+        positions: unit,
+        normals: None,
+        materials: vec![grey; triangles.len()],
+        triangles,
+    });
+    let ctx = gpu();
+    for nee in [true, false] {
+        let mut o = options(&scene, 32, 32, 256);
+        o.nee = nee;
+        let prepared = PreparedScene::new(&scene, &o).unwrap();
+        assert!(!prepared.bvh_nodes.is_empty());
+        let hits = |x: u32, y: u32| {
+            [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]
+                .iter()
+                .filter(|u| {
+                    let (o, d) = rlpt::camera::camera_ray(&prepared.params, x, y, **u);
+                    rlpt::math::geometry::intersect(&prepared, o, d, f32::INFINITY).is_some()
+                })
+                .count()
+        };
+        for (device, film) in [("GPU", render_gpu(&ctx, &scene, &o)), ("CPU", render_cpu(&scene, &o))] {
+            let (ball, ball_var, n_ball) = common::region_stats(&film, |x, y| hits(x, y) == 4);
+            let (sky, _, n_sky) = common::region_stats(&film, |x, y| hits(x, y) == 0);
+            assert!(n_ball > 100 && n_sky > 100, "{device}: {n_ball} ball pixels, {n_sky} sky pixels");
+            let z = (ball - 0.5) / ball_var.sqrt();
+            assert!(z.abs() < K, "{device}, NEE {nee}: ball {ball:.7}, expected 0.5 ({z:.2} sigma)");
+            assert!((sky - 1.0).abs() < 1e-6, "{device}, NEE {nee}: background {sky}, expected 1");
+        }
+    }
 }
 
 /// Lit by a small bright spot of a dark map, NEE on and off agree: an error in the

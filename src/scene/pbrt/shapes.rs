@@ -297,16 +297,17 @@ impl Importer {
                         }
                         Err(why) => Some(why),
                     };
-                    match (why, images::mean(&path, None, true)) {
-                        (None, _) => radiance = Vec3::ZERO,
-                        (Some(why), Ok(mean)) => {
+                    // The mean is read only where the image does not map.
+                    match why.map(|why| (why, images::mean(&path, None, true))) {
+                        None => radiance = Vec3::ZERO,
+                        Some((why, Ok(mean))) => {
                             radiance *= mean;
                             self.notes.approximated(
                                 loc,
                                 format!("the environment image \"{f}\" {why}: a uniform sky of its mean radiance {radiance}"),
                             )?;
                         }
-                        (Some(_), Err(why)) => self.notes.approximated(
+                        Some((_, Err(why))) => self.notes.approximated(
                             loc,
                             format!(
                                 "the environment image \"{f}\" ({}) {why}: a uniform sky of radiance {radiance} \
