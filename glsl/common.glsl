@@ -39,6 +39,9 @@
 #define LIGHT_SPHERE 0
 #define LIGHT_QUAD 1
 #define LIGHT_TRIANGLE 2
+// The image environment (src/math/envmap.rs): one light, the last of lights[],
+// whose index is 0; a kernel without it has none of its code (SCENE_KINDS).
+#define LIGHT_ENV 3
 #define NO_LIGHT 4294967295
 // A face of the room (src/math/geometry.rs `Room`) that no quad covers, and the
 // shadow test's "skip no primitive" (geometry.glsl `occluded`).
@@ -289,6 +292,11 @@
 #define RAYCAST_SHADOW 2
 #define BINDING_RAYCAST_HITS 18
 #define BINDING_RAYCAST_COUNT 19
+// The image environment (geometry.glsl `env_sample`, `env_lookup`): per texel
+// vec4(scaled rgb, density over the image's unit square); the cdfs over rows,
+// then per row over its texels. Empty for the uniform sky.
+#define BINDING_ENV_TEXELS 20
+#define BINDING_ENV_CDF 21
 // tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16
@@ -401,8 +409,9 @@ struct RenderParams {
     uint scene_kinds;        // SCENE_KIND_* bits: the material and light kinds the scene has
     uint num_triangles;
     uint bvh_nodes;          // nodes of the BVH; 0 where the kernel walks the primitives itself
-    uint pad0;
-    uint pad1;
+    uint env_width;          // the image environment's texels across and down; 0 for the uniform sky
+    uint env_height;
+    vec4 env_frame[3];       // rows of the rotation from world directions to the image environment's frame
 };
 
 // The material and light kinds (SCENE_KIND_* bits) the including kernel is

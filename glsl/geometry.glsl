@@ -4,6 +4,7 @@
 #include "scene.glsl"
 #include "sampling.glsl"
 #include "primitives.glsl"
+#include "envmap.glsl"
 #extension GL_EXT_control_flow_attributes : require
 
 struct Hit {
@@ -360,6 +361,12 @@ struct LightSample {
 // off its surface) to the light sample's end, as origin, unit direction, length.
 void shadow_ray(vec3 p, vec3 n, float eps, LightSample ls, out vec3 origin, out vec3 dir, out float len) {
     origin = offset_origin(p, n, eps, ls.wi);
+    // The image environment's samples lie at infinity (dist), along wi.
+    if (scene_has_light(LIGHT_ENV) && isinf(ls.dist)) {
+        dir = ls.wi;
+        len = ls.dist;
+        return;
+    }
     vec3 seg = ls.end - origin;
     len = length(seg);
     dir = seg / len;
@@ -416,6 +423,16 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     uint n_lights = SCENE_LIGHTS == 1u ? 1u : params.num_lights;
     if (n_lights == 0u) return false;
     Light light = lights[choose_light(n_lights, u_sel)];
+    // The image environment: a direction to infinity, nothing skipped.
+    if (scene_has_light(LIGHT_ENV) && light.kind == LIGHT_ENV) {
+        float pdf_env;
+        if (!env_sample(u, ls.wi, ls.le, pdf_env)) return false;
+        ls.dist = 1.0 / 0.0;
+        ls.end = ls.wi;
+        ls.skip = NO_PRIM;
+        ls.pdf = pdf_env * light.pmf;
+        return ls.pdf > 0.0 && !isinf(ls.pdf);
+    }
     vec3 lp, ln;
     float pdf_solid;
     uint mat;

@@ -238,13 +238,27 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         // line meets none, the closest-hit walk would find nothing to add.
         if (LAST_RAY_TO_LIGHTS && DEPTH >= MAX_BOUNCES && !meets_light(o, d)) break;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
+            // The uniform sky, or the image environment: a light, whose emission
+            // is weighed against light sampling as the other lights' is
+            // (src/cpu/mod.rs `trace_path`).
+            vec3 le_env = params.environment.xyz;
+            float w_env = 1.0;
+            if (scene_has_light(LIGHT_ENV)) {
+                float pdf_env;
+                le_env = env_lookup(d, pdf_env);
+                if (nee && !prev_delta) w_env = mis_weight(prev_pdf, pdf_env * lights[params.num_lights - 1u].pmf, power);
+            }
 #if GUIDED
             if (learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY) {
                 end_key = prev_key;
-                end_target = mean3(params.environment.xyz);
+                end_target = mean3(le_env);
+                // As for an emissive surface met (below).
+                if (scene_has_light(LIGHT_ENV)) {
+                    if (MIS_TARGETS) end_target *= w_env; else prev_factor *= w_env;
+                }
             }
 #endif
-            radiance += beta * params.environment.xyz;
+            radiance += beta * (scene_has_light(LIGHT_ENV) ? le_env * w_env : le_env);
             break;
         }
         vec3 wo = -d;

@@ -31,7 +31,8 @@ void main() {
     put4(params.guide_min); put4(params.guide_inv_cell);
     put(params.guide_res_x); put(params.guide_res_y); put(params.guide_res_z); put(params.guide_cells);
     putf(params.guide_floor); put(params.guide_vertices); put(params.occluding_quads); put(params.scene_kinds);
-    put(params.num_triangles); put(params.bvh_nodes);
+    put(params.num_triangles); put(params.bvh_nodes); put(params.env_width); put(params.env_height);
+    put4(params.env_frame[0]); put4(params.env_frame[1]); put4(params.env_frame[2]);
     Triangle t = triangles[1];
     putf(t.v0.x); putf(t.v0.y); putf(t.v0.z); put(t.material);
     putf(t.v1.x); putf(t.v1.y); putf(t.v1.z); put(t.light);

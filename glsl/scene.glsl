@@ -12,5 +12,7 @@ layout(std430, set = 0, binding = BINDING_TRIANGLES) readonly buffer Triangles {
 layout(std430, set = 0, binding = BINDING_TRIANGLE_NORMALS) readonly buffer TriangleNormalsBuf { TriangleNormals triangle_normals[]; };
 layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = BINDING_PRIM_REFS) readonly buffer PrimRefs { uint prim_refs[]; };
+layout(std430, set = 0, binding = BINDING_ENV_TEXELS) readonly buffer EnvTexels { vec4 env_texels[]; };
+layout(std430, set = 0, binding = BINDING_ENV_CDF) readonly buffer EnvCdf { float env_cdf[]; };
 
 #endif

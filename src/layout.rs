@@ -196,7 +196,13 @@ pub struct RenderParams {
     pub num_triangles: u32,
     /// Nodes of the BVH; 0 where the kernel walks the primitives itself.
     pub bvh_nodes: u32,
-    pub pad: [u32; 2],
+    /// The image environment's texels across and down ([`SceneArrays::env_texels`]);
+    /// 0 where the environment is the uniform sky.
+    pub env_width: u32,
+    pub env_height: u32,
+    /// The image environment's frame: the rows of the rotation that takes world
+    /// directions to the map's own (`crate::math::envmap`); w unused.
+    pub env_frame: [[f32; 4]; 3],
 }
 
 impl RenderParams {
@@ -228,7 +234,7 @@ const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuTriangleNormals>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
-const _: () = assert!(std::mem::size_of::<RenderParams>() == 208);
+const _: () = assert!(std::mem::size_of::<RenderParams>() == 256);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 // The specialization constants' layout (glsl/common.glsl): the quads' slots
 // follow the scalar constants, the spheres' follow the quads', and nothing after.
@@ -324,4 +330,9 @@ pub struct SceneArrays {
     /// The walls found by one slab test (`crate::prepared::room_walls`);
     /// [`Room::NONE`] where there are none.
     pub room: Room,
+    /// The image environment (`crate::math::envmap`): per texel its scaled RGB and
+    /// its density over the image's unit square; empty for the uniform sky.
+    pub env_texels: Vec<[f32; 4]>,
+    /// The environment's sampling cdfs: over rows, then per row over its texels.
+    pub env_cdf: Vec<f32>,
 }

@@ -145,6 +145,8 @@ fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
         bvh_nodes: built.nodes,
         prim_refs: built.prim_refs,
         room: Room::NONE,
+        env_texels: vec![],
+        env_cdf: vec![],
     }
 }
 

@@ -118,7 +118,9 @@ fn struct_layout_matches_the_rust_mirrors() {
         scene_kinds: 519,
         num_triangles: 520,
         bvh_nodes: 521,
-        pad: [0; 2],
+        env_width: 522,
+        env_height: 523,
+        env_frame: [v4(), v4(), v4()],
     };
     let mut v3 = || [next(), next(), next()];
     let tri = GpuTriangle { v0: v3(), material: 601, v1: v3(), light: 602, v2: v3(), normals: 603 };
@@ -218,7 +220,12 @@ fn struct_layout_matches_the_rust_mirrors() {
         params.scene_kinds,
         params.num_triangles,
         params.bvh_nodes,
+        params.env_width,
+        params.env_height,
     ]);
+    for v in params.env_frame {
+        want.extend(f(v));
+    }
     let f3 = |v: [f32; 3]| v.map(f32::to_bits).to_vec();
     for (v, w) in [(tri.v0, tri.material), (tri.v1, tri.light), (tri.v2, tri.normals)] {
         want.extend(f3(v));

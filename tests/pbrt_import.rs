@@ -7,6 +7,7 @@ mod pbrt_support;
 use glam::{DMat4, DVec3, Vec3};
 use pbrt_support::{close, dir, load, note, write, TRIANGLE};
 use rlpt::scene::{MaterialKind, Scene};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// rlpt's space of a pbrt world point, for a scene without a Camera.
 fn baked(p: DVec3) -> Vec3 {
@@ -320,6 +321,76 @@ fn lights_environment_and_dropped_delta_lights() {
     );
     assert_eq!(s.environment, Vec3::ONE);
     note(&s, "\"sky.exr\"");
+}
+
+/// An `infinite` light's equirectangular image (pbrt-v3's map: z up in the
+/// light's space, u = phi / 2 pi from +x towards +y) renders as an image: the
+/// rlpt direction of a texel's centre, through the light's transform and the
+/// bake, looks up that texel, for rotations and for a mirroring transform. A
+/// transform that is not a rotation and a square (pbrt-v4 equal-area) image fall
+/// back to the mean with a note.
+#[test]
+fn infinite_light_images_render_as_images_turned_by_their_transform() {
+    use rlpt::math::envmap::env_lookup;
+    use rlpt::options::RenderOptions;
+    use rlpt::prepared::PreparedScene;
+    let d = dir("envimage");
+    let (w, h) = (16u32, 8u32);
+    let bright = (5u32, 2u32);
+    let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
+        image::Rgb(if (x, y) == bright { [50.0, 40.0, 30.0] } else { [0.1 + 0.01 * x as f32, 0.2, 0.3] })
+    });
+    img.save(d.join("sky.exr")).unwrap();
+    let texel_dir = |x: u32, y: u32| {
+        let (phi, theta) = (2.0 * PI * (x as f64 + 0.5) / w as f64, PI * (y as f64 + 0.5) / h as f64);
+        DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+    };
+    for (transform, m) in [
+        ("", DMat4::IDENTITY),
+        ("Rotate -90 1 0 0\n", DMat4::from_axis_angle(DVec3::X, -FRAC_PI_2)),
+        ("Rotate 30 0.3 1 0.2\nScale 2 2 2\n", DMat4::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), PI / 6.0)),
+        (
+            "Scale -1 1 1\nRotate 50 0 0 1\n",
+            DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0)) * DMat4::from_axis_angle(DVec3::Z, 50f64.to_radians()),
+        ),
+    ] {
+        let p = write(
+            &d,
+            "scene.pbrt",
+            &format!(
+                "WorldBegin\nAttributeBegin\n{transform}LightSource \"infinite\" \"string filename\" \"sky.exr\" \"rgb L\" [2 2 2]\nAttributeEnd\n{TRIANGLE}"
+            ),
+        );
+        let s = Scene::load(&p).unwrap();
+        assert!(s.environment_map.is_some() && s.environment == Vec3::ZERO, "{transform:?}: {:?}", s.notes);
+        let prepared = PreparedScene::new(&s, &RenderOptions::from_scene(&s)).unwrap();
+        for (x, y) in [bright, (bright.0 + 1, bright.1), (bright.0, bright.1 + 1), (12, 6)] {
+            let world = m.transform_vector3(texel_dir(x, y));
+            let (le, _) = env_lookup(&prepared, baked(world).normalize());
+            let want = img.get_pixel(x, y).0.map(|c| 2.0 * c);
+            assert!(close(le, Vec3::from(want)), "{transform:?}: texel ({x}, {y}) reads {le}, not {want:?}");
+        }
+    }
+    // Not a rotation; a square image.
+    let s = load(
+        "envshear",
+        &format!(
+            "WorldBegin\nScale 1 3 1\nLightSource \"infinite\" \"string filename\" \"{}\"\n{TRIANGLE}",
+            d.join("sky.exr").display()
+        ),
+    );
+    assert!(s.environment_map.is_none() && s.environment.max_element() > 0.0);
+    note(&s, "not a rotation: a uniform sky of its mean radiance");
+    image::Rgb32FImage::from_fn(8, 8, |_, _| image::Rgb([1.0, 1.0, 1.0])).save(d.join("square.exr")).unwrap();
+    let s = load(
+        "envsquare",
+        &format!(
+            "WorldBegin\nLightSource \"infinite\" \"string filename\" \"{}\"\n{TRIANGLE}",
+            d.join("square.exr").display()
+        ),
+    );
+    assert!(s.environment_map.is_none() && close(s.environment, Vec3::ONE));
+    note(&s, "pbrt-v4's equal-area octahedral map, which rlpt does not read");
 }
 
 fn srgb_to_linear(c: f64) -> f64 {

@@ -89,13 +89,19 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         println!("  note: {note}");
     }
     let count = |k: u32| prepared.lights.iter().filter(|l| l.kind == k).count();
+    // The image environment, where there is one, in place of the uniform sky's radiance.
+    let environment = match &scene.environment_map {
+        Some(m) => format!("image {} ({} x {}, mean radiance {})", m.file.display(), m.width, m.height, v(m.mean())),
+        None => v(scene.environment),
+    };
     println!(
-        "  lights: {} ({} spheres, {} quads, {} triangles); environment {}",
+        "  lights: {} ({} spheres, {} quads, {} triangles{}); environment {}",
         prepared.lights.len(),
         count(shared::LIGHT_SPHERE),
         count(shared::LIGHT_QUAD),
         count(shared::LIGHT_TRIANGLE),
-        v(scene.environment)
+        if count(shared::LIGHT_ENV) > 0 { ", the image environment" } else { "" },
+        environment
     );
     if let Some((lo, hi)) = bounds(&prepared) {
         println!("  bounds {} to {}", v(lo), v(hi));

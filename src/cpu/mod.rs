@@ -6,6 +6,7 @@ use crate::camera::camera_ray;
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
+use crate::math::envmap;
 use crate::math::geometry::{
     emitted, intersect, light_pdf, meets_light, occluded, offset_origin, sample_light, shadow_ray,
 };
@@ -93,11 +94,20 @@ pub fn trace_path(
             break;
         }
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
-            let env = xyz(p.environment);
+            // The uniform sky, or the image environment: a light, whose emission is
+            // weighed against light sampling as the other lights' is.
+            let (env, w) = if p.env_width > 0 {
+                let (le, pdf_env) = envmap::env_lookup(scene, d);
+                let pmf = scene.lights[p.num_lights as usize - 1].pmf;
+                (le, if nee && !prev_delta { mis_weight(prev_pdf, pdf_env * pmf, power) } else { 1.0 })
+            } else {
+                (xyz(p.environment), 1.0)
+            };
             if let Some(learn) = learn.as_mut().filter(|_| depth <= record_vertices && prev_key != shared::NO_KEY) {
-                record_to(&mut **learn, prev_key, mean3(env), mean3(env), prev_factor, bins_per_cell);
+                let target = if mis_targets { mean3(env) * w } else { mean3(env) };
+                record_to(&mut **learn, prev_key, target, mean3(env) * w, prev_factor, bins_per_cell);
             }
-            radiance += beta * env;
+            radiance += beta * env * w;
             break;
         };
         let wo = -d;

@@ -532,6 +532,8 @@ mod tests {
             bvh_nodes: bvh.nodes,
             prim_refs: bvh.prim_refs,
             room: Room::NONE,
+            env_texels: vec![],
+            env_cdf: vec![],
         }
     }
 

@@ -475,6 +475,10 @@ pub struct LightSample {
 /// with the sample's `skip`. `glsl/geometry.glsl` `shadow_ray`.
 pub fn shadow_ray(p: Vec3, n: Vec3, eps: f32, ls: &LightSample) -> (Vec3, Vec3, f32) {
     let origin = offset_origin(p, n, eps, ls.wi);
+    // The image environment's samples lie at infinity (`dist`), along `wi`.
+    if ls.dist.is_infinite() {
+        return (origin, ls.wi, ls.dist);
+    }
     let seg = ls.end - origin;
     let len = seg.length();
     (origin, seg / len, len)
@@ -504,13 +508,27 @@ pub fn emitted(scene: &SceneArrays, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
 
 /// Chooses a light by power with `u_sel` and samples a point on it with `u`:
 /// spheres seen from outside by the cone of directions they subtend, spheres
-/// from inside, quads and triangles uniformly by area.
+/// from inside, quads and triangles uniformly by area, the image environment by
+/// its map (`crate::math::envmap`).
 pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
     let n_lights = scene.lights.len();
     if n_lights == 0 {
         return None;
     }
     let light = &scene.lights[choose_light(scene, u_sel)];
+    // The image environment: a direction to infinity, nothing skipped.
+    if light.kind == shared::LIGHT_ENV {
+        let (wi, le, pdf_env) = super::envmap::env_sample(scene, u)?;
+        let pdf = pdf_env * light.pmf;
+        return (pdf > 0.0 && pdf.is_finite()).then_some(LightSample {
+            wi,
+            dist: f32::INFINITY,
+            end: wi,
+            skip: shared::NO_PRIM,
+            le,
+            pdf,
+        });
+    }
     // The shadow ray's end and what it skips (see `LightSample::end`): the point
     // itself and the light's primitive, unless a sphere is sampled by area.
     let (mut skip, mut area_eps) = (shared::NO_PRIM, 0.0f32);

@@ -21,6 +21,9 @@ pub use analysis::*;
 use meshes::mesh_triangles;
 pub use meshes::{prim_boxes, uses_bvh, BVH_MIN_ANALYTIC};
 
+/// The image environment's share of light choices where the scene has other lights.
+pub const ENV_LIGHT_SHARE: f32 = 0.5;
+
 /// The scene ready to upload or trace: its arrays ([`SceneArrays`], which it
 /// derefs to, as the geometry reads them) and the guiding configuration.
 #[derive(Clone, Debug)]
@@ -205,8 +208,13 @@ impl PreparedScene {
         let bvh = uses_bvh(scene);
         // Without a BVH, the quads that can block a shadow ray first, the room's
         // walls last; lights follow their quads. The BVH tests every primitive.
-        let (mut order, occluding_quads) =
-            if bvh { ((0..scene.quads.len()).collect(), scene.quads.len() as u32) } else { occluding_order(scene) };
+        // A shadow ray to the image environment leaves the scene: every quad may block it.
+        let all_quads = bvh || scene.environment_map.is_some();
+        let (mut order, occluding_quads) = if all_quads {
+            ((0..scene.quads.len()).collect(), scene.quads.len() as u32)
+        } else {
+            occluding_order(scene)
+        };
         let walls = if bvh { None } else { room_walls(scene, &order[occluding_quads as usize..]) };
         let mut room = Room::NONE;
         if let Some((min, max, faces)) = walls {
@@ -235,6 +243,22 @@ impl PreparedScene {
             cdf += pmf;
             l.pmf = pmf as f32;
             l.cdf = cdf as f32;
+        }
+        // The image environment is the last light (a map of no light is no light):
+        // half the choices where there are other lights, else all of them. A
+        // fixed share, as its power depends on the scene's extent as much as on
+        // the map; the map's own distribution does the rest.
+        let env = scene
+            .environment_map
+            .as_ref()
+            .and_then(|m| crate::math::envmap::env_distribution(m.width, m.height, &m.texels).map(|d| (m, d)));
+        if env.is_some() {
+            let share = if lights.is_empty() { 1.0 } else { ENV_LIGHT_SHARE };
+            for l in &mut lights {
+                l.pmf *= 1.0 - share;
+                l.cdf *= 1.0 - share;
+            }
+            lights.push(GpuLight { kind: shared::LIGHT_ENV, index: 0, pmf: share, cdf: 1.0 });
         }
         if let Some(last) = lights.last_mut() {
             last.cdf = 1.0;
@@ -298,7 +322,12 @@ impl PreparedScene {
             scene_kinds: scene_kinds(&materials, &lights),
             num_triangles: triangles.len() as u32,
             bvh_nodes: 0,
-            pad: [0; 2],
+            env_width: env.as_ref().map_or(0, |(m, _)| m.width),
+            env_height: env.as_ref().map_or(0, |(m, _)| m.height),
+            env_frame: env.as_ref().map_or([[0.0; 4]; 3], |(m, _)| {
+                let r = m.to_map.transpose();
+                [v4(r.x_axis, 0.0), v4(r.y_axis, 0.0), v4(r.z_axis, 0.0)]
+            }),
         };
         params.set_camera(&scene.camera);
         let (mut bvh_nodes, mut prim_refs) = (Vec::new(), Vec::new());
@@ -320,6 +349,8 @@ impl PreparedScene {
                 bvh_nodes,
                 prim_refs,
                 room,
+                env_texels: env.as_ref().map_or(Vec::new(), |(_, (t, _))| t.clone()),
+                env_cdf: env.map_or(Vec::new(), |(_, (_, c))| c),
             },
             guide: None,
             guide_start: None,

@@ -149,7 +149,9 @@ pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
     (std::mem::size_of_val(scene.triangles.as_slice())
         + std::mem::size_of_val(scene.triangle_normals.as_slice())
         + std::mem::size_of_val(scene.bvh_nodes.as_slice())
-        + std::mem::size_of_val(scene.prim_refs.as_slice())) as u64
+        + std::mem::size_of_val(scene.prim_refs.as_slice())
+        + std::mem::size_of_val(scene.env_texels.as_slice())
+        + std::mem::size_of_val(scene.env_cdf.as_slice())) as u64
 }
 
 fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuError> {
@@ -448,8 +450,14 @@ fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
 }
 
 /// The bindings of the meshes and the BVH, in the order of [`geometry_buffers`].
-const GEOMETRY_BINDINGS: [u32; 4] =
-    [shared::BINDING_TRIANGLES, shared::BINDING_TRIANGLE_NORMALS, shared::BINDING_BVH_NODES, shared::BINDING_PRIM_REFS];
+const GEOMETRY_BINDINGS: [u32; 6] = [
+    shared::BINDING_TRIANGLES,
+    shared::BINDING_TRIANGLE_NORMALS,
+    shared::BINDING_BVH_NODES,
+    shared::BINDING_PRIM_REFS,
+    shared::BINDING_ENV_TEXELS,
+    shared::BINDING_ENV_CDF,
+];
 
 /// The meshes and the BVH on the device (the path tracer's and `raycast`'s):
 /// device-local, as they are large and read at every ray.
@@ -459,6 +467,8 @@ fn geometry_buffers(ctx: &Arc<Context>, scene: &crate::layout::SceneArrays) -> R
         Buffer::device_with_data(ctx, "triangle normals", bytes(&scene.triangle_normals))?,
         Buffer::device_with_data(ctx, "BVH nodes", bytes(&scene.bvh_nodes))?,
         Buffer::device_with_data(ctx, "primitive refs", bytes(&scene.prim_refs))?,
+        Buffer::device_with_data(ctx, "environment texels", bytes(&scene.env_texels))?,
+        Buffer::device_with_data(ctx, "environment cdfs", bytes(&scene.env_cdf))?,
     ])
 }
 

@@ -112,7 +112,7 @@ const MAX_GUIDING_CELLS: u64 = 262_144;
 const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "guiding", "material", "sphere", "quad", "mesh"];
 const CAMERA_KEYS: &[&str] = &["position", "look_at", "direction", "up", "vfov", "near"];
 const RENDER_KEYS: &[&str] = &["width", "height", "spp", "max_bounces", "russian_roulette_depth"];
-const ENVIRONMENT_KEYS: &[&str] = &["radiance"];
+const ENVIRONMENT_KEYS: &[&str] = &["radiance", "file", "scale", "rotate"];
 const GUIDING_KEYS: &[&str] = &["bounds_min", "bounds_max", "resolution"];
 const SPHERE_KEYS: &[&str] = &["center", "radius", "material"];
 const QUAD_KEYS: &[&str] = &["origin", "edge_u", "edge_v", "material"];
@@ -487,9 +487,9 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
         None => RenderSettings::default(),
         Some(v) => parse_render(&single_table(&src, "render", v)?)?,
     };
-    let environment = match root.get("environment") {
-        None => Vec3::ZERO,
-        Some(v) => parse_environment(&single_table(&src, "environment", v)?)?,
+    let (environment, environment_map) = match root.get("environment") {
+        None => (Vec3::ZERO, None),
+        Some(v) => parse_environment(&single_table(&src, "environment", v)?, base)?,
     };
     let guiding = match root.get("guiding") {
         None => GuidingSettings::default(),
@@ -531,6 +531,7 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
         camera,
         render,
         environment,
+        environment_map,
         materials,
         spheres,
         quads,
@@ -719,12 +720,46 @@ fn parse_render(t: &Table<'_, '_, '_>) -> Result<RenderSettings, SceneError> {
     Ok(r)
 }
 
-fn parse_environment(t: &Table<'_, '_, '_>) -> Result<Vec3, SceneError> {
+/// `[environment]`: the uniform sky's `radiance`, or an image `file` (resolved
+/// against `base`) with its optional `scale` and `rotate` (degrees about +y).
+fn parse_environment(
+    t: &Table<'_, '_, '_>,
+    base: &Path,
+) -> Result<(Vec3, Option<crate::scene::EnvironmentMap>), SceneError> {
     t.check_keys(ENVIRONMENT_KEYS, "")?;
-    match t.get("radiance") {
-        None => Ok(Vec3::ZERO),
-        Some(v) => Ok(to_vec3(t.vec3("radiance", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?)),
+    let Some(file) = t.get("file") else {
+        for key in ["scale", "rotate"] {
+            if let Some(v) = t.get(key) {
+                return Err(
+                    t.error_at(v.span(), format!("key `{key}` applies to an image environment: give `file` too"))
+                );
+            }
+        }
+        return match t.get("radiance") {
+            None => Ok((Vec3::ZERO, None)),
+            Some(v) => {
+                Ok((to_vec3(t.vec3("radiance", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?), None))
+            }
+        };
+    };
+    if let Some(v) = t.get("radiance") {
+        return Err(t.error_at(
+            v.span(),
+            "keys `radiance` and `file` exclude each other: the uniform sky or an image; scale an image with `scale`",
+        ));
     }
+    let written = t.string("file", file, "a path to an equirectangular .exr or .hdr image")?;
+    let scale = match t.get("scale") {
+        None => 1.0,
+        Some(v) => t.ranged("scale", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?,
+    };
+    let rotate = match t.get("rotate") {
+        None => 0.0,
+        Some(v) => t.ranged("rotate", v, |x| x.abs() <= 1e6, "an angle in degrees (magnitude at most 1e6)")?,
+    };
+    let map = crate::scene::EnvironmentMap::read(written, base, scale, rotate)
+        .map_err(|message| t.error_at(file.span(), message))?;
+    Ok((Vec3::ZERO, Some(map)))
 }
 
 /// `[guiding]`: the box and resolution of the guiding grid; what is left out

@@ -4,12 +4,15 @@
 //! Everything here is validated: a `Scene` that exists is renderable
 //! (finite numbers, values in range, material indices in bounds).
 
+mod envmap;
 mod load;
 pub mod mesh;
 mod pbrt;
 
 use glam::Vec3;
 use std::path::PathBuf;
+
+pub use envmap::EnvironmentMap;
 
 pub use load::SceneError;
 
@@ -149,8 +152,10 @@ pub struct Scene {
     pub source: PathBuf,
     pub camera: Camera,
     pub render: RenderSettings,
-    /// Uniform environment radiance (default black).
+    /// Uniform environment radiance (default black; black where `environment_map` is given).
     pub environment: Vec3,
+    /// The image environment (`[environment] file`), in place of the uniform sky.
+    pub environment_map: Option<EnvironmentMap>,
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
     pub quads: Vec<Quad>,
@@ -211,6 +216,7 @@ impl Scene {
     /// a loader cannot call wrong (a test may want it) but a user should hear about.
     pub fn emits_light(&self) -> bool {
         self.environment.max_element() > 0.0
+            || self.environment_map.as_ref().is_some_and(|m| m.texels.iter().any(|t| t.iter().any(|&c| c > 0.0)))
             || self.spheres.iter().any(|s| self.material_emits(s.material))
             || self.quads.iter().any(|q| self.material_emits(q.material))
             || self.meshes.iter().any(|m| m.materials.iter().any(|&i| self.material_emits(i)))

@@ -508,7 +508,14 @@ impl Importer {
         // pbrt's fov spans the shorter image side; rlpt's is vertical.
         let vfov = if w >= h { fov } else { 2.0 * ((fov.to_radians() / 2.0).tan() * h / w).atan().to_degrees() };
         let camera = Camera { position: Vec3::ZERO, forward: Vec3::Z, up: Vec3::Y, vfov_deg: vfov as f32, near: 0.0 };
-        let shapes::Output { materials, spheres, meshes, environment, .. } = self.out;
+        let shapes::Output { materials, spheres, meshes, mut environment, mut environment_map, .. } = self.out;
+        // A uniform `infinite` light beside an image one: added to its texels.
+        if let Some(map) = environment_map.as_mut() {
+            for t in &mut map.texels {
+                *t = [t[0] + environment.x, t[1] + environment.y, t[2] + environment.z];
+            }
+            environment = Vec3::ZERO;
+        }
         if spheres.is_empty() && meshes.is_empty() {
             return Err(SceneError::Invalid {
                 file: path.display().to_string(),
@@ -522,6 +529,7 @@ impl Importer {
             camera,
             render: self.render,
             environment,
+            environment_map,
             materials,
             spheres,
             quads: Vec::new(),

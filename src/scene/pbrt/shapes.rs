@@ -28,6 +28,8 @@ pub(super) struct Output {
     pub spheres: Vec<Sphere>,
     pub meshes: Vec<Mesh>,
     pub environment: Vec3,
+    /// The first `infinite` light's equirectangular image, where it maps.
+    pub environment_map: Option<crate::scene::EnvironmentMap>,
     /// (pbrt material, emission bits, two-sided) -> index into `materials`.
     pub keys: HashMap<(usize, [u32; 3], bool), u32>,
     /// PLY files read, by resolved path (instances read theirs once).
@@ -214,6 +216,56 @@ impl Importer {
         Ok(())
     }
 
+    /// The image environment of an `infinite` light's `f` times `tint` (L times
+    /// scale): pbrt's equirectangular map (pbrt-v3; z up in the light's space,
+    /// u = phi / 2 pi from +x towards +y) in rlpt's convention
+    /// (`crate::math::envmap`), turned by the light's transform and the bake.
+    /// The error says why it stays a uniform sky: a square image (pbrt-v4's
+    /// equal-area octahedral map, which rlpt does not read), another shape, a
+    /// transform that is not a rotation, a second image, or a file that does not read.
+    fn environment_image(&self, f: &str, tint: Vec3) -> Result<crate::scene::EnvironmentMap, String> {
+        if self.out.environment_map.is_some() {
+            return Err("is a second environment image (rlpt renders one)".into());
+        }
+        let mut map = crate::scene::EnvironmentMap::read(f, &self.base, 1.0, 0.0)?;
+        let (w, h) = (map.width, map.height);
+        if w == h {
+            return Err("is square, pbrt-v4's equal-area octahedral map, which rlpt does not read".into());
+        }
+        if w != 2 * h {
+            return Err(format!("is {w} x {h}, not an equirectangular map (width twice the height)"));
+        }
+        // Light space to rlpt's: the light's transform, then the bake; a rotation
+        // (or a mirroring one) once its uniform scale is divided out.
+        let m = glam::DMat3::from_mat4(self.bake * self.state.ctm);
+        let scale = m.determinant().abs().cbrt();
+        let r = m * (1.0 / scale);
+        if !(scale > 0.0) || !(r.transpose() * r).abs_diff_eq(glam::DMat3::IDENTITY, 1e-4) {
+            return Err("has a transform that is not a rotation".into());
+        }
+        // pbrt's (x, y, z) in rlpt's map frame: (y, z, x) with the columns
+        // flipped where the transform keeps handedness, (-y, z, x) where it
+        // mirrors (the bake mirrors x), so that the same direction reads the
+        // same texel.
+        let mirrored = r.determinant() < 0.0;
+        let p = if mirrored {
+            glam::DMat3::from_cols(glam::DVec3::new(0.0, 0.0, 1.0), glam::DVec3::new(-1.0, 0.0, 0.0), glam::DVec3::Y)
+        } else {
+            glam::DMat3::from_cols(glam::DVec3::new(0.0, 0.0, 1.0), glam::DVec3::X, glam::DVec3::Y)
+        };
+        map.to_map = (p * r.transpose()).as_mat3();
+        let wu = w as usize;
+        for row in map.texels.chunks_mut(wu) {
+            if !mirrored {
+                row.reverse();
+            }
+            for t in row {
+                *t = [t[0] * tint.x, t[1] * tint.y, t[2] * tint.z];
+            }
+        }
+        Ok(map)
+    }
+
     /// `LightSource`: `infinite` becomes the uniform environment; delta lights
     /// are dropped with a note (rlpt has none yet).
     pub(super) fn light(&mut self, ty: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
@@ -235,18 +287,27 @@ impl Importer {
                 let mut radiance = l * scale;
                 if let Some(f) = file {
                     let path = self.base.join(&f);
-                    match images::mean(&path, None, true) {
-                        Ok(mean) => {
-                            radiance = mean * scale;
+                    // An equirectangular image whose transform turns pbrt's map
+                    // (z up) into one of rlpt's frames is rendered as an image;
+                    // anything else as a uniform sky of its mean, said so.
+                    let why = match self.environment_image(&f, radiance) {
+                        Ok(map) => {
+                            self.out.environment_map = Some(map);
+                            None
+                        }
+                        Err(why) => Some(why),
+                    };
+                    // The mean is read only where the image does not map.
+                    match why.map(|why| (why, images::mean(&path, None, true))) {
+                        None => radiance = Vec3::ZERO,
+                        Some((why, Ok(mean))) => {
+                            radiance *= mean;
                             self.notes.approximated(
                                 loc,
-                                format!(
-                                "the environment image \"{f}\" taken as a uniform sky of its mean radiance {radiance} \
-                                 (rlpt has no image environment yet)"
-                            ),
+                                format!("the environment image \"{f}\" {why}: a uniform sky of its mean radiance {radiance}"),
                             )?;
                         }
-                        Err(why) => self.notes.approximated(
+                        Some((_, Err(why))) => self.notes.approximated(
                             loc,
                             format!(
                                 "the environment image \"{f}\" ({}) {why}: a uniform sky of radiance {radiance} \
