@@ -154,7 +154,7 @@
 // Specialization constants of pathtrace.comp (their constant_id): what a render
 // fixes from start to end, so that the driver compiles the kernel for it (loops
 // of known length, arithmetic by known numbers, switched-off features left out).
-// src/render/mod.rs `specialization` sets them.
+// src/render/pipelines.rs `specialization` sets them.
 #define SPEC_NUM_SPHERES 0
 #define SPEC_NUM_QUADS 1
 #define SPEC_GUIDE_ROWS 2
@@ -227,7 +227,7 @@
 // learn.comp: invocations per workgroup of the fold (phase 0) and of the rows'
 // rebuild (phase 1), one row per invocation; the rebuild's groups stage their
 // rows in shared memory where at least LEARN_MIN_STAGED_ROWS fit
-// (src/render/mod.rs `rebuild_layout`), else build them in the table.
+// (src/render/learning.rs `rebuild_layout`), else build them in the table.
 #define LEARN_FOLD_GROUP 16
 #define LEARN_GROUP 16
 #define LEARN_MIN_STAGED_ROWS 8
@@ -278,7 +278,7 @@
 #define RECORD_ROW_STRIDE 8
 #define RECORD_MAX_STRIDE 32
 // Which pixel rows a dispatch of pathtrace.comp traces (push constant `rows`:
-// mode | phase << 8 | stride << 16; src/render/mod.rs `frame_dispatches`): all
+// mode | phase << 8 | stride << 16; src/render/dispatch.rs `frame_dispatches`): all
 // of them; those y with y % stride == phase (workgroup row g traces
 // y = g * stride + phase); or all the others.
 #define ROWS_ALL 0

@@ -109,7 +109,7 @@ float bin_cosine(uint b, uint class_) {
 // (up to 512 bins, STAGED) the group stages its rows in shared memory; larger
 // rows are built in the table, where it seems the L1 cache holds them: staged
 // fewer to a group, too few rows are in flight per multiprocessor
-// (src/render/mod.rs `rebuild_layout`; docs/guiding.md, "Learning").
+// (src/render/learning.rs `rebuild_layout`; docs/guiding.md, "Learning").
 // Bin b of invocation i's row sits at b * GROUP + i in `staged`, so that the
 // invocations of a group, in step through the loops over every bin, read
 // neighbouring words (each row contiguous, they would all hit one bank).

@@ -1,0 +1,197 @@
+//! The learning pass on the GPU: the guiding table's buffers, `learn.comp`'s
+//! two phases (the fold and the rows' rebuild) and how they are dispatched;
+//! `crate::guide::QTable::learn` is the CPU twin.
+
+use super::*;
+
+/// The guiding buffers and the pass that learns from them.
+pub(super) struct Learning {
+    /// `learn.comp` as phase 0 runs it (the fold), LEARN_FOLD_GROUP invocations per group.
+    pub(super) fold: Pipeline,
+    /// `learn.comp` as phase 1 runs it (the rows' rebuild), `rows_per_group`
+    /// invocations per group, each building one row ([`rebuild_layout`]).
+    pub(super) build: Pipeline,
+    pub(super) rows_per_group: u32,
+    pub(super) q: Buffer,
+    pub(super) visits: Buffer,
+    /// Targets summed per entry since the table last learned, then the fraction
+    /// gradients per cell (`guide::FrameSums`); their counts likewise.
+    pub(super) sums: Buffer,
+    pub(super) counts: Buffer,
+    pub(super) sampler: Buffer,
+    /// Per sampling row, its guided fraction (`QTable::fractions`).
+    pub(super) fractions: Buffer,
+    /// Per cell, its fraction's learning state (`guide::FractionState`).
+    pub(super) fraction_states: Buffer,
+    /// Per sampling row, 1 once a recording path read it (`QTable::rows_read`).
+    pub(super) rows_read: Buffer,
+    /// The table's shape and learning settings.
+    pub(super) cfg: GuideConfig,
+    /// Which pixel rows record targets, frame by frame, and when the table learns.
+    pub(super) schedule: RecordSchedule,
+}
+
+/// Words in learn.comp's push constants (`Learning::push`).
+pub(super) const LEARN_PUSH_WORDS: usize = 10;
+
+/// Shared memory the rows' rebuild gives a workgroup at most, in bytes, where the
+/// device allows it: more per group would leave fewer groups resident.
+pub(super) const LEARN_STAGE_BYTES: u32 = 32 * 1024;
+
+/// Bytes of the guiding table's sampling rows, the largest of its buffers.
+pub(super) fn sampling_rows_bytes(cfg: &crate::guide::GuideConfig) -> u64 {
+    cfg.entries() as u64 * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64
+}
+
+/// Whether one storage buffer can hold the guiding table's sampling rows
+/// (`fits_one_buffer`): a table past the device's buffer range is refused as such.
+pub(super) fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<(), GpuError> {
+    fits_one_buffer(
+        ctx,
+        &format!(
+            "the guiding table's sampling rows ({} cells x {} bins x {} orientations)",
+            cfg.grid.cells(),
+            cfg.bins.count(),
+            shared::NORMAL_CLASSES
+        ),
+        sampling_rows_bytes(cfg),
+        "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
+    )
+}
+
+/// Groups of `group` invocations for `n` items of learn.comp's work, at most
+/// LEARN_MAX_GROUPS (the shader steps through the rest): 65535 is the most that
+/// every device takes, and door's table of 32x32 bins (1081344 entries) needed
+/// 67584 groups of 16 for its fold, which lavapipe's validation refused.
+pub(super) fn learn_groups(n: u32, group: u32) -> u32 {
+    n.div_ceil(group).clamp(1, shared::LEARN_MAX_GROUPS)
+}
+
+/// How learn.comp's rows' rebuild runs for rows of `bins` bins: (rows per group,
+/// words of its shared array, whether it stages the rows there). Staged where at
+/// least LEARN_MIN_STAGED_ROWS rows (8 bytes a bin, `AliasBin`) fit in
+/// [`LEARN_STAGE_BYTES`] and the device's limit, as many as fit up to LEARN_GROUP
+/// (a power of two): 16 rows of the 8x16 default without roulette, 8 of 12x24
+/// and 16x32. Larger rows, the 20x40 default with roulette among them, are built
+/// in the table by groups of LEARN_GROUP: staged fewer to a group, too few rows
+/// are in flight and the rebuild is slower (docs/guiding.md, "Learning").
+pub(super) fn rebuild_layout(bins: u32, max_shared: u32) -> (u32, u32, bool) {
+    let row = bins * std::mem::size_of::<AliasBin>() as u32;
+    let fit = (LEARN_STAGE_BYTES.min(max_shared) / row).min(shared::LEARN_GROUP);
+    if fit >= shared::LEARN_MIN_STAGED_ROWS {
+        let rows = 1 << fit.ilog2();
+        (rows, rows * bins, true)
+    } else {
+        (shared::LEARN_GROUP, 1, false)
+    }
+}
+
+impl Learning {
+    /// Entries of the table (`GuideConfig::entries`).
+    pub(super) fn entries(&self) -> u32 {
+        self.cfg.entries() as u32
+    }
+
+    /// Phase 0 of learn.comp: fold the targets recorded since the last fold into the table.
+    pub(super) fn cmd_fold(&self, cmd: crate::gpu::vk::CommandBuffer) {
+        let push = self.push(0);
+        let groups = learn_groups(self.entries(), shared::LEARN_FOLD_GROUP);
+        self.fold.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
+    }
+
+    /// Phase 1 of learn.comp: rebuild the sampling row of each cell and normal class.
+    pub(super) fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
+        let push = self.push(1);
+        let rows = self.cfg.sampling_rows() as u32;
+        let groups = learn_groups(rows, self.rows_per_group);
+        self.build.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
+    }
+
+    /// The table learns: the fold, then the rows' rebuild, each after a barrier;
+    /// `after(phase)` runs after each pass's dispatch (0 the fold, 1 the rebuild),
+    /// where a profiled frame stamps the time.
+    pub(super) fn cmd_learn(&self, ctx: &Context, cmd: crate::gpu::vk::CommandBuffer, mut after: impl FnMut(u32)) {
+        ctx.barrier(cmd);
+        self.cmd_fold(cmd);
+        after(0);
+        ctx.barrier(cmd);
+        self.cmd_build_rows(cmd);
+        after(1);
+    }
+
+    /// Starts the table from a learned field (`--guide-in`): Q, visits, the
+    /// fraction states and the rows read copied in, then the sampling rows built
+    /// from them by the learning pass (whose fold finds no targets).
+    /// `crate::cpu::CpuRenderer::new` does the same through `GuideField::table`.
+    pub(super) fn load_field(&self, ctx: &Arc<Context>, field: &crate::guide::GuideField) -> Result<(), GpuError> {
+        let rows_read: Vec<u32> = field.rows_read.iter().map(|&r| r as u32).collect();
+        let staged = [
+            (Buffer::with_data(ctx, "Q upload", bytes(&field.q), false)?, &self.q),
+            (Buffer::with_data(ctx, "visits upload", bytes(&field.visits), false)?, &self.visits),
+            (
+                Buffer::with_data(ctx, "fraction states upload", bytes(&field.fraction_states), false)?,
+                &self.fraction_states,
+            ),
+            (Buffer::with_data(ctx, "rows read upload", bytes(&rows_read), false)?, &self.rows_read),
+        ];
+        ctx.run_commands("load learned field", |cmd| {
+            for (from, to) in &staged {
+                from.cmd_copy_to(cmd, to);
+            }
+            self.cmd_learn(ctx, cmd, |_| {});
+        })
+    }
+
+    /// learn.comp's push constants for a phase.
+    pub(super) fn push(&self, phase: u32) -> [u32; LEARN_PUSH_WORDS] {
+        [
+            phase,
+            self.entries(),
+            self.cfg.bins.count(),
+            self.cfg.floor.to_bits(),
+            self.cfg.bins.rows,
+            self.cfg.bins.cols,
+            self.cfg.grid.cells(),
+            self.cfg.fraction.to_bits(),
+            self.cfg.learn_fraction as u32,
+            self.cfg.rate_exponent.to_bits(),
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rows' rebuild stages as many rows per group as fit its share of shared
+    /// memory, a power of two up to LEARN_GROUP, where at least
+    /// LEARN_MIN_STAGED_ROWS fit; larger rows are built in the table.
+    #[test]
+    fn rebuild_groups_stage_what_fits() {
+        let bins = |r: u32, c: u32| r * c;
+        let unstaged = (shared::LEARN_GROUP, 1, false);
+        for (n, limit, want) in [
+            (8, 49152, (16, 16 * 8, true)),
+            (bins(8, 16), 49152, (16, 16 * 128, true)),
+            (bins(12, 24), 49152, (8, 8 * 288, true)),
+            (bins(16, 32), 49152, (8, 8 * 512, true)),
+            (bins(20, 40), 49152, unstaged),
+            (bins(32, 32), 49152, unstaged),
+            (bins(8, 16), 16384, (16, 16 * 128, true)),
+            (bins(12, 24), 16384, unstaged),
+        ] {
+            let got = rebuild_layout(n, limit);
+            assert_eq!(got, want, "{n} bins, {limit} bytes");
+            assert!(!got.2 || got.1 * 8 <= LEARN_STAGE_BYTES.min(limit), "{n} bins fit");
+        }
+    }
+
+    /// learn.comp's dispatches stay within what every device takes.
+    #[test]
+    fn learn_dispatches_stay_within_the_group_limit() {
+        assert_eq!(learn_groups(1, 64), 1);
+        assert_eq!(learn_groups(64 * 1000 + 1, 64), 1001);
+        assert_eq!(learn_groups(1_081_344, 16), 65535);
+        assert_eq!(learn_groups(u32::MAX, 64), 65535);
+    }
+}
