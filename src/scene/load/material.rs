@@ -1,0 +1,185 @@
+//! `[[material]]` tables: each type's keys, their ranges, and a material's index
+//! by name for the shapes that use it.
+
+use super::*;
+
+pub(super) const MATERIAL_TYPES: &[&str] =
+    &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive"];
+/// Largest accepted component of a conductor's `eta` and `k` (measured metals lie well below).
+pub(super) const MAX_CONDUCTOR_INDEX: f64 = 100.0;
+
+pub(super) fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
+    match kind {
+        MaterialKind::Diffuse | MaterialKind::Specular => &["name", "type", "albedo", "emission", "two_sided"],
+        MaterialKind::Glossy => &["name", "type", "albedo", "roughness", "emission", "two_sided"],
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
+            &["name", "type", "ior", "albedo", "roughness", "emission", "two_sided"]
+        }
+        MaterialKind::Conductor => &["name", "type", "eta", "k", "roughness", "emission", "two_sided"],
+        MaterialKind::Coated => &["name", "type", "albedo", "roughness", "ior", "emission", "two_sided"],
+        MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
+    }
+}
+
+pub(super) fn type_name(kind: MaterialKind) -> &'static str {
+    match kind {
+        MaterialKind::Diffuse => "diffuse",
+        MaterialKind::Specular => "specular",
+        MaterialKind::Glossy => "glossy",
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => "dielectric",
+        MaterialKind::Conductor => "conductor",
+        MaterialKind::Coated => "coated",
+        MaterialKind::Emissive => "emissive",
+    }
+}
+
+/// Returns the material and the span of its name (for duplicate messages).
+pub(super) fn parse_material(
+    t: &Table<'_, '_, '_>,
+    defined: &[Material],
+    defined_lines: &[usize],
+) -> Result<(Material, Range<usize>), SceneError> {
+    let name_value = t.required("name", "a unique, non-empty string naming the material")?;
+    let name = t.string("name", name_value, "a non-empty string")?;
+    if name.is_empty() {
+        return Err(t.error_at(name_value.span(), "key `name` must be a non-empty string, found \"\""));
+    }
+    if let Some(i) = defined.iter().position(|m| m.name == name) {
+        return Err(t.error_at(
+            name_value.span(),
+            format!(
+                "duplicate material name \"{name}\" (already defined on line {}); \
+                 material names must be unique",
+                defined_lines[i]
+            ),
+        ));
+    }
+    let t = Table { src: t.src, label: format!("[[material]] \"{name}\""), table: t.table, span: t.span.clone() };
+
+    let types = MATERIAL_TYPES.join(", ");
+    let type_value = t.required("type", &format!("one of {types}"))?;
+    let kind = match t.string("type", type_value, &format!("one of {types}"))? {
+        "diffuse" => MaterialKind::Diffuse,
+        "specular" => MaterialKind::Specular,
+        "glossy" => MaterialKind::Glossy,
+        "dielectric" => MaterialKind::Dielectric,
+        "conductor" => MaterialKind::Conductor,
+        "coated" => MaterialKind::Coated,
+        "emissive" => MaterialKind::Emissive,
+        other => {
+            return Err(t.error_at(type_value.span(), format!("key `type` must be one of {types}, found \"{other}\"")))
+        }
+    };
+    let ty = type_name(kind);
+    t.check_keys(material_keys(kind), &format!(" for a material of type \"{ty}\""))?;
+
+    let albedo = |hint: &str| -> Result<Vec3, SceneError> {
+        let v = t.required("albedo", hint)?;
+        Ok(to_vec3(t.vec3("albedo", v, |x| (0.0..=1.0).contains(&x), "in [0, 1]")?))
+    };
+    let emission = match t.get("emission") {
+        None => None,
+        Some(v) => Some(to_vec3(t.vec3("emission", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?)),
+    };
+    let mut material = Material {
+        name: name.to_string(),
+        kind,
+        albedo: Vec3::ZERO,
+        roughness: 1.0,
+        ior: 1.0,
+        eta: Vec3::ONE,
+        k: Vec3::ZERO,
+        emission: emission.unwrap_or(Vec3::ZERO),
+        two_sided: match t.get("two_sided") {
+            None => false,
+            Some(v) => t.boolean("two_sided", v)?,
+        },
+    };
+    match kind {
+        MaterialKind::Diffuse => {
+            material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
+        }
+        MaterialKind::Specular => {
+            material.albedo = albedo("mirror reflectance [r, g, b], components in [0, 1]")?;
+        }
+        MaterialKind::Glossy => {
+            material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
+            material.roughness = t.ranged(
+                "roughness",
+                t.required("roughness", "GGX roughness, a number in (0, 1]")?,
+                |x| x > 0.0 && x <= 1.0,
+                "a number in (0, 1] (0 < roughness <= 1)",
+            )?;
+        }
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
+            material.ior = t.ranged(
+                "ior",
+                t.required("ior", "index of refraction, a number >= 1")?,
+                |x| x >= 1.0,
+                "a number >= 1",
+            )?;
+            // Roughness 0 (or none) is the smooth dielectric, unchanged; above 0 the GGX one.
+            if let Some(v) = t.get("roughness") {
+                material.roughness =
+                    t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: smooth)")?;
+                if material.roughness > 0.0 {
+                    material.kind = MaterialKind::RoughDielectric;
+                } else {
+                    material.roughness = 1.0;
+                }
+            }
+            material.albedo = match t.get("albedo") {
+                None => Vec3::ONE,
+                Some(v) => to_vec3(t.vec3("albedo", v, |x| (0.0..=1.0).contains(&x), "in [0, 1]")?),
+            };
+        }
+        MaterialKind::Conductor => {
+            let index = |key: &str, ok: fn(f64) -> bool, expected: &str| -> Result<Vec3, SceneError> {
+                let hint = format!("[r, g, b], components {expected}");
+                Ok(to_vec3(t.vec3(key, t.required(key, &hint)?, ok, expected)?))
+            };
+            material.eta = index("eta", |x| x > 0.0 && x <= MAX_CONDUCTOR_INDEX, "in (0, 100]")?;
+            material.k = index("k", |x| (0.0..=MAX_CONDUCTOR_INDEX).contains(&x), "in [0, 100]")?;
+            material.albedo = Vec3::ONE;
+            material.roughness = match t.get("roughness") {
+                None => 0.0,
+                Some(v) => {
+                    t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: a mirror)")?
+                }
+            };
+        }
+        MaterialKind::Coated => {
+            material.albedo = albedo("the base's reflectance [r, g, b], components in [0, 1]")?;
+            material.roughness = t.ranged(
+                "roughness",
+                t.required("roughness", "the coat's GGX roughness, a number in (0, 1]")?,
+                |x| x > 0.0 && x <= 1.0,
+                "a number in (0, 1] (0 < roughness <= 1)",
+            )?;
+            material.ior = match t.get("ior") {
+                None => 1.5,
+                Some(v) => {
+                    t.ranged("ior", v, |x| (1.0..=MAX_CONDUCTOR_INDEX).contains(&x), "a number from 1 to 100")?
+                }
+            };
+        }
+        MaterialKind::Emissive => {
+            if emission.is_none() {
+                return Err(t.error_here("missing key `emission` (emitted radiance [r, g, b], components >= 0)"));
+            }
+        }
+    }
+    Ok((material, name_value.span()))
+}
+
+pub(super) fn material_index(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<u32, SceneError> {
+    let v = t.required("material", "the name of a [[material]]")?;
+    let name = t.string("material", v, "the name of a [[material]]")?;
+    match materials.iter().position(|m| m.name == name) {
+        Some(i) => Ok(i as u32),
+        None => {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            Err(t.error_at(v.span(), format!("material \"{name}\" is not defined (defined: {})", names.join(", "))))
+        }
+    }
+}
