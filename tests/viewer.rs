@@ -212,3 +212,37 @@ fn bad_view_arguments_are_sentences() {
     assert!(stderr.contains("cannot open a window") && stderr.contains("DISPLAY"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// `view --guide-in` starts the viewer's guided mode from a field that `render
+/// --guide-out` wrote; a field of another scene is refused before the window
+/// opens.
+#[test]
+fn the_viewer_starts_from_a_saved_field() {
+    let (field, img) = (tmp("door.qtab"), tmp("field-render.png"));
+    let render = Command::new(env!("CARGO_BIN_EXE_rlpt"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["render", "scenes/door.toml", "--width", "24", "--height", "16", "--spp", "128"])
+        .args(["--guiding", "sphere", "--device", "cpu", "-o"])
+        .arg(&img)
+        .arg("--guide-out")
+        .arg(&field)
+        .output()
+        .unwrap();
+    assert!(render.status.success(), "{}", String::from_utf8_lossy(&render.stderr));
+    let shot = tmp("field-view.png");
+    let f = field.to_str().unwrap();
+    let o = view(
+        &["scenes/door.toml", "--width", "32", "--height", "24", "--guiding", "sphere"]
+            .iter()
+            .copied()
+            .chain(["--frames", "2", "--guide-in", f, "--screenshot", shot.to_str().unwrap()])
+            .collect::<Vec<_>>(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains(&format!("guiding sphere: starts from the learned field {f}")), "{stdout}");
+    assert!(Image::load(&shot).is_ok(), "the screenshot of the guided view");
+    let o = view(&["scenes/smallpt.toml", "--frames", "1", "--guide-in", f]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && stderr.contains("another scene") && stderr.contains(f), "{stderr}");
+}

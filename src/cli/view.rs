@@ -19,6 +19,10 @@ pub(crate) struct ViewArgs {
     /// swapchain recreation).
     #[arg(long, value_parser = parse_size)]
     resize: Option<(u32, u32)>,
+    /// Start guiding from the learned field FILE that `rlpt render --guide-out` wrote
+    /// for this scene: each guided mode of its bins starts from it.
+    #[arg(long, value_name = "FILE")]
+    guide_in: Option<PathBuf>,
 }
 
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -40,7 +44,18 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
     // The viewer switches guiding on and off as it runs: the box is checked as
     // for a guided render, whatever mode it starts in.
     let guided = RenderOptions { guiding: GuidingMode::Sphere, ..render.clone() };
-    warn_grid(&scene, &PreparedScene::new(&scene, &guided)?);
+    let prepared = PreparedScene::new(&scene, &guided)?;
+    warn_grid(&scene, &prepared);
+    // A field of another scene is refused before the window opens; its bins are
+    // matched mode by mode as the viewer switches.
+    let guide_in = match args.guide_in {
+        Some(path) => {
+            let field = GuideField::load(&path)?;
+            field.check(&path, scene_hash(&prepared), field.bins)?;
+            Some((path, field))
+        }
+        None => None,
+    };
     rlpt::viewer::run(rlpt::viewer::ViewOptions {
         scene_path: args.scene,
         scene,
@@ -49,5 +64,6 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
         frames: args.frames,
         screenshot: args.screenshot,
         resize: args.resize,
+        guide_in,
     })
 }

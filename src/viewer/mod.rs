@@ -15,7 +15,7 @@ pub use camera::ViewCamera;
 pub use inset::{inset_texels, letterbox, window_to_pixel};
 
 use crate::gpu::{Acquired, Context, ContextOptions, Swapchain, WindowTarget};
-use crate::guide::GuidingMode;
+use crate::guide::{GuideField, GuidingMode};
 use crate::math::geometry::intersect;
 use crate::options::RenderOptions;
 use crate::prepared::PreparedScene;
@@ -49,6 +49,9 @@ pub struct ViewOptions {
     pub screenshot: Option<PathBuf>,
     /// Scripted mode: resize the window to this size after the first frame.
     pub resize: Option<(u32, u32)>,
+    /// A learned field (`--guide-in`, read from the path) that each guided mode
+    /// of its bins starts from; modes of other bins start blank.
+    pub guide_in: Option<(PathBuf, GuideField)>,
 }
 
 /// The controls, as `H` prints them.
@@ -223,6 +226,7 @@ struct Viewer {
 
     scene: Scene,
     base: RenderOptions,
+    guide_in: Option<(PathBuf, GuideField)>,
     scene_name: String,
     camera: ViewCamera,
     nee: bool,
@@ -263,7 +267,8 @@ impl Viewer {
         let mut ctx_options = options.context.clone();
         ctx_options.window = Some(target);
         let ctx = Context::new(&ctx_options)?;
-        let first = make_renderer(&ctx, &options.scene, &options.render, options.render.guiding)?;
+        let first =
+            make_renderer(&ctx, &options.scene, &options.render, options.render.guiding, options.guide_in.as_ref())?;
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, (size.width, size.height), None)?;
         let srgb = swapchain.as_ref().is_some_and(|s| s.is_srgb());
@@ -288,6 +293,7 @@ impl Viewer {
             window,
             scene: options.scene.clone(),
             base: options.render.clone(),
+            guide_in: options.guide_in.clone(),
             scene_name,
             camera,
             nee: options.render.nee,
@@ -465,7 +471,7 @@ impl Viewer {
         };
         let index = match self.renderers.iter().position(|r| r.mode == next) {
             Some(i) => i,
-            None => match make_renderer(&self.ctx, &self.scene, &self.base, next) {
+            None => match make_renderer(&self.ctx, &self.scene, &self.base, next, self.guide_in.as_ref()) {
                 Ok(r) => {
                     self.renderers.push(r);
                     self.renderers.len() - 1
@@ -681,10 +687,32 @@ impl Viewer {
     }
 }
 
-fn make_renderer(ctx: &Arc<Context>, scene: &Scene, base: &RenderOptions, mode: GuidingMode) -> Result<ModeRenderer> {
+fn make_renderer(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    base: &RenderOptions,
+    mode: GuidingMode,
+    field: Option<&(PathBuf, GuideField)>,
+) -> Result<ModeRenderer> {
     let mut opts = base.clone();
     opts.guiding = mode;
-    let prepared = PreparedScene::new(scene, &opts)?;
+    let mut prepared = PreparedScene::new(scene, &opts)?;
+    if let (Some((path, field)), Some(cfg)) = (field, prepared.guide) {
+        if cfg.bins == field.bins {
+            prepared.start_from(field.clone(), path, &opts)?;
+            println!("guiding {}: starts from the learned field {}", mode.name(), path.display());
+        } else {
+            println!(
+                "guiding {}: {} holds {}x{} bins and this mode has {}x{}: it starts from a blank table",
+                mode.name(),
+                path.display(),
+                field.bins.rows,
+                field.bins.cols,
+                cfg.bins.rows,
+                cfg.bins.cols
+            );
+        }
+    }
     let renderer = GpuRenderer::new(ctx, &prepared)?;
     Ok(ModeRenderer { mode, prepared, renderer })
 }
