@@ -88,6 +88,23 @@ pub struct Material {
 }
 
 impl Material {
+    /// A material of `kind` and `albedo` with every other field at its default: GGX
+    /// roughness 1, index 1, conductor index 1 + 0i, no emission, one-sided. The
+    /// scene readers start from it and set what their file says.
+    pub fn plain(name: impl Into<String>, kind: MaterialKind, albedo: Vec3) -> Material {
+        Material {
+            name: name.into(),
+            kind,
+            albedo,
+            roughness: 1.0,
+            ior: 1.0,
+            eta: Vec3::ONE,
+            k: Vec3::ZERO,
+            emission: Vec3::ZERO,
+            two_sided: false,
+        }
+    }
+
     /// Whether it emits light: the primitives of such materials are the scene's
     /// lights (`PreparedScene::new`).
     pub fn emits(&self) -> bool {

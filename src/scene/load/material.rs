@@ -82,18 +82,12 @@ pub(super) fn parse_material(
         Some(v) => Some(to_vec3(t.vec3("emission", v, |x| (0.0..=MAX_RADIANCE).contains(&x), "from 0 to 1e12")?)),
     };
     let mut material = Material {
-        name: name.to_string(),
-        kind,
-        albedo: Vec3::ZERO,
-        roughness: 1.0,
-        ior: 1.0,
-        eta: Vec3::ONE,
-        k: Vec3::ZERO,
         emission: emission.unwrap_or(Vec3::ZERO),
         two_sided: match t.get("two_sided") {
             None => false,
             Some(v) => t.boolean("two_sided", v)?,
         },
+        ..Material::plain(name, kind, Vec3::ZERO)
     };
     match kind {
         MaterialKind::Diffuse => {
@@ -104,12 +98,7 @@ pub(super) fn parse_material(
         }
         MaterialKind::Glossy => {
             material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
-            material.roughness = t.ranged(
-                "roughness",
-                t.required("roughness", "GGX roughness, a number in (0, 1]")?,
-                |x| x > 0.0 && x <= 1.0,
-                "a number in (0, 1] (0 < roughness <= 1)",
-            )?;
+            material.roughness = ggx_roughness(&t, "GGX roughness, a number in (0, 1]")?;
         }
         MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
             material.ior = t.ranged(
@@ -150,12 +139,7 @@ pub(super) fn parse_material(
         }
         MaterialKind::Coated => {
             material.albedo = albedo("the base's reflectance [r, g, b], components in [0, 1]")?;
-            material.roughness = t.ranged(
-                "roughness",
-                t.required("roughness", "the coat's GGX roughness, a number in (0, 1]")?,
-                |x| x > 0.0 && x <= 1.0,
-                "a number in (0, 1] (0 < roughness <= 1)",
-            )?;
+            material.roughness = ggx_roughness(&t, "the coat's GGX roughness, a number in (0, 1]")?;
             material.ior = match t.get("ior") {
                 None => 1.5,
                 Some(v) => {
@@ -182,4 +166,15 @@ pub(super) fn material_index(t: &Table<'_, '_, '_>, materials: &[Material]) -> R
             Err(t.error_at(v.span(), format!("material \"{name}\" is not defined (defined: {})", names.join(", "))))
         }
     }
+}
+
+/// The required `roughness` key of a GGX lobe, in (0, 1]; `expected` says what a
+/// missing key should have been.
+fn ggx_roughness(t: &Table<'_, '_, '_>, expected: &str) -> Result<f32, SceneError> {
+    t.ranged(
+        "roughness",
+        t.required("roughness", expected)?,
+        |x| x > 0.0 && x <= 1.0,
+        "a number in (0, 1] (0 < roughness <= 1)",
+    )
 }

@@ -533,15 +533,9 @@ fn map_material(m: &gltf::Material<'_>, index: usize, ignored: &mut Ignored) -> 
     let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
 
     let mut material = Material {
-        name: name.clone(),
-        kind: MaterialKind::Diffuse,
-        albedo: base,
-        roughness: 1.0,
-        ior: 1.0,
-        eta: Vec3::ONE,
-        k: Vec3::ZERO,
         emission,
         two_sided: m.double_sided(),
+        ..Material::plain(name.clone(), MaterialKind::Diffuse, base)
     };
     let mut mapping;
     if transmission > 0.5 {

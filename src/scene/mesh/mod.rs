@@ -402,17 +402,7 @@ mod tests {
     fn finish_skips_zero_area_triangles_and_unused_materials() {
         let material = |name: &str| FileMaterial {
             name: name.to_string(),
-            material: Material {
-                name: name.to_string(),
-                kind: crate::scene::MaterialKind::Diffuse,
-                albedo: Vec3::splat(0.5),
-                roughness: 1.0,
-                ior: 1.0,
-                eta: Vec3::ONE,
-                k: Vec3::ZERO,
-                emission: Vec3::ZERO,
-                two_sided: false,
-            },
+            material: Material::plain(name, crate::scene::MaterialKind::Diffuse, Vec3::splat(0.5)),
             mapping: String::new(),
         };
         let builder = Builder {

@@ -208,17 +208,7 @@ pub(super) fn map(m: &MtlMaterial, ignored: &mut Ignored) -> FileMaterial {
     let transparent =
         m.d.is_some_and(|d| d < 1.0) || m.tr.is_some_and(|t| t > 0.0) || m.tf.is_some_and(|t| t.min_element() < 1.0);
 
-    let mut material = Material {
-        name: m.name.clone(),
-        kind: MaterialKind::Diffuse,
-        albedo: kd,
-        roughness: 1.0,
-        ior: 1.0,
-        eta: Vec3::ONE,
-        k: Vec3::ZERO,
-        emission,
-        two_sided: false,
-    };
+    let mut material = Material { emission, ..Material::plain(m.name.clone(), MaterialKind::Diffuse, kd) };
     let mut mapping;
     if matches!(illum, 4 | 6 | 7) || (transparent && m.ni.is_some()) {
         material.kind = MaterialKind::Dielectric;

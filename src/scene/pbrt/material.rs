@@ -47,17 +47,7 @@ const GLASSES: &[(&str, f32)] = &[
 ];
 
 fn plain(kind: MaterialKind, albedo: Vec3) -> Material {
-    Material {
-        name: String::new(),
-        kind,
-        albedo,
-        roughness: 1.0,
-        ior: 1.0,
-        eta: Vec3::ONE,
-        k: Vec3::ZERO,
-        emission: Vec3::ZERO,
-        two_sided: false,
-    }
+    Material::plain(String::new(), kind, albedo)
 }
 
 fn text(v: Vec3) -> String {

@@ -114,17 +114,7 @@ struct Importer {
 pub(super) fn load(path: &Path, strict: bool) -> Result<Scene, SceneError> {
     let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let default = Mapped {
-        material: super::Material {
-            name: "pbrt default diffuse".into(),
-            kind: super::MaterialKind::Diffuse,
-            albedo: Vec3::splat(0.5),
-            roughness: 1.0,
-            ior: 1.0,
-            eta: Vec3::ONE,
-            k: Vec3::ZERO,
-            emission: Vec3::ZERO,
-            two_sided: false,
-        },
+        material: super::Material::plain("pbrt default diffuse", super::MaterialKind::Diffuse, Vec3::splat(0.5)),
         mapping:
             "pbrt default diffuse: diffuse -> diffuse (reflectance [0.5, 0.5, 0.5], used where no Material was given)"
                 .into(),
