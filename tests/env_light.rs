@@ -264,15 +264,12 @@ fn tessellated_ball_in_an_image_furnace_renders_its_albedo() {
     }
 }
 
-/// Lit by a small bright spot of a dark map, NEE on and off agree: an error in the
-/// map's density would bias light sampling's estimate and not BSDF sampling's.
-/// The spot sits where the ball's side and the floor see it.
-#[test]
-fn spot_lit_scene_agrees_with_nee_on_and_off() {
-    let dir = temp_dir("spot");
-    // Two texels of the 16 x 8 map, about 0.25 sr at 34 degrees above the horizon:
-    // small enough that light sampling matters, large enough that BSDF sampling
-    // alone finds it often enough for its noise to be estimated.
+/// The ball scene under a dark 16 x 8 map with a spot of two texels, about 0.25 sr
+/// at 34 degrees above the horizon: small enough that light sampling matters,
+/// large enough that BSDF sampling alone finds it often enough for its noise to
+/// be estimated. Written into the temporary folder `name`.
+fn spot_lit_scene(name: &str) -> Scene {
+    let dir = temp_dir(name);
     write_image(&dir.join("sky.exr"), 16, 8, |x, y| {
         if (9..11).contains(&x) && y == 2 {
             [20.0, 16.0, 12.0]
@@ -280,7 +277,15 @@ fn spot_lit_scene_agrees_with_nee_on_and_off() {
             [0.05, 0.06, 0.08]
         }
     });
-    let scene = ball_scene("file = \"sky.exr\"\nrotate = 20.0", &dir);
+    ball_scene("file = \"sky.exr\"\nrotate = 20.0", &dir)
+}
+
+/// Lit by a small bright spot of a dark map, NEE on and off agree: an error in the
+/// map's density would bias light sampling's estimate and not BSDF sampling's.
+/// The spot sits where the ball's side and the floor see it.
+#[test]
+fn spot_lit_scene_agrees_with_nee_on_and_off() {
+    let scene = spot_lit_scene("spot");
     let mut on = options(&scene, 24, 18, 64 * 12);
     on.nee = true;
     let mut off = on.clone();
@@ -297,7 +302,7 @@ fn spot_lit_scene_agrees_with_nee_on_and_off() {
     }
     // The spot lights the scene: the image is not the dim background's alone.
     let sum = |f: &rlpt::film::Film| f.mean().pixels.iter().map(|p| p[0] as f64).sum::<f64>();
-    let dim = sum(&render_cpu(&ball_scene("radiance = [0.05, 0.06, 0.08]", &dir), &on));
+    let dim = sum(&render_cpu(&ball_scene("radiance = [0.05, 0.06, 0.08]", &temp_dir("spot-dim")), &on));
     assert!(sum(&gon) > 2.0 * dim, "the spot adds {} to the dim sky's {dim}", sum(&gon) - dim);
 }
 
@@ -308,15 +313,7 @@ fn spot_lit_scene_agrees_with_nee_on_and_off() {
 #[test]
 fn guided_renders_of_an_image_environment_agree_with_unguided() {
     use rlpt::guide::{GuidingMode, QTargets};
-    let dir = temp_dir("guided");
-    write_image(&dir.join("sky.exr"), 16, 8, |x, y| {
-        if (9..11).contains(&x) && y == 2 {
-            [20.0, 16.0, 12.0]
-        } else {
-            [0.05, 0.06, 0.08]
-        }
-    });
-    let scene = ball_scene("file = \"sky.exr\"\nrotate = 20.0", &dir);
+    let scene = spot_lit_scene("guided");
     let off = options(&scene, 24, 18, 64 * 12);
     let ctx = gpu();
     let reference = render_gpu(&ctx, &scene, &off);
