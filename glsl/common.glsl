@@ -97,6 +97,10 @@
 // The paths' random numbers are Owen-scrambled Sobol points (sampler.glsl);
 // without the bit, independent PCG hashes.
 #define FLAG_SOBOL 256
+// Each frame sums its pixels' relative variance into COUNTER_FRAME_VARIANCE's
+// slots (pathtrace.comp `add_frame_variance`), for the guided renders' choice
+// between guided and unguided frames (src/guide/race.rs).
+#define FLAG_FRAME_VARIANCE 512
 
 // The samplers' dimension layout (sampler.glsl, docs/sampling.md): the camera's
 // jitter takes dimensions 0 and 1; the vertex of depth d takes SAMPLER_BOUNCE_DIMS
@@ -223,7 +227,13 @@
 // times min(subgroup size, 64) on the host, the rays the subgroups would trace if
 // every lane's path were as long as its subgroup's longest (src/render/mod.rs).
 #define COUNTER_SUBGROUP_SEGMENTS 3
-#define NUM_COUNTERS 5
+// FRAME_VARIANCE_SLOTS 64-bit sums of the pixels' relative variance, in fixed
+// point (FRAME_VARIANCE_SCALE per unit, each pixel's term clamped to 65536): the
+// pixels spread over the slots so that few atomics meet on one word.
+#define COUNTER_FRAME_VARIANCE 5
+#define FRAME_VARIANCE_SLOTS 64
+#define FRAME_VARIANCE_SCALE 65536.0
+#define NUM_COUNTERS 133
 // learn.comp: invocations per workgroup of the fold (phase 0) and of the rows'
 // rebuild (phase 1), one row per invocation; the rebuild's groups stage their
 // rows in shared memory where at least LEARN_MIN_STAGED_ROWS fit

@@ -76,9 +76,7 @@ void accumulate(uint pixel, vec3 sum) {
     uint n = push.accum_frames;
     if (n == 0u) {
         float learned = 0.0;
-#ifdef RLPT_GUIDING
         if (push.learned_frames > 0u) learned = mean3(accum[pixel].sum.xyz);
-#endif
         accum[pixel].sum = vec4(sum, learned);
         accum[pixel].m2_frame_mean = vec4(0.0);
         return;
@@ -89,6 +87,28 @@ void accumulate(uint pixel, vec3 sum) {
     vec3 mean_new = mean_old + delta / float(n + 1u);
     accum[pixel].sum.xyz += sum;
     accum[pixel].m2_frame_mean.xyz += delta * (m - mean_new);
+}
+
+// src/film.rs `frame_variance_term`: the relative variance of the frame's mean
+// of the pixel (mean3), from its samples' sum and sum of squares, over the square
+// of the pixel's mean before the frame plus relMSE's 0.01, in fixed point.
+uint frame_variance_term(float sum, float sum_sq, float mean_before) {
+    float n = float(SAMPLES_PER_FRAME);
+    float var = max((sum_sq - sum * sum / n) / (n - 1.0), 0.0) / n;
+    float rel = var / (mean_before * mean_before + 0.01);
+    return uint(min(rel, 65535.0) * FRAME_VARIANCE_SCALE);
+}
+
+// Adds the pixel's frame_variance_term to its slot (src/render/mod.rs reads the
+// slots). The pixel's mean before the frame is the accumulation's, the learning
+// frames' where the image has none yet, and this frame's on the first frame
+// (as src/cpu/mod.rs `pixel_mean_before`).
+void add_frame_variance(uint pixel, float sum, float sum_sq) {
+    uint n = push.accum_frames > 0u ? push.accum_frames : push.learned_frames;
+    float per_frame = float(SAMPLES_PER_FRAME);
+    float before = n > 0u ? mean3(accum[pixel].sum.xyz) / (per_frame * float(n)) : sum / per_frame;
+    uint slot = uint(COUNTER_FRAME_VARIANCE) + 2u * (pixel % uint(FRAME_VARIANCE_SLOTS));
+    counter_add64(slot, frame_variance_term(sum, sum_sq, before));
 }
 
 Bsdf material_bsdf(uint mat) {
@@ -174,6 +194,8 @@ const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
 // function that reads it, and COUNT_RAYS is read in trace_path and in main; written
 // as COUNTERS && ..., the module was invalid SPIR-V and lavapipe rejected it.
 const bool COUNT_RAYS = (FLAGS & FLAG_COUNT_RAYS) != 0u;
+// The frame's relative variance is summed (add_frame_variance).
+const bool FRAME_VARIANCE = (FLAGS & FLAG_FRAME_VARIANCE) != 0u;
 // Where trace_path counts its rays: with the depth in one register where the
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
@@ -505,7 +527,15 @@ void main() {
     }
 
     // Every invocation takes part in the reduction, inside the image or not.
-    vec3 sum = reduce_pixel_sum(radiance);
+    vec3 sum;
+    if (FRAME_VARIANCE) {
+        float l = mean3(radiance);
+        vec4 s = reduce_pixel_sum4(vec4(radiance, l * l));
+        sum = s.xyz;
+        if (inside && sample_index == 0u) add_frame_variance(pixel, mean3(sum), s.w);
+    } else {
+        sum = reduce_pixel_sum(radiance);
+    }
     if (inside && sample_index == 0u) {
         accumulate(pixel, sum);
     }

@@ -13,11 +13,11 @@
 
 // Sized for the largest group (PIXELS_PER_GROUP pixels; the unguided kernel's
 // groups are smaller and use the front of it).
-shared vec3 reduce_partial[PIXELS_PER_GROUP * SAMPLES_PER_FRAME];
+shared vec4 reduce_partial[PIXELS_PER_GROUP * SAMPLES_PER_FRAME];
 
 // Returns the pixel's sum in the invocation whose sample index is 0; other
 // invocations get a partial sum.
-vec3 reduce_pixel_sum(vec3 v) {
+vec4 reduce_pixel_sum4(vec4 v) {
     uint lanes = min(gl_SubgroupSize, uint(SAMPLES_PER_FRAME));
     for (uint offset = 1u; offset < lanes; offset <<= 1u) {
         v += subgroupShuffleXor(v, offset);
@@ -29,13 +29,18 @@ vec3 reduce_pixel_sum(vec3 v) {
         reduce_partial[gl_LocalInvocationIndex / lanes] = v;
     }
     barrier();
-    vec3 total = vec3(0.0);
+    vec4 total = vec4(0.0);
     uint blocks = uint(SAMPLES_PER_FRAME) / lanes;
     uint first = gl_LocalInvocationID.z * blocks;
     if (gl_LocalInvocationIndex % uint(SAMPLES_PER_FRAME) == 0u) {
         for (uint k = 0u; k < blocks; ++k) total += reduce_partial[first + k];
     }
     return total;
+}
+
+// The same for three components.
+vec3 reduce_pixel_sum(vec3 v) {
+    return reduce_pixel_sum4(vec4(v, 0.0)).xyz;
 }
 
 #endif

@@ -42,6 +42,18 @@ pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [
     }
 }
 
+/// `pathtrace.comp` `frame_variance_term`: the relative variance of a frame's
+/// mean of a pixel (mean3), from its samples' `sum` and `sum_sq`, over the
+/// square of the pixel's mean before the frame plus relMSE's 0.01, in fixed
+/// point (`FRAME_VARIANCE_SCALE` per unit, clamped below 65536). Summed over the
+/// pixels, it is what a [`crate::guide::FrameRace`] weighs a frame by.
+pub fn frame_variance_term(sum: f32, sum_sq: f32, mean_before: f32) -> u32 {
+    let n = shared::SAMPLES_PER_FRAME as f32;
+    let var = ((sum_sq - sum * sum / n) / (n - 1.0)).max(0.0) / n;
+    let rel = var / (mean_before * mean_before + 0.01);
+    (rel.min(65535.0) * shared::FRAME_VARIANCE_SCALE) as u32
+}
+
 /// Host memory a render of `pixels` pixels holds at its peak, about: the film, the
 /// image made from it and the file's encoding, and on the GPU the readback
 /// buffer too. The bytes per pixel are measured maxima of resident memory, the

@@ -188,6 +188,13 @@ struct Settings {
     /// roulette starts; 0 without].
     #[arg(long, value_name = "N", value_parser = parse_learning_frames, allow_negative_numbers = true)]
     learning_frames: Option<u32>,
+    /// Whether a guided render's image frames may be traced unguided: `auto` traces each
+    /// frame with the guided or the unguided kernel, whichever has lately given the image
+    /// more for its time (a few frames go to the other, to keep measuring it and teaching
+    /// the table; docs/guiding.md, where its measured effects are); `never` guides every
+    /// frame [default: never].
+    #[arg(long, value_enum)]
+    unguided_frames: Option<rlpt::guide::UnguidedFrames>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
     /// counts the emission met with the MIS weight the image gives it and adds the light
     /// sample at the vertex met, so that guided directions seek what light sampling
@@ -231,6 +238,7 @@ impl Settings {
         opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
         opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
         opts.learning_frames = self.learning_frames;
+        opts.unguided_frames = self.unguided_frames.unwrap_or_default();
         opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
         opts.sampler = self.sampler;
         opts
@@ -255,6 +263,7 @@ impl Settings {
                 ("--learning-rate-exponent", self.learning_rate_exponent.is_some()),
                 ("--exploration-floor", self.exploration_floor.is_some()),
                 ("--learning-frames", self.learning_frames.is_some()),
+                ("--unguided-frames", self.unguided_frames.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
             ];
             for (flag, _) in given.iter().filter(|(_, g)| *g) {

@@ -65,6 +65,9 @@ pub struct RenderOptions {
     /// Frames that teach the table before the image starts (see
     /// `GuideConfig::learning_frames`). None: [`guide::default_learning_frames`].
     pub learning_frames: Option<u32>,
+    /// Whether a guided render's image frames may be traced unguided, frame by
+    /// frame, where that gives the image more for its time ([`guide::FrameRace`]).
+    pub unguided_frames: guide::UnguidedFrames,
     /// What Q-learning targets count of the light their rays meet where NEE is on
     /// ([`guide::QTargets`]; `FLAG_MIS_TARGETS`).
     pub q_targets: guide::QTargets,
@@ -119,6 +122,7 @@ impl RenderOptions {
             guide_floor: guide::DEFAULT_FLOOR,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             learning_frames: None,
+            unguided_frames: guide::UnguidedFrames::Never,
             q_targets: guide::QTargets::Mis,
             guided_vertices: None,
             counters: Counters::Off,

@@ -23,6 +23,10 @@ pub struct FrameReport {
     pub gpu_ms: Option<f64>,
     /// Paths that carried zero radiance, where the renderer counts them.
     pub zero_paths: Option<u64>,
+    /// The kernel that traced the frame, with guiding (`guide::FrameRace`).
+    pub kind: Option<crate::guide::FrameKind>,
+    /// The frame's mean relative variance, where the renderer weighs it.
+    pub variance: Option<f64>,
 }
 
 /// What the frame loop needs of a renderer: [`GpuRenderer`] and [`CpuRenderer`]
@@ -45,7 +49,12 @@ pub trait Renderer {
 impl Renderer for CpuRenderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
         CpuRenderer::render_frame(self);
-        Ok(FrameReport { gpu_ms: None, zero_paths: Some(self.last_counters.zero_paths) })
+        Ok(FrameReport {
+            gpu_ms: None,
+            zero_paths: Some(self.last_counters.zero_paths),
+            kind: self.last_kind,
+            variance: self.last_variance,
+        })
     }
     fn image_frames(&self) -> u32 {
         CpuRenderer::film(self).frames
@@ -67,7 +76,12 @@ impl Renderer for CpuRenderer {
 impl Renderer for GpuRenderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
         let t = self.render_frames(1)?;
-        Ok(FrameReport { gpu_ms: self.context().info.timestamps.then_some(t.total_ms()), zero_paths: t.zero_paths })
+        Ok(FrameReport {
+            gpu_ms: self.context().info.timestamps.then_some(t.total_ms()),
+            zero_paths: t.zero_paths,
+            kind: t.kind,
+            variance: t.variance,
+        })
     }
     fn image_frames(&self) -> u32 {
         self.frames()
@@ -190,6 +204,8 @@ impl<'a> Session<'a> {
                 rel_mse: errors.map(|e| e.rel_mse),
                 rel_mse_debiased: errors.and_then(|e| e.rel_mse_debiased),
                 zero_fraction: report.zero_paths.map(|z| z as f64 / self.paths_per_frame),
+                unguided: report.kind == Some(crate::guide::FrameKind::Unguided),
+                frame_variance: report.variance,
             });
             if !shown && start.elapsed() > Duration::from_secs(1) {
                 bar.set_draw_target(ProgressDrawTarget::stderr());

@@ -74,6 +74,13 @@ pub struct FrameStats {
     pub rel_mse_debiased: Option<f64>,
     /// Fraction of this frame's paths that carried zero radiance.
     pub zero_fraction: Option<f64>,
+    /// With guiding, whether the frame was traced unguided (`guide::FrameRace`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub unguided: bool,
+    /// The frame's mean relative variance as the race weighs it
+    /// (`crate::film::frame_variance_term`), where it was weighed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_variance: Option<f64>,
 }
 
 impl RenderStats {

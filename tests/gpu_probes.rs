@@ -24,7 +24,7 @@ fn reduction_sums_64_samples_exactly_on_this_subgroup_size() {
     let values: Vec<[f32; 4]> = (0..groups * group_size)
         .map(|i| {
             let h = rlpt::math::rng::pcg_hash(i);
-            [(h % 1000) as f32, ((h >> 10) % 512) as f32 * 0.5, -(((h >> 20) % 100) as f32), 0.0]
+            [(h % 1000) as f32, ((h >> 10) % 512) as f32 * 0.5, -(((h >> 20) % 100) as f32), ((h >> 27) % 32) as f32]
         })
         .collect();
     let input = Buffer::with_data(&ctx, "reduce inputs", bytemuck::cast_slice(&values), false).unwrap();
@@ -44,13 +44,13 @@ fn reduction_sums_64_samples_exactly_on_this_subgroup_size() {
     assert_eq!(info[0], ctx.info.subgroup_size, "kernel and device agree on the subgroup size");
     assert_eq!(info[1], 0, "subgroups are runs of consecutive invocation indices");
     for (px, s) in got.iter().enumerate() {
-        let mut want = [0.0f32; 3];
+        let mut want = [0.0f32; 4];
         for v in &values[px * 64..px * 64 + 64] {
-            for c in 0..3 {
+            for c in 0..4 {
                 want[c] += v[c];
             }
         }
-        assert_eq!(&s[..3], &want[..], "pixel {px} (subgroup size {})", ctx.info.subgroup_size);
+        assert_eq!(&s[..], &want[..], "pixel {px} (subgroup size {})", ctx.info.subgroup_size);
     }
     common::assert_no_validation_messages(&ctx);
 }

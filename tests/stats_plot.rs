@@ -30,6 +30,8 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
                 rel_mse: Some(constant / (elapsed_ms / 1000.0) * wobble),
                 rel_mse_debiased: None,
                 zero_fraction: Some(0.25),
+                unguided: false,
+                frame_variance: None,
             }
         })
         .collect();

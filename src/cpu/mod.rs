@@ -352,6 +352,9 @@ pub struct FrameCounters {
     pub zero_paths: u64,
     /// Rays traced (camera, bounce and shadow rays).
     pub segments: u64,
+    /// The pixels' `crate::film::frame_variance_term`s summed (0 where no race
+    /// weighs the frame).
+    pub variance: u64,
 }
 
 /// The CPU renderer's guiding state.
@@ -362,6 +365,11 @@ struct Learning {
     schedule: guide::RecordSchedule,
     /// The targets recorded since the table last learned.
     pending: FrameSums,
+    /// Guided frames traced, the learning frames included: the recording
+    /// schedule's and learned roulette's frame count (as on the GPU).
+    guided_traced: u32,
+    /// The choice of kernel of the image's frames, where it may choose.
+    race: Option<guide::FrameRace>,
 }
 
 /// The CPU renderer: the film, the learned table (with guiding) and the frame counter.
@@ -378,6 +386,11 @@ pub struct CpuRenderer {
     /// after `reset_film`): learned roulette's estimate still counts them.
     learned_frames: u32,
     pub last_counters: FrameCounters,
+    /// The kind of the last frame traced (None without guiding).
+    pub last_kind: Option<guide::FrameKind>,
+    /// The last frame's mean relative variance, where it is weighed
+    /// (`FLAG_FRAME_VARIANCE`; `crate::render::FrameTimings::variance`).
+    pub last_variance: Option<f64>,
 }
 
 impl CpuRenderer {
@@ -387,6 +400,8 @@ impl CpuRenderer {
             table: scene.guide_start.as_ref().map_or_else(|| QTable::new(&g), |f| f.table(&g)),
             schedule: guide::RecordSchedule::for_render(&g, w, h),
             pending: FrameSums::for_config(&g),
+            guided_traced: 0,
+            race: g.unguided_frames.then(guide::FrameRace::default),
         });
         CpuRenderer {
             scene: scene.clone(),
@@ -396,7 +411,14 @@ impl CpuRenderer {
             frame_offset: 0,
             learned_frames: 0,
             last_counters: FrameCounters::default(),
+            last_kind: None,
+            last_variance: None,
         }
+    }
+
+    /// The race of the image's frames' kernels, where there is one.
+    pub fn race(&self) -> Option<&guide::FrameRace> {
+        self.learning.as_ref().and_then(|l| l.race.as_ref())
     }
 
     pub fn film(&self) -> &Film {
@@ -426,22 +448,31 @@ impl CpuRenderer {
     /// after the learning frames (`GuideConfig::learning_frames`) starts the
     /// image anew: the film then holds it alone (`crate::film::accumulate`).
     pub fn render_frame(&mut self) {
+        let start = std::time::Instant::now();
         let p = self.scene.params;
-        let frame = self.frames_traced;
-        if self.film.frames > 0 && frame == self.scene.learning_frames() {
+        let learning_frames = self.scene.learning_frames();
+        // The image's frames are guided or not as the race says, where there is one.
+        let kind = self
+            .learning
+            .as_ref()
+            .map(|l| guide::frame_kind(l.race.as_ref(), self.frames_traced, l.guided_traced, learning_frames));
+        let guided = kind == Some(guide::FrameKind::Guided);
+        let frame = self.learning.as_ref().map_or(self.frames_traced, |l| l.guided_traced);
+        if self.film.frames > 0 && self.frames_traced == learning_frames {
             self.learned_frames = self.film.frames;
             self.film.frames = 0;
         }
         let (accum_frames, learned_frames) = (self.film.frames, self.learned_frames);
-        let rng_frame = crate::render::rng_frame(frame, self.scene.learning_frames(), self.frame_offset);
+        let rng_frame = crate::render::rng_frame(self.frames_traced, learning_frames, self.frame_offset);
         // A loaded field has learned: learned roulette need not wait for it.
         let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
         let scene = &self.scene;
         let learning = self.learning.as_ref();
-        let guide = scene.guide.as_ref().zip(learning).map(|(cfg, l)| Guide::new(cfg, &l.table));
+        let guide = scene.guide.as_ref().zip(learning).filter(|_| guided).map(|(cfg, l)| Guide::new(cfg, &l.table));
+        let weigh = p.flags & shared::FLAG_FRAME_VARIANCE != 0;
         // Empty sums for the table (none without guiding).
         let no_sums = || scene.guide.as_ref().map_or_else(|| FrameSums::new(0, 0), FrameSums::for_config);
-        let schedule = learning.map(|l| &l.schedule);
+        let schedule = learning.filter(|_| guided).map(|l| &l.schedule);
         let (sums, counters) = self
             .film
             .pixels
@@ -453,7 +484,7 @@ impl CpuRenderer {
                     let record = schedule.is_some_and(|s| s.records(frame, y as u32));
                     for (x, acc) in row.iter_mut().enumerate() {
                         let pixel = y as u32 * p.width + x as u32;
-                        let mut sum = Vec3::ZERO;
+                        let (mut sum, mut sum_sq) = (Vec3::ZERO, 0.0f32);
                         let estimate = match guide {
                             Some(_) => {
                                 guide::roulette_estimate(acc, accum_frames, learned_frames, frame + table_frames)
@@ -471,10 +502,15 @@ impl CpuRenderer {
                             // (as on the GPU) and counted as carrying nothing.
                             if l.is_finite() {
                                 sum += l;
+                                sum_sq += mean3(l) * mean3(l);
                             }
                             if !(l.max_element() > 0.0) {
                                 counters.zero_paths += 1;
                             }
+                        }
+                        if weigh {
+                            let before = pixel_mean_before(acc, accum_frames, learned_frames, mean3(sum));
+                            counters.variance += crate::film::frame_variance_term(mean3(sum), sum_sq, before) as u64;
                         }
                         crate::film::accumulate(acc, accum_frames, learned_frames, sum.to_array());
                     }
@@ -489,20 +525,57 @@ impl CpuRenderer {
                         FrameCounters {
                             zero_paths: ca.zero_paths + cb.zero_paths,
                             segments: ca.segments + cb.segments,
+                            variance: ca.variance + cb.variance,
                         },
                     )
                 },
             );
+        let guided_before = self.learning.as_ref().map_or(0, |l| l.guided_traced);
+        let (mut trace_ms, mut learn_ms, mut period) = (start.elapsed().as_secs_f64() * 1e3, None, 1);
         if let (Some(l), Some(cfg)) = (self.learning.as_mut(), self.scene.guide.as_ref()) {
-            l.pending.add_all(&sums);
-            if l.schedule.learns_after(self.frames_traced) {
-                l.table.learn(cfg, &l.pending);
-                l.pending = FrameSums::for_config(cfg);
+            if guided {
+                l.pending.add_all(&sums);
+                trace_ms = start.elapsed().as_secs_f64() * 1e3;
+                if l.schedule.learns_after(l.guided_traced) {
+                    let learn_start = std::time::Instant::now();
+                    l.table.learn(cfg, &l.pending);
+                    l.pending = FrameSums::for_config(cfg);
+                    learn_ms = Some(learn_start.elapsed().as_secs_f64() * 1e3);
+                }
+                period = l.schedule.learning_period(l.guided_traced);
+                l.guided_traced += 1;
+            }
+        }
+        let pixels = (p.width * p.height) as f64;
+        let variance = weigh.then(|| counters.variance as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels);
+        if let (Some(race), Some(kind), Some(v)) =
+            (self.learning.as_mut().and_then(|l| l.race.as_mut()), kind, variance)
+        {
+            if guide::race_weighs(kind, self.frames_traced, guided_before, learning_frames) {
+                match kind {
+                    guide::FrameKind::Guided => race.report_guided(v, trace_ms, learn_ms, period),
+                    guide::FrameKind::Unguided => race.report(kind, v, trace_ms),
+                }
             }
         }
         self.film.frames += 1;
         self.frames_traced += 1;
         self.last_counters = counters;
+        self.last_kind = kind;
+        self.last_variance = variance;
+    }
+}
+
+/// `pathtrace.comp` `add_frame_variance`'s mean of the pixel before the frame:
+/// the accumulation's, the learning frames' where the image has none yet, else
+/// this frame's (`frame_sum`, mean3 of its sum).
+fn pixel_mean_before(acc: &crate::layout::AccumPixel, accum_frames: u32, learned_frames: u32, frame_sum: f32) -> f32 {
+    let n = if accum_frames > 0 { accum_frames } else { learned_frames };
+    let per_frame = shared::SAMPLES_PER_FRAME as f32;
+    if n > 0 {
+        mean3(Vec3::from_slice(&acc.sum[..3])) / (per_frame * n as f32)
+    } else {
+        frame_sum / per_frame
     }
 }
 

@@ -72,6 +72,7 @@ mod bins;
 mod field;
 mod fraction;
 mod grid;
+mod race;
 mod record;
 mod roulette;
 mod sampler;
@@ -81,6 +82,7 @@ pub use bins::*;
 pub use field::*;
 pub use fraction::*;
 pub use grid::*;
+pub use race::*;
 pub use record::*;
 pub use roulette::*;
 pub use sampler::*;
@@ -171,9 +173,14 @@ pub struct GuideConfig {
     /// (1/2, 1]; 1, the default, is the running mean.
     pub rate_exponent: f32,
     /// Frames at the start of the render that teach the table and are then left
-    /// out of the image ([`default_learning_frames`]); their radiance stays the
-    /// pixels' estimate for learned roulette.
+    /// out of the image ([`default_learning_frames`]), and where the race may
+    /// trace unguided frames, the unguided frame after them
+    /// ([`frames_before_image`]); their radiance stays the pixels' estimate for
+    /// learned roulette.
     pub learning_frames: u32,
+    /// Whether image frames may be traced unguided where a [`FrameRace`] finds
+    /// them more efficient.
+    pub unguided_frames: bool,
 }
 
 impl GuideConfig {

@@ -90,6 +90,13 @@ impl RecordSchedule {
         let stride = self.stride(frame);
         frame % stride == stride - 1
     }
+
+    /// Frames per learning pass once the first `RECORD_ALL_FRAMES` are past, at
+    /// frame `frame`'s stride: the share of a pass each guided frame costs in
+    /// the long run ([`FrameRace::report_guided`]).
+    pub fn learning_period(&self, frame: u32) -> u32 {
+        self.stride(frame.max(shared::RECORD_ALL_FRAMES))
+    }
 }
 
 /// What a path that records hands over: Q-learning targets, and where each

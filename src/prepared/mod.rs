@@ -375,7 +375,11 @@ impl PreparedScene {
                 learn_fraction: opts.learn_fraction,
                 floor: opts.guide_floor,
                 rate_exponent: opts.learning_rate_exponent,
-                learning_frames: opts.learning_frames.unwrap_or(guide::default_learning_frames(roulette)),
+                learning_frames: guide::frames_before_image(
+                    opts.learning_frames.unwrap_or(guide::default_learning_frames(roulette)),
+                    opts.unguided_frames == guide::UnguidedFrames::Auto,
+                ),
+                unguided_frames: opts.unguided_frames == guide::UnguidedFrames::Auto,
             };
             let p = &mut prepared.params;
             p.guide_bins = bins.count();
@@ -383,6 +387,9 @@ impl PreparedScene {
             p.guide_cols = bins.cols;
             set_grid(p, &cfg);
             p.guide_floor = cfg.floor;
+            if cfg.unguided_frames {
+                p.flags |= shared::FLAG_FRAME_VARIANCE;
+            }
             // 0: the default for whichever NEE and roulette flags the params hold.
             p.guide_vertices = opts.guided_vertices.unwrap_or(0);
             prepared.guide = Some(cfg);
@@ -409,7 +416,7 @@ impl PreparedScene {
         };
         field.check(path, hash, cfg.bins)?;
         cfg.grid = field.grid;
-        cfg.learning_frames = opts.learning_frames.unwrap_or(0);
+        cfg.learning_frames = guide::frames_before_image(opts.learning_frames.unwrap_or(0), cfg.unguided_frames);
         let cfg = *cfg;
         set_grid(&mut self.arrays.params, &cfg);
         self.guide_start = Some(std::sync::Arc::new(field));

@@ -4,7 +4,7 @@
 
 use crate::film::Film;
 use crate::gpu::{shader, Binding, Buffer, BufferUsage, Context, GpuError, Pipeline, PipelineStatistic, Timer};
-use crate::guide::{AliasBin, GuideConfig, QTable, RecordSchedule};
+use crate::guide::{AliasBin, FrameKind, FrameRace, GuideConfig, QTable, RecordSchedule};
 use crate::layout::AccumPixel;
 use crate::prepared::PreparedScene;
 use crate::shared;
@@ -40,6 +40,12 @@ pub struct FrameTimings {
     /// as the longest of its subgroup, which the subgroup runs the loop for: over
     /// it, `segments` is the share of lanes busy (the lane utilization); None likewise.
     pub subgroup_segments: Option<u64>,
+    /// The kernel that traced the frames (None without guiding).
+    pub kind: Option<FrameKind>,
+    /// The frames' mean relative variance, where the kernel sums it
+    /// (`FLAG_FRAME_VARIANCE`: `crate::film::frame_variance_term` summed over the
+    /// pixels, over the pixels and frames).
+    pub variance: Option<f64>,
 }
 
 impl FrameTimings {
@@ -88,6 +94,13 @@ pub struct GpuRenderer {
     pipeline: Pipeline,
     /// With guiding, the path-tracing pipeline that records targets.
     recording: Option<Pipeline>,
+    /// With guiding and a [`FrameRace`], the unguided kernel for the frames it names.
+    unguided: Option<Pipeline>,
+    /// The choice of kernel of the image's frames, where it may choose.
+    race: Option<FrameRace>,
+    /// Guided frames traced, the learning frames included: the recording
+    /// schedule's and learned roulette's frame count (`PathPush::frame`).
+    guided_traced: u32,
     learning: Option<Learning>,
     /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
     /// lights, in the order of the pipeline's first bindings.
@@ -207,6 +220,8 @@ impl GpuRenderer {
         }
         let geometry = scene.geometry_specialization();
         let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
+        let racing = scene.guide.is_some_and(|g| g.unguided_frames);
+        let unguided = if racing { Some(unguided_twin(ctx, p, &geometry)?) } else { None };
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -294,6 +309,9 @@ impl GpuRenderer {
             kernel,
             pipeline,
             recording,
+            unguided,
+            race: racing.then(FrameRace::default),
+            guided_traced: 0,
             learning,
             scene_buffers,
             geometry_buffers,
@@ -338,6 +356,13 @@ impl GpuRenderer {
         if let Some(r) = &self.recording {
             r.bind(&all);
         }
+        if let Some(u) = &self.unguided {
+            // The unguided kernel's bindings: the same less the table's.
+            let mut plain: Vec<&Buffer> = self.scene_buffers.iter().collect();
+            plain.extend([&self.accum, &self.counters, &self.scene_constants]);
+            plain.extend(self.geometry_buffers.iter());
+            u.bind(&plain);
+        }
     }
 
     /// The kernel's push constants for the next frame (`rows` left 0, `cmd_trace`
@@ -345,14 +370,14 @@ impl GpuRenderer {
     /// frame after the learning frames starts the image: the accumulation's
     /// frames become the learned frames, and the kernel writes over them
     /// (`accumulate`, `crate::film::accumulate`).
-    fn next_frame(&mut self) -> PathPush {
+    fn next_frame(&mut self, kind: FrameKind) -> PathPush {
         let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
         if self.accum_frames > 0 && self.frames_traced == learning_frames {
             self.learned_frames = self.accum_frames;
             self.accum_frames = 0;
         }
         let push = PathPush {
-            frame: self.frames_traced,
+            frame: if self.learning.is_some() { self.guided_traced } else { self.frames_traced },
             rng_frame: rng_frame(self.frames_traced, learning_frames, self.frame_offset),
             accum_frames: self.accum_frames,
             ablate: self.ablate,
@@ -362,11 +387,27 @@ impl GpuRenderer {
         };
         self.frames_traced += 1;
         self.accum_frames += 1;
+        if kind == FrameKind::Guided {
+            self.guided_traced += 1;
+        }
         push
     }
 
-    /// Records the dispatches of one frame (`frame_dispatches`).
-    fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: PathPush) {
+    /// The kind of the next frame: guided with guiding (the race's choice past
+    /// the learning frames, where there is a race), else unguided.
+    fn next_kind(&self) -> FrameKind {
+        let Some(l) = &self.learning else { return FrameKind::Unguided };
+        crate::guide::frame_kind(self.race.as_ref(), self.frames_traced, self.guided_traced, l.cfg.learning_frames)
+    }
+
+    /// Records the dispatches of one frame (`frame_dispatches`) by the kernel of its kind.
+    fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: PathPush, kind: FrameKind) {
+        if let (Some(u), FrameKind::Unguided) = (&self.unguided, kind) {
+            let wide = self.width.div_ceil(pixels_per_group(false, self.params.scene_kinds));
+            let push = PathPush { rows: shared::ROWS_ALL, ..push };
+            u.cmd_dispatch(cmd, [wide, self.height, 1], bytemuck::bytes_of(&push));
+            return;
+        }
         let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some(), self.params.scene_kinds));
         for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push.frame, self.height) {
             let pipeline = match (&self.recording, d.recording) {
@@ -415,6 +456,9 @@ impl GpuRenderer {
             // No frame is in flight: run_commands waits for each submission.
             (self.pipeline, self.recording) =
                 path_pipelines(&self.ctx, self.kernel, self.learning.is_some(), params, &self.geometry)?;
+            if self.unguided.is_some() {
+                self.unguided = Some(unguided_twin(&self.ctx, params, &self.geometry)?);
+            }
             self.bind_path_pipelines();
         }
         self.params = *params;
@@ -487,28 +531,36 @@ impl GpuRenderer {
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
         self.check_device_lost_hook(count)?;
         let timestamps = self.ctx.info.timestamps;
-        let first = self.frames_traced;
-        let before = (self.frames_traced, self.accum_frames, self.learned_frames);
-        let pushes: Vec<PathPush> = (0..count).map(|_| PathPush { ablate: 0, ..self.next_frame() }).collect();
+        let wall = std::time::Instant::now();
+        let before = (self.frames_traced, self.accum_frames, self.learned_frames, self.guided_traced);
+        // The image's frames of one submission are of one kind.
+        let image_kind = self.next_kind();
+        let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        let pushes: Vec<(PathPush, FrameKind)> = (0..count)
+            .map(|_| {
+                let kind = if self.frames_traced < learning_frames { self.next_kind() } else { image_kind };
+                (PathPush { ablate: 0, ..self.next_frame(kind) }, kind)
+            })
+            .collect();
         let submitted = self.ctx.run_commands("pathtrace frames", |cmd| {
             self.counters.cmd_clear(cmd);
             self.ctx.barrier(cmd);
             if timestamps {
                 self.timer.cmd_reset(cmd);
             }
-            for (f, &push) in (0..count).zip(&pushes) {
+            for (f, &(push, kind)) in (0..count).zip(&pushes) {
                 if f > 0 {
                     self.ctx.barrier(cmd);
                 }
                 if timestamps && f == 0 {
                     self.timer.cmd_stamp(cmd, 0);
                 }
-                self.cmd_trace(cmd, push);
+                self.cmd_trace(cmd, push, kind);
                 if let Some(l) = &self.learning {
                     if timestamps && f + 1 == count {
                         self.timer.cmd_stamp(cmd, 1);
                     }
-                    if l.schedule.learns_after(first + f) {
+                    if kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
                         l.cmd_learn(&self.ctx, cmd, |_| {});
                     }
                 }
@@ -524,11 +576,13 @@ impl GpuRenderer {
         });
         if let Err(e) = submitted {
             // The frames did not finish: the counts stay those of the accumulation.
-            (self.frames_traced, self.accum_frames, self.learned_frames) = before;
+            (self.frames_traced, self.accum_frames, self.learned_frames, self.guided_traced) = before;
             return Err(e);
         }
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
-        let mut t = FrameTimings { zero_paths, segments, subgroup_segments, ..Default::default() };
+        let kind = pushes.last().map(|&(_, k)| k).filter(|_| self.learning.is_some());
+        let variance = self.read_frame_variance(count);
+        let mut t = FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, ..Default::default() };
         if timestamps {
             let s = self.timer.read(3)?;
             // With several frames in one submission, learning between them counts as path tracing
@@ -536,7 +590,52 @@ impl GpuRenderer {
             t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[1]);
             t.learn_ms = self.timer.ticks_to_ms(s[1], s[2]);
         }
+        if let (Some(race), Some(v), Some(l)) = (self.race.as_mut(), variance, &self.learning) {
+            let n = count as f64;
+            let (trace_ms, learn_ms) = if timestamps {
+                (t.pathtrace_ms / n, t.learn_ms)
+            } else {
+                (wall.elapsed().as_secs_f64() * 1e3 / n, 0.0)
+            };
+            let first = self.frames_traced - count;
+            for (i, &(push, kind)) in pushes.iter().enumerate() {
+                // A guided frame's push.frame counts the guided frames before it.
+                let guided_before = if kind == FrameKind::Guided { push.frame } else { self.guided_traced };
+                if !crate::guide::race_weighs(kind, first + i as u32, guided_before, learning_frames) {
+                    continue;
+                }
+                match kind {
+                    FrameKind::Guided => {
+                        let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
+                        race.report_guided(v, trace_ms, learned, l.schedule.learning_period(push.frame));
+                    }
+                    FrameKind::Unguided => race.report(kind, v, trace_ms),
+                }
+            }
+        }
         Ok(t)
+    }
+
+    /// The race of the image's frames' kernels, where there is one.
+    pub fn race(&self) -> Option<&FrameRace> {
+        self.race.as_ref()
+    }
+
+    /// The mean relative variance of the last submission's `frames` frames, from
+    /// the kernel's `add_frame_variance` slots; None where it keeps none.
+    fn read_frame_variance(&self, frames: u32) -> Option<f64> {
+        if self.params.flags & shared::FLAG_FRAME_VARIANCE == 0 {
+            return None;
+        }
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let sum = (0..shared::FRAME_VARIANCE_SLOTS)
+            .map(|i| {
+                let lo = (shared::COUNTER_FRAME_VARIANCE + 2 * i) as usize;
+                c[lo] as u64 | (c[lo + 1] as u64) << 32
+            })
+            .sum::<u64>();
+        let pixels = (self.width * self.height) as f64;
+        Some(sum as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels / frames as f64)
     }
 
     /// Renders one frame in its own submission with a timestamp after each pass:
@@ -550,14 +649,16 @@ impl GpuRenderer {
             });
         }
         self.check_device_lost_hook(1)?;
-        let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.frames_traced));
-        let push = self.next_frame();
+        // Profiling measures the kernels as they are: every frame guided with guiding.
+        let kind = if self.learning.is_some() { FrameKind::Guided } else { FrameKind::Unguided };
+        let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.guided_traced));
+        let push = self.next_frame(kind);
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);
             self.ctx.barrier(cmd);
             self.timer.cmd_stamp(cmd, 0);
-            self.cmd_trace(cmd, push);
+            self.cmd_trace(cmd, push, kind);
             self.timer.cmd_stamp(cmd, 1);
             // Learning's passes, and their stamps, after the frames it follows alone.
             if let Some(l) = self.learning.as_ref().filter(|_| learns) {

@@ -20,6 +20,16 @@ pub(super) fn path_pipelines(
 /// The path-tracing pipeline, specialized to the scene and settings of `p`;
 /// with `recording`, the guided kernel that records Q-learning targets;
 /// `geometry` is the scene's `PreparedScene::geometry_specialization`.
+/// The unguided kernel of a guided render, for the frames its [`crate::guide::FrameRace`]
+/// traces unguided: the same scene and flags, none of the table's bindings.
+pub(super) fn unguided_twin(
+    ctx: &Arc<Context>,
+    p: &crate::layout::RenderParams,
+    geometry: &[u32],
+) -> Result<Pipeline, GpuError> {
+    path_pipeline(ctx, "pathtrace", false, false, p, geometry)
+}
+
 fn path_pipeline(
     ctx: &Arc<Context>,
     kernel: &str,

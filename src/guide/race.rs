@@ -1,0 +1,327 @@
+//! Guided or unguided frames: a guided render's image frames are traced by the
+//! guided kernel or by the unguided one, whichever has lately given the image
+//! more for its time (docs/guiding.md, "Guided and unguided frames"). Both are
+//! unbiased estimates of the same image and every frame counts as its 64
+//! samples, so the choice, which reads only frames already traced, leaves the
+//! image unbiased. The GPU and CPU renderers both follow a [`FrameRace`].
+
+use crate::shared;
+
+/// The kernel that traces a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameKind {
+    /// Guided sampling; the recording rows record their targets, and the table
+    /// learns as the schedule says.
+    Guided,
+    /// BSDF and light sampling alone, as with guiding off: nothing recorded.
+    Unguided,
+}
+
+/// Whether a guided render's image frames may be traced unguided (`--unguided-frames`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum UnguidedFrames {
+    /// Each image frame by the kernel a [`FrameRace`] names.
+    Auto,
+    /// Every frame guided: the default, until the race is robust at small
+    /// image sizes (docs/guiding.md, "Guided and unguided frames").
+    #[default]
+    Never,
+}
+
+/// The kind of the frame traced after `traced` frames, `guided_traced` of
+/// them guided, of a guided render whose image starts after `learning_frames`,
+/// given its race (None: every frame guided). The last of two or more learning
+/// frames is unguided: it is left out of the image anyway, and measures the
+/// unguided kind before the image starts, so that the race need not try it on
+/// the image (where, far noisier than the guided frames, it would spoil a short
+/// render). The race starts once the guided frames traced reach
+/// `RECORD_ALL_FRAMES`: the first guided frames record every pixel row's
+/// targets, learn after each frame and trace a table that knows little, so they
+/// cost more and give less than the guided frames after them; judged by them,
+/// guiding would lose the race before it had learned anything.
+pub fn frame_kind(race: Option<&FrameRace>, traced: u32, guided_traced: u32, learning_frames: u32) -> FrameKind {
+    match race {
+        Some(_) if learning_frames >= 2 && traced + 1 == learning_frames => FrameKind::Unguided,
+        Some(r) if traced >= learning_frames && guided_traced >= shared::RECORD_ALL_FRAMES => r.next(),
+        _ => FrameKind::Guided,
+    }
+}
+
+/// The frames left out of a guided render's image: the `n` learning frames
+/// asked for, and where the race may trace unguided frames and `n` > 0, one
+/// unguided frame after them ([`frame_kind`]), so that the guided frames keep
+/// their learning frames and learned roulette its start.
+pub fn frames_before_image(n: u32, unguided_frames: bool) -> u32 {
+    if unguided_frames && n > 0 {
+        n + 1
+    } else {
+        n
+    }
+}
+
+/// Whether the race weighs a frame of `kind` traced after `traced` frames,
+/// `guided_traced` of them guided ([`frame_kind`]): every unguided frame (the
+/// learning frames' one among them), and the image's guided frames once the
+/// race has started.
+pub fn race_weighs(kind: FrameKind, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
+    match kind {
+        FrameKind::Unguided => true,
+        FrameKind::Guided => traced >= learning_frames && guided_traced >= shared::RECORD_ALL_FRAMES,
+    }
+}
+
+/// Frames of each kind measured before the race chooses by efficiency.
+pub const RACE_START_FRAMES: u32 = 1;
+/// The unguided kind's means of variance and time are over its last this many
+/// frames, about (a running mean, then a moving one): a frame's variance is an
+/// unbiased but heavy-tailed estimate, which short means would mostly underrate.
+pub const RACE_WINDOW: u32 = 64;
+/// The guided kind's, over fewer: its frames improve as the table learns.
+pub const RACE_GUIDED_WINDOW: u32 = 8;
+/// The trailing kind's frames come in bursts of this many: a kernel's first
+/// frame after the other's runs from cold caches, so only the later frames of a
+/// burst time it.
+pub const RACE_BURST: u32 = 2;
+/// The lead changes hands only where the other kind's inefficiency is below
+/// this times the leader's: measurements of near ties do not flip it back and forth.
+pub const RACE_HYSTERESIS: f64 = 0.9;
+/// The trailing kind traces one frame per this many of its frames' time spent on
+/// the leader, times how far it is behind (up to [`RACE_MAX_GAP`]): it keeps
+/// being measured, and guided frames keep teaching the table, at a cost that
+/// shrinks as the gap grows.
+pub const RACE_MIN_GAP: f64 = 16.0;
+pub const RACE_MAX_GAP: f64 = 256.0;
+/// And at most this share of the image's variance comes from the trailing
+/// kind's frames: where its frames are much noisier than the leader's (cheap
+/// unguided frames beside a guided leader), fewer of them, so that they do not
+/// spoil an image that weighs every frame alike.
+pub const RACE_TRAILING_VARIANCE: f64 = 0.05;
+
+/// What the race knows of one kind: its frames and moving means.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct KindRecord {
+    pub frames: u32,
+    /// Mean relative variance of the frames' mean (`crate::film::frame_variance_term`
+    /// summed over the pixels, over the pixels), over the last [`RACE_WINDOW`] frames.
+    pub variance: f64,
+    /// Mean time of the frames (ms); the guided kind's with the learning
+    /// passes' share ([`FrameRace::report_guided`]).
+    pub ms: f64,
+    /// Frames that timed it, and whether those were cold alone.
+    timed: u32,
+    cold_only: bool,
+}
+
+impl KindRecord {
+    /// Takes in a frame; `warm` where the frame before it was of the same kind.
+    fn add(&mut self, variance: f64, ms: f64, warm: bool, window: u32) {
+        let w = 1.0 / (self.frames + 1).min(window) as f64;
+        self.variance += w * (variance - self.variance);
+        // Cold frames (the first of a kernel, which may carry its compilation,
+        // and the first of a burst) time it only until a warm one has.
+        if warm || self.timed == 0 {
+            let w_ms = if self.timed == 0 || self.cold_only { 1.0 } else { 1.0 / (self.timed + 1).min(window) as f64 };
+            self.ms += w_ms * (ms - self.ms);
+            self.cold_only = !warm;
+            self.timed += 1;
+        }
+        self.frames += 1;
+    }
+
+    /// Variance times time: the error an image of this kind's frames has after a
+    /// given time is proportional to it; smaller is better.
+    pub fn inefficiency(&self) -> f64 {
+        self.variance * self.ms
+    }
+}
+
+/// The choice of kernel frame by frame ([`FrameKind`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameRace {
+    pub guided: KindRecord,
+    pub unguided: KindRecord,
+    /// Time spent on the leading kind since the other's last frame (ms), and its frames.
+    since_other_ms: f64,
+    since_other_frames: u32,
+    /// The kind that led when the last frame was reported.
+    lead: FrameKind,
+    /// The last frame's kind, and how many frames of it in a row.
+    last: Option<FrameKind>,
+    run: u32,
+    /// Mean time of the table's learning pass (ms), and the passes timed.
+    learn_ms: f64,
+    learns: u32,
+}
+
+impl Default for FrameRace {
+    fn default() -> FrameRace {
+        FrameRace {
+            guided: KindRecord::default(),
+            unguided: KindRecord::default(),
+            since_other_ms: 0.0,
+            since_other_frames: 0,
+            lead: FrameKind::Guided,
+            last: None,
+            run: 0,
+            learn_ms: 0.0,
+            learns: 0,
+        }
+    }
+}
+
+impl FrameRace {
+    /// The kind of the next image frame: the two alternate, guided first, until
+    /// each has [`RACE_START_FRAMES`] (in bursts of [`RACE_BURST`]); then the more efficient, and the other
+    /// once the leader has had its gap's worth of time and enough frames to keep
+    /// the other's share of the variance below [`RACE_TRAILING_VARIANCE`].
+    pub fn next(&self) -> FrameKind {
+        let Some(leader) = self.leader() else {
+            // Alternating in bursts, the first kind's frames first.
+            if let Some(last) = self.last.filter(|_| self.run < RACE_BURST) {
+                return last;
+            }
+            return if self.guided.frames <= self.unguided.frames { FrameKind::Guided } else { FrameKind::Unguided };
+        };
+        let (lead, trail, other) = match leader {
+            FrameKind::Guided => (&self.guided, &self.unguided, FrameKind::Unguided),
+            FrameKind::Unguided => (&self.unguided, &self.guided, FrameKind::Guided),
+        };
+        // A kind with zero variance (a black image) leads by any factor.
+        let behind = if lead.inefficiency() > 0.0 { trail.inefficiency() / lead.inefficiency() } else { RACE_MAX_GAP };
+        let gap = (RACE_MIN_GAP * behind).clamp(RACE_MIN_GAP, RACE_MAX_GAP);
+        let noisier = if lead.variance > 0.0 { trail.variance / lead.variance } else { f64::INFINITY };
+        let frames = (noisier / RACE_TRAILING_VARIANCE).min(u32::MAX as f64);
+        if self.last == Some(other) && self.run < RACE_BURST {
+            return other;
+        }
+        let burst = RACE_BURST as f64;
+        if self.since_other_ms >= gap * burst * trail.ms && self.since_other_frames as f64 >= burst * frames {
+            other
+        } else {
+            leader
+        }
+    }
+
+    /// Takes in a guided frame: its relative variance, its path tracing's time,
+    /// the time of the learning pass after it where there was one, and how many
+    /// guided frames the table learns once in (`RecordSchedule::learning_period`).
+    /// The frame is charged its share of a learning pass, not the pass: the
+    /// passes come after every frame at first, then one frame in `period`, and
+    /// a race that charged them in full would judge a few early guided frames
+    /// by a cost that the frames after them do not pay.
+    pub fn report_guided(&mut self, variance: f64, trace_ms: f64, learn_ms: Option<f64>, period: u32) {
+        if let Some(l) = learn_ms {
+            self.learns += 1;
+            self.learn_ms += (l - self.learn_ms) / self.learns.min(RACE_WINDOW) as f64;
+        }
+        self.report(FrameKind::Guided, variance, trace_ms + self.learn_ms / period.max(1) as f64);
+    }
+
+    /// Takes in a traced image frame: its kind, its relative variance and its time.
+    pub fn report(&mut self, kind: FrameKind, variance: f64, ms: f64) {
+        let leader = self.leader();
+        let warm = self.last == Some(kind);
+        match kind {
+            FrameKind::Guided => self.guided.add(variance, ms, warm, RACE_GUIDED_WINDOW),
+            FrameKind::Unguided => self.unguided.add(variance, ms, warm, RACE_WINDOW),
+        }
+        self.run = if warm { self.run + 1 } else { 1 };
+        self.last = Some(kind);
+        if let Some(l) = self.leader() {
+            self.lead = l;
+        }
+        if Some(kind) == leader {
+            self.since_other_ms += ms;
+            self.since_other_frames += 1;
+        } else {
+            self.since_other_ms = 0.0;
+            self.since_other_frames = 0;
+        }
+    }
+
+    /// The leading kind once both have been measured, else None: guided at
+    /// first, and the other once it is more efficient by [`RACE_HYSTERESIS`].
+    pub fn leader(&self) -> Option<FrameKind> {
+        let (g, u) = (&self.guided, &self.unguided);
+        if g.frames < RACE_START_FRAMES || u.frames < RACE_START_FRAMES {
+            return None;
+        }
+        let (lead, trail, other) = match self.lead {
+            FrameKind::Guided => (g, u, FrameKind::Unguided),
+            FrameKind::Unguided => (u, g, FrameKind::Guided),
+        };
+        Some(if trail.inefficiency() < RACE_HYSTERESIS * lead.inefficiency() { other } else { self.lead })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs the race over frames whose variance and time each kind fixes.
+    fn run(frames: u32, guided: (f64, f64), unguided: (f64, f64)) -> (FrameRace, Vec<FrameKind>) {
+        let mut race = FrameRace::default();
+        let mut kinds = Vec::new();
+        for _ in 0..frames {
+            let k = race.next();
+            let (v, ms) = if k == FrameKind::Guided { guided } else { unguided };
+            race.report(k, v, ms);
+            kinds.push(k);
+        }
+        (race, kinds)
+    }
+
+    #[test]
+    fn the_race_starts_by_alternating_bursts_guided_first() {
+        let (_, kinds) = run(4, (1.0, 1.0), (1.0, 1.0));
+        use FrameKind::*;
+        assert_eq!(kinds, [Guided, Guided, Unguided, Unguided]);
+    }
+
+    /// The more efficient kind gets most of the time; the other keeps a share
+    /// that shrinks with the gap and with how much noisier its frames are, never none.
+    #[test]
+    fn the_more_efficient_kind_gets_most_of_the_time() {
+        for (guided, unguided) in [((0.65, 2.0), (1.0, 1.0)), ((0.2, 2.0), (1.0, 1.0)), ((1.0, 1.0), (0.9, 1.2))] {
+            let (race, kinds) = run(4000, guided, unguided);
+            let e = |(v, ms): (f64, f64)| v * ms;
+            let (lead, trail) = if e(guided) <= e(unguided) { (guided, unguided) } else { (unguided, guided) };
+            let trailing = if e(guided) <= e(unguided) { FrameKind::Unguided } else { FrameKind::Guided };
+            // Leader frames between two bursts of the trailing kind: enough time and enough frames.
+            let burst = RACE_BURST as f64;
+            let gap = (RACE_MIN_GAP * e(trail) / e(lead)).clamp(RACE_MIN_GAP, RACE_MAX_GAP);
+            let by_time = (gap * burst * trail.1 / lead.1).ceil();
+            let by_variance = (burst * trail.0 / lead.0 / RACE_TRAILING_VARIANCE).ceil();
+            let k = by_time.max(by_variance);
+            let want = burst / (k + burst);
+            let got = kinds[100..].iter().filter(|&&x| x == trailing).count() as f64 / (kinds.len() - 100) as f64;
+            assert!((got - want).abs() < 0.1 * want, "{guided:?} vs {unguided:?}: trailing frames {got}, want {want}");
+            assert!(race.guided.frames > 0 && race.unguided.frames > 0);
+        }
+    }
+
+    /// A kind that improves (the guided one as its table learns) takes the lead
+    /// once it is ahead, measured by the frames it keeps getting.
+    #[test]
+    fn a_kind_that_improves_takes_the_lead() {
+        let mut race = FrameRace::default();
+        let mut guided_frames = 0u32;
+        let mut last = Vec::new();
+        for _ in 0..3000 {
+            let k = race.next();
+            let (v, ms) = match k {
+                FrameKind::Guided => {
+                    guided_frames += 1;
+                    // Variance falls from twice the unguided one's to a tenth.
+                    (0.1 + 1.9 * (-(guided_frames as f64) / 20.0).exp(), 1.5)
+                }
+                FrameKind::Unguided => (1.0, 1.0),
+            };
+            race.report(k, v, ms);
+            last.push(k);
+        }
+        let tail = &last[last.len() - 200..];
+        let guided = tail.iter().filter(|&&k| k == FrameKind::Guided).count();
+        assert!(guided > 180, "guided frames in the last 200: {guided}");
+    }
+}
