@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod guiding;
+
 use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions, ValidationCounter};
 use rlpt::image::Image;
