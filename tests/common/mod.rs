@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod guiding;
+pub mod scene_pieces;
 
 use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions, ValidationCounter};
