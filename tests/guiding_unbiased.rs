@@ -15,8 +15,6 @@ use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::{MaterialKind, Scene};
 
-const K: f64 = 5.0;
-
 #[test]
 fn guided_and_unguided_renders_agree_in_mean() {
     let ctx = gpu();
