@@ -99,9 +99,8 @@ fn nee_on_and_off_agree() {
     }
 }
 
-#[test]
-fn gpu_and_cpu_agree_on_every_shipped_scene() {
-    let ctx = gpu();
+/// The file names of the scenes in `scenes/`, sorted (at least 11 of them).
+fn shipped_scene_names() -> Vec<String> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut names: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
@@ -110,7 +109,13 @@ fn gpu_and_cpu_agree_on_every_shipped_scene() {
         .collect();
     names.sort();
     assert!(names.len() >= 11);
-    for name in names {
+    names
+}
+
+#[test]
+fn gpu_and_cpu_agree_on_every_shipped_scene() {
+    let ctx = gpu();
+    for name in shipped_scene_names() {
         let scene = scene(&name);
         let mut opts = options(&scene, 32, 24, 512);
         let g = render_gpu(&ctx, &scene, &opts);
@@ -146,15 +151,7 @@ fn furnaces_with_the_sobol_sampler() {
 #[test]
 fn sobol_renders_agree_with_the_cpu_and_the_independent_sampler() {
     let ctx = gpu();
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut names: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|n| n.ends_with(".toml"))
-        .collect();
-    names.sort();
-    assert!(names.len() >= 11);
-    for name in names {
+    for name in shipped_scene_names() {
         let scene = scene(&name);
         let mut opts = options(&scene, 32, 24, 256);
         opts.sampler = SamplerKind::Sobol;
