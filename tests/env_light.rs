@@ -7,7 +7,7 @@
 mod bvh_support;
 mod common;
 
-use common::{assert_films_agree, gpu, options, readback, render_cpu, render_gpu};
+use common::{assert_films_agree, gpu, options, readback, render_cpu, render_gpu, K};
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
 use rlpt::math::envmap::{env_lookup, env_sample};
 use rlpt::math::rng::Rng;
@@ -17,8 +17,6 @@ use rlpt::scene::Scene;
 use rlpt::shared;
 use rlpt_chi2::{chi2_sphere, Chi2Options};
 use std::path::{Path, PathBuf};
-
-const K: f64 = 5.0;
 
 /// A fresh directory for this test's files.
 fn temp_dir(test: &str) -> PathBuf {

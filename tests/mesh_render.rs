@@ -18,9 +18,6 @@ use rlpt::scene::{Mesh, Scene};
 use rlpt_chi2::{chi2_sphere, sidak, Chi2Options};
 use std::path::PathBuf;
 
-/// 5 sigma, as in render_agreement.rs.
-const K: f64 = 5.0;
-
 /// A closed icosphere of `level` subdivisions about `center` (counter-clockwise
 /// seen from outside: the front faces out), every triangle of material `material`.
 fn icosphere(center: Vec3, radius: f32, level: u32, material: u32) -> Mesh {

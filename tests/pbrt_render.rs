@@ -9,10 +9,6 @@ use common::*;
 use rlpt::scene::Scene;
 use std::path::Path;
 
-/// Block differences beyond this many standard deviations fail, as in
-/// `render_agreement.rs`.
-const K: f64 = 5.0;
-
 fn render_both(file: &str, width: u32, height: u32, spp: u32) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets").join(file);
     let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));

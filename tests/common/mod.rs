@@ -1,6 +1,10 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod cli;
+pub mod guiding;
+pub mod scene_pieces;
+
 use rlpt::film::Film;
 use rlpt::gpu::{Context, ContextOptions, ValidationCounter};
 use rlpt::image::Image;
@@ -67,6 +71,9 @@ pub fn assert_no_validation_messages(ctx: &Context) {
     assert_eq!(ctx.validation_messages(), 0, "the validation layer reported problems (see stderr)");
 }
 
+/// 5 sigma: with a few hundred comparisons per test the chance of a false alarm stays below 1e-3.
+pub const K: f64 = 5.0;
+
 pub fn scene(name: &str) -> Scene {
     Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("shipped scene loads")
 }
@@ -94,6 +101,29 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Film {
     let mut film = Film::new(opts.width, opts.height);
     rlpt::cpu::render(&prepared, &mut film, opts.frames(), |_| {});
     film
+}
+
+/// An unguided GPU render of `scene` (seed `opts.seed`), a CPU render (seed
+/// `seeds[0]`) and a guided GPU render (sphere, seed `seeds[1]`) agree region by
+/// region; returns the unguided GPU film.
+pub fn gpu_unguided_and_guided_agree_with_cpu(
+    scene: &Scene,
+    opts: &mut RenderOptions,
+    seeds: [u32; 2],
+    what: &str,
+) -> Film {
+    let ctx = gpu();
+    let g = render_gpu(&ctx, scene, opts);
+    opts.seed = seeds[0];
+    let c = render_cpu(scene, opts);
+    let z = assert_films_agree(&g, &c, 4, K, &format!("{what}: GPU vs CPU"));
+    eprintln!("{what}: worst block differs by {z:.2} sigma");
+    opts.seed = seeds[1];
+    opts.guiding = rlpt::guide::GuidingMode::Sphere;
+    let guided = render_gpu(&ctx, scene, opts);
+    let z = assert_films_agree(&guided, &c, 4, K, &format!("{what}: guided GPU vs CPU"));
+    eprintln!("{what}, guided: worst block differs by {z:.2} sigma");
+    g
 }
 
 /// Mean and variance of the mean of channel-averaged radiance over the pixels

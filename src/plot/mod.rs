@@ -1,19 +1,27 @@
 //! The convergence plot: relMSE against render time, both axes logarithmic,
 //! one curve per [`RenderStats`] record.
 //!
-//! Everything is drawn here on an [`image::RgbImage`]: anti-aliased lines from
-//! their distance to each pixel centre, and text from the pre-rasterised Noto
-//! Sans Mono glyphs that the `noto-sans-mono-bitmap` crate compiles into the
-//! binary, so a plot needs no system font and no plotting library.
+//! Everything is drawn on an [`image::RgbImage`] (`canvas.rs`): anti-aliased
+//! lines from their distance to each pixel centre, and text from the
+//! pre-rasterised Noto Sans Mono glyphs that the `noto-sans-mono-bitmap` crate
+//! compiles into the binary, so a plot needs no system font and no plotting
+//! library. The logarithmic axes and their tick labels are in `axis.rs`; the
+//! layout of the plot, its curves and legend here.
 
 use std::path::Path;
 
 use anyhow::{bail, Context};
 use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder, RgbImage};
-use noto_sans_mono_bitmap::{get_raster, get_raster_width, FontWeight, RasterHeight};
+use noto_sans_mono_bitmap::RasterHeight;
 
 use crate::stats::RenderStats;
+
+mod axis;
+mod canvas;
+
+use axis::LogAxis;
+use canvas::{Canvas, Coverage, Font, Mask, Rect, Span};
 
 /// Width of the plot in pixels.
 pub const PLOT_WIDTH: u32 = 900;
@@ -285,26 +293,6 @@ fn title_text(runs: &[RenderStats], metric: Metric) -> String {
     title
 }
 
-/// A tick label for m x 10^k: plain decimals ("0.05", "100") where the axis
-/// allows, else "10" (or "2×10") with a raised exponent.
-fn tick_label(m: u32, k: i32, plain: bool, font: Font, exponent_font: Font) -> Mask {
-    if plain {
-        let text = if k >= 0 {
-            format!("{m}{}", "0".repeat(k as usize))
-        } else {
-            format!("0.{}{m}", "0".repeat(-k as usize - 1))
-        };
-        Mask::text(&[Span::new(&text, font)])
-    } else {
-        let base = if m == 1 { "10".to_string() } else { format!("{m}\u{d7}10") };
-        // The exponent's digits end a little above the middle of the base's.
-        let (base_top, base_bottom) = font.digit_rows();
-        let (_, exponent_bottom) = exponent_font.digit_rows();
-        let dy = (base_top + base_bottom) / 2 - 1 - exponent_bottom;
-        Mask::text(&[Span::new(&base, font), Span::shifted(&k.to_string(), exponent_font, -1, dy)])
-    }
-}
-
 /// The legend: a sample of each curve and its label, in the corner of the plot
 /// area where it hides the least of the curves.
 fn draw_legend(
@@ -374,346 +362,5 @@ fn elide(text: &str, font: Font, max_width: i64) -> String {
         chars.into_iter().collect()
     } else {
         chars[..max_chars - 3].iter().chain(['.', '.', '.'].iter()).collect()
-    }
-}
-
-/// A log10 axis: its visible range and its ticks.
-struct LogAxis {
-    /// log10 of the smallest and largest visible value.
-    lo: f64,
-    hi: f64,
-    /// The labelled ticks, as (m, k) for m x 10^k; each gets a grid line.
-    labels: Vec<(u32, i32)>,
-    /// log10 of the unlabelled long ticks (decades between labelled ones).
-    major: Vec<f64>,
-    /// log10 of the short ticks.
-    minor: Vec<f64>,
-    /// Label with plain decimals ("0.01", "100") instead of powers of ten.
-    plain: bool,
-}
-
-impl LogAxis {
-    /// The range of the (positive) `values`, at least 0.75 decades, with a
-    /// small margin. Decades are labelled (at most 8 of them) where the range
-    /// holds two or more, else 1, 2 and 5 times each decade.
-    fn fit(values: &[f64]) -> LogAxis {
-        let logs = values.iter().map(|v| v.log10());
-        let (mut min, mut max) = logs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-        const MIN_SPAN: f64 = 0.75;
-        if max - min < MIN_SPAN {
-            let centre = (min + max) / 2.0;
-            (min, max) = (centre - MIN_SPAN / 2.0, centre + MIN_SPAN / 2.0);
-        }
-        let pad = 0.04 * (max - min);
-        let (lo, hi) = (min - pad, max + pad);
-        let inside = |v: f64| v >= lo - 1e-9 && v <= hi + 1e-9;
-        let decades: Vec<i32> = (lo.ceil() as i32..=hi.floor() as i32).collect();
-        let (mut labels, mut major, mut minor) = (Vec::new(), Vec::new(), Vec::new());
-        if decades.len() >= 2 {
-            let step = (decades.len() as i32 + 7) / 8;
-            for &k in &decades {
-                if k.rem_euclid(step) == 0 {
-                    labels.push((1, k));
-                } else {
-                    major.push(k as f64);
-                }
-            }
-            if step == 1 {
-                for k in lo.floor() as i32..=hi.ceil() as i32 {
-                    minor.extend((2..=9).map(|m| k as f64 + (m as f64).log10()).filter(|&v| inside(v)));
-                }
-            }
-        } else {
-            // Under two decades: with the span of at least 0.75 decades, at
-            // least two of 1, 2 and 5 times a decade are in range.
-            for k in lo.floor() as i32..=hi.ceil() as i32 {
-                for m in 1..=9u32 {
-                    let v = k as f64 + (m as f64).log10();
-                    if inside(v) {
-                        if [1, 2, 5].contains(&m) {
-                            labels.push((m, k));
-                        } else {
-                            minor.push(v);
-                        }
-                    }
-                }
-            }
-        }
-        let plain = labels.iter().all(|&(_, k)| (-2..=3).contains(&k));
-        LogAxis { lo, hi, labels, major, minor, plain }
-    }
-
-    /// Where `log_value` (a log10) lies along the axis: 0 at the low end, 1 at the high end.
-    fn frac(&self, log_value: f64) -> f64 {
-        (log_value - self.lo) / (self.hi - self.lo)
-    }
-
-    /// The labels, each with the log10 of its position.
-    fn label_masks(&self, font: Font, exponent_font: Font) -> Vec<(f64, Mask)> {
-        self.labels
-            .iter()
-            .map(|&(m, k)| (k as f64 + (m as f64).log10(), tick_label(m, k, self.plain, font, exponent_font)))
-            .collect()
-    }
-}
-
-#[derive(Clone, Copy, Debug)]
-struct Font {
-    weight: FontWeight,
-    size: RasterHeight,
-}
-
-impl Font {
-    fn regular(size: RasterHeight) -> Font {
-        Font { weight: FontWeight::Regular, size }
-    }
-
-    fn bold(size: RasterHeight) -> Font {
-        Font { weight: FontWeight::Bold, size }
-    }
-
-    fn width(self) -> usize {
-        get_raster_width(self.weight, self.size)
-    }
-
-    /// The first and last rows of the glyph box that the digits ink.
-    fn digit_rows(self) -> (i64, i64) {
-        let glyph = self.glyph('0').expect("the font has digits");
-        let inked: Vec<i64> =
-            glyph.rows().enumerate().filter(|(_, r)| r.iter().any(|&a| a > 64)).map(|(y, _)| y as i64).collect();
-        (inked.first().copied().unwrap_or(0), inked.last().copied().unwrap_or(0))
-    }
-
-    fn glyph(self, c: char) -> Option<noto_sans_mono_bitmap::RasterizedChar> {
-        get_raster(c, self.weight, self.size)
-    }
-}
-
-/// A run of text in one font, moved right by `dx` pixels from the end of the
-/// span before (negative: closer) and down by `dy` pixels (negative: raised).
-struct Span<'a> {
-    text: &'a str,
-    font: Font,
-    dx: i64,
-    dy: i64,
-}
-
-impl<'a> Span<'a> {
-    fn new(text: &'a str, font: Font) -> Span<'a> {
-        Span { text, font, dx: 0, dy: 0 }
-    }
-
-    fn shifted(text: &'a str, font: Font, dx: i64, dy: i64) -> Span<'a> {
-        Span { text, font, dx, dy }
-    }
-
-    fn advance(&self) -> i64 {
-        (self.text.chars().count() * self.font.width()) as i64
-    }
-}
-
-/// An 8-bit coverage mask (of text), `w` x `h`, row-major.
-struct Mask {
-    w: usize,
-    h: usize,
-    alpha: Vec<u8>,
-}
-
-impl Mask {
-    /// Lays out the spans left to right; the mask's top is the top of the
-    /// highest span.
-    fn text(spans: &[Span]) -> Mask {
-        let top = spans.iter().map(|s| s.dy).min().unwrap_or(0).min(0);
-        let bottom = spans.iter().map(|s| s.dy + s.font.size.val() as i64).max().unwrap_or(0);
-        let w = spans.iter().fold(0, |x, s| (x + s.dx).max(0) + s.advance()) as usize;
-        let h = (bottom - top) as usize;
-        let mut mask = Mask { w, h, alpha: vec![0; w * h] };
-        let mut x0 = 0;
-        for span in spans {
-            x0 = (x0 as i64 + span.dx).max(0) as usize;
-            let y0 = (span.dy - top) as usize;
-            for c in span.text.chars() {
-                let glyph = span.font.glyph(c).or_else(|| span.font.glyph('?')).expect("the font has '?'");
-                for (y, row) in glyph.rows().enumerate() {
-                    for (x, &a) in row.iter().enumerate() {
-                        let i = (y0 + y) * w + x0 + x;
-                        mask.alpha[i] = mask.alpha[i].max(a);
-                    }
-                }
-                x0 += span.font.width();
-            }
-        }
-        mask
-    }
-
-    /// The mask turned a quarter counter-clockwise (text reading upwards).
-    fn rotated_ccw(&self) -> Mask {
-        let (w, h) = (self.h, self.w);
-        let mut alpha = vec![0; w * h];
-        for y in 0..self.h {
-            for x in 0..self.w {
-                alpha[(self.w - 1 - x) * w + y] = self.alpha[y * self.w + x];
-            }
-        }
-        Mask { w, h, alpha }
-    }
-}
-
-/// A pixel rectangle, `x0..x1` by `y0..y1` (inclusive bounds).
-#[derive(Clone, Copy, Debug)]
-struct Rect {
-    x0: i64,
-    y0: i64,
-    x1: i64,
-    y1: i64,
-}
-
-/// Anti-aliased coverage of shapes inside a clip rectangle, accumulated with
-/// `max` so overlapping shapes of one curve do not darken each other.
-struct Coverage {
-    clip: Rect,
-    w: i64,
-    values: Vec<f32>,
-}
-
-impl Coverage {
-    fn new(clip: Rect) -> Coverage {
-        let w = clip.x1 - clip.x0 + 1;
-        let h = clip.y1 - clip.y0 + 1;
-        Coverage { clip, w, values: vec![0.0; (w * h) as usize] }
-    }
-
-    /// Adds the pixels whose centre is near the shape: coverage falls from 1 to
-    /// 0 over one pixel around distance `radius`, as `distance(centre)` says.
-    fn add(&mut self, bounds: (f64, f64, f64, f64), radius: f64, distance: impl Fn(f64, f64) -> f64) {
-        let reach = radius + 1.0;
-        let x0 = ((bounds.0 - reach).floor() as i64).max(self.clip.x0);
-        let x1 = ((bounds.2 + reach).ceil() as i64).min(self.clip.x1);
-        let y0 = ((bounds.1 - reach).floor() as i64).max(self.clip.y0);
-        let y1 = ((bounds.3 + reach).ceil() as i64).min(self.clip.y1);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let d = distance(x as f64 + 0.5, y as f64 + 0.5);
-                let c = (radius + 0.5 - d).clamp(0.0, 1.0) as f32;
-                let i = ((y - self.clip.y0) * self.w + (x - self.clip.x0)) as usize;
-                self.values[i] = self.values[i].max(c);
-            }
-        }
-    }
-
-    fn segment(&mut self, a: (f64, f64), b: (f64, f64), half_width: f64) {
-        let bounds = (a.0.min(b.0), a.1.min(b.1), a.0.max(b.0), a.1.max(b.1));
-        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-        let len2 = dx * dx + dy * dy;
-        self.add(bounds, half_width, |px, py| {
-            let t = if len2 > 0.0 { (((px - a.0) * dx + (py - a.1) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            ((px - a.0 - t * dx).powi(2) + (py - a.1 - t * dy).powi(2)).sqrt()
-        });
-    }
-
-    /// The polyline through `points`, solid or with `dash` = (on, off) lengths
-    /// measured along it.
-    fn polyline(&mut self, points: &[(f64, f64)], half_width: f64, dash: Option<(f64, f64)>) {
-        let Some((on, off)) = dash else {
-            for pair in points.windows(2) {
-                self.segment(pair[0], pair[1], half_width);
-            }
-            return;
-        };
-        let period = on + off;
-        let mut start = 0.0; // arc length at the start of the current segment
-        for pair in points.windows(2) {
-            let (a, b) = (pair[0], pair[1]);
-            let length = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
-            if !(length > 0.0) {
-                continue;
-            }
-            let at = |s: f64| {
-                let t = (s - start) / length;
-                (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1))
-            };
-            let end = start + length;
-            let mut s = start;
-            while s < end {
-                let phase = s % period;
-                let (drawn, next) = if phase < on { (true, s - phase + on) } else { (false, s - phase + period) };
-                let next = next.min(end);
-                if drawn {
-                    self.segment(at(s), at(next), half_width);
-                }
-                s = next;
-            }
-            start = end;
-        }
-    }
-
-    fn disc(&mut self, c: (f64, f64), radius: f64) {
-        self.add((c.0, c.1, c.0, c.1), radius, |px, py| ((px - c.0).powi(2) + (py - c.1).powi(2)).sqrt());
-    }
-
-    /// Paints `colour` over the canvas by this coverage, and marks the pixels it
-    /// touched in `ink` (a plot-sized mask), if given.
-    fn composite(&self, canvas: &mut Canvas, colour: [u8; 3], mut ink: Option<&mut [bool]>) {
-        for (i, &c) in self.values.iter().enumerate() {
-            if c > 0.0 {
-                let x = self.clip.x0 + i as i64 % self.w;
-                let y = self.clip.y0 + i as i64 / self.w;
-                canvas.blend(x, y, colour, c);
-                if let Some(slot) = ink.as_deref_mut().and_then(|ink| ink.get_mut((y * PLOT_WIDTH as i64 + x) as usize))
-                {
-                    *slot = true;
-                }
-            }
-        }
-    }
-}
-
-/// The image being drawn; every write is clipped to it.
-struct Canvas {
-    image: RgbImage,
-}
-
-impl Canvas {
-    fn new(width: u32, height: u32) -> Canvas {
-        Canvas { image: RgbImage::from_pixel(width, height, image::Rgb(WHITE)) }
-    }
-
-    /// Blends `colour` over the pixel with opacity `alpha` in 0..=1.
-    fn blend(&mut self, x: i64, y: i64, colour: [u8; 3], alpha: f32) {
-        if x < 0 || y < 0 || x >= self.image.width() as i64 || y >= self.image.height() as i64 {
-            return;
-        }
-        let pixel = self.image.get_pixel_mut(x as u32, y as u32);
-        for (p, &c) in pixel.0.iter_mut().zip(&colour) {
-            *p = (*p as f32 + (c as f32 - *p as f32) * alpha).round() as u8;
-        }
-    }
-
-    fn fill(&mut self, r: Rect, colour: [u8; 3]) {
-        for y in r.y0..=r.y1 {
-            for x in r.x0..=r.x1 {
-                self.blend(x, y, colour, 1.0);
-            }
-        }
-    }
-
-    fn hline(&mut self, x0: i64, x1: i64, y: i64, colour: [u8; 3]) {
-        self.fill(Rect { x0, y0: y, x1, y1: y }, colour);
-    }
-
-    fn vline(&mut self, x: i64, y0: i64, y1: i64, colour: [u8; 3]) {
-        self.fill(Rect { x0: x, y0, x1: x, y1 }, colour);
-    }
-
-    /// Paints `colour` through `mask` with its top left corner at (x, y).
-    fn blit(&mut self, mask: &Mask, x: i64, y: i64, colour: [u8; 3]) {
-        for my in 0..mask.h {
-            for mx in 0..mask.w {
-                let a = mask.alpha[my * mask.w + mx];
-                if a > 0 {
-                    self.blend(x + mx as i64, y + my as i64, colour, a as f32 / 255.0);
-                }
-            }
-        }
     }
 }
