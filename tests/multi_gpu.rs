@@ -209,3 +209,89 @@ fn a_session_on_two_contexts_keeps_its_budget() {
     assert_no_validation_messages(&a);
     assert_no_validation_messages(&b);
 }
+
+fn rlpt(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rlpt"));
+    c.args(args).env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().expect("rlpt runs")
+}
+
+/// A fresh directory for one test's files.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rlpt-multi-gpu-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn door_path() -> String {
+    format!("{}/scenes/door.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `--gpus` refuses, each with a sentence: `--gpu` beside it, a device named
+/// twice, a device past the last (listing those found), a word that is no index.
+#[test]
+fn bad_gpu_lists_are_refused_with_a_sentence() {
+    let dir = scratch("refusals");
+    let out = dir.join("out.png");
+    let door_toml = door_path();
+    for (gpus, extra, want) in [
+        ("0", &["--gpu", "0"][..], "--gpu 0 and --gpus 0 both pick GPUs: give one of them"),
+        ("0,0", &[][..], "--gpus 0,0: device 0 is named twice"),
+        ("0,9", &[][..], "--gpus 0,9: there is no device 9; 1 Vulkan device(s) found: 0 \""),
+        ("0,x", &[][..], "`x` is not a device index"),
+    ] {
+        for command in ["render", "bench"] {
+            let mut args = vec![command, door_toml.as_str(), "--width", "8", "--height", "8", "--gpus", gpus];
+            if command == "render" {
+                args.extend(["-o", out.to_str().unwrap()]);
+            } else {
+                args.extend(["--frames", "1", "--warmup", "0"]);
+            }
+            args.extend(extra);
+            let o = rlpt(&args, &[]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!o.status.success() && err.contains(want), "{command} --gpus {gpus}: {err}");
+            assert!(!out.exists(), "nothing written");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `render --gpus` and `bench --gpus` end to end, on two contexts of the one
+/// device (the test hook allows it): the image has the samples asked for and
+/// agrees with the library's two-context film; bench reports each device.
+#[test]
+fn render_and_bench_on_two_gpus_from_the_command_line() {
+    let dir = scratch("cli");
+    let (exr, json) = (dir.join("two.exr"), dir.join("bench.json"));
+    let door_toml = door_path();
+    let hook = [("RLPT_TEST_DUPLICATE_GPUS", "1")];
+    let args = ["render", &door_toml, "--width", "24", "--height", "16", "--spp", "384", "--gpus", "0,0", "-o"];
+    let o = rlpt(&[&args[..], &[exr.to_str().unwrap()]].concat(), &hook);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("384 spp") && said.contains("on 2 GPUs"), "{said}");
+    let image = rlpt::image::Image::load(&exr).unwrap();
+    let (scene, opts) = door(24, 16, 384);
+    let single = render_gpu(&gpu(), &scene, &opts);
+    let mean = single.mean();
+    let close =
+        image.pixels.iter().zip(&mean.pixels).all(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() <= 1e-5 * b[c].abs()));
+    assert!(close, "the two-GPU image is the one-GPU image of the same frames");
+
+    let args =
+        ["bench", &door_toml, "--width", "16", "--height", "16", "--frames", "6", "--warmup", "2", "--gpus", "0,0"];
+    let o = rlpt(&[&args[..], &["--json", json.to_str().unwrap()]].concat(), &hook);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let devices = report["devices"].as_array().unwrap();
+    assert_eq!(devices.len(), 2, "{report}");
+    let frames: u64 = devices.iter().map(|d| d["frames"].as_u64().unwrap()).sum();
+    assert_eq!((frames, report["frames"].as_u64()), (6, Some(6)), "{report}");
+    assert!(report["frames_per_second"].as_f64().unwrap() > 0.0, "{report}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

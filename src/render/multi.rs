@@ -29,6 +29,8 @@ pub const ROUND_FRAMES_PER_DEVICE: u32 = 4;
 /// One device of a [`MultiGpuRenderer`].
 struct Device {
     r: GpuRenderer,
+    /// Its place in the contexts the renderer was made with.
+    slot: usize,
     /// The image frames in its accumulation (their indices), rendered again by
     /// the others should the device be lost.
     image: Vec<u32>,
@@ -53,6 +55,8 @@ struct Share {
 /// What one device of a [`MultiGpuRenderer`] has done so far.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceStats {
+    /// Its place in the contexts the renderer was made with.
+    pub slot: usize,
     /// Its index in `rlpt devices`.
     pub index: usize,
     pub name: String,
@@ -90,8 +94,8 @@ impl MultiGpuRenderer {
             handles.into_iter().map(|h| h.join().expect("a renderer's set-up thread panicked")).collect()
         });
         let mut devices = Vec::with_capacity(built.len());
-        for r in built {
-            devices.push(Device { r: r?, image: Vec::new(), last_ms: None, traced: 0, busy_ms: 0.0 });
+        for (slot, r) in built.into_iter().enumerate() {
+            devices.push(Device { r: r?, slot, image: Vec::new(), last_ms: None, traced: 0, busy_ms: 0.0 });
         }
         let learning_frames = devices[0].r.learning_frames();
         let timestamps = devices.iter().all(|d| d.r.context().info.timestamps);
@@ -131,7 +135,14 @@ impl MultiGpuRenderer {
 
     fn stats(d: &Device, lost: bool) -> DeviceStats {
         let info = &d.r.context().info;
-        DeviceStats { index: info.index, name: info.name.clone(), frames: d.traced, gpu_ms: d.busy_ms, lost }
+        DeviceStats {
+            slot: d.slot,
+            index: info.index,
+            name: info.name.clone(),
+            frames: d.traced,
+            gpu_ms: d.busy_ms,
+            lost,
+        }
     }
 
     /// Each device's learned table (None without guiding), in device order.
