@@ -231,8 +231,9 @@ fn door_path() -> String {
     format!("{}/scenes/door.toml", env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `--gpus` refuses, each with a sentence: `--gpu` beside it, a device named
-/// twice, a device past the last (listing those found), a word that is no index.
+/// `--gpus` refuses, each with a sentence, on render, bench and view (before
+/// any window opens): `--gpu` beside it, a device named twice, a device past
+/// the last (listing those found), a word that is no index.
 #[test]
 fn bad_gpu_lists_are_refused_with_a_sentence() {
     let dir = scratch("refusals");
@@ -244,11 +245,11 @@ fn bad_gpu_lists_are_refused_with_a_sentence() {
         ("0,9", &[][..], "--gpus 0,9: there is no device 9; 1 Vulkan device(s) found: 0 \""),
         ("0,x", &[][..], "`x` is not a device index"),
     ] {
-        for command in ["render", "bench"] {
+        for command in ["render", "bench", "view"] {
             let mut args = vec![command, door_toml.as_str(), "--width", "8", "--height", "8", "--gpus", gpus];
             if command == "render" {
                 args.extend(["-o", out.to_str().unwrap()]);
-            } else {
+            } else if command == "bench" {
                 args.extend(["--frames", "1", "--warmup", "0"]);
             }
             args.extend(extra);
