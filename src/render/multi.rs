@@ -357,7 +357,7 @@ impl Renderer for MultiGpuRenderer {
         Ok(FrameReport { gpu_ms: r.gpu_ms, zero_paths: r.zero_paths })
     }
 
-    /// A round: new frames up to [`MultiGpuRenderer::round_end`], handed out to
+    /// A round: new frames up to the round's end (`round_end`), handed out to
     /// the devices as they finish, then those of any device lost meanwhile; where
     /// the round's last frame is one after which the table learns, every device
     /// learns from all devices' sums. Its time is the busiest device's plus the
