@@ -16,6 +16,15 @@ use std::sync::atomic::AtomicBool;
 
 const K: f64 = 5.0;
 
+/// Held by each test here that renders: they run one at a time, so that the
+/// time budget's test sees frames as long as those it measured its limit from
+/// (two contexts share the test machine's cores with any other render).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Renders `frames` frames in rounds, as the session does, and returns the film.
 fn render_multi(r: &mut MultiGpuRenderer, frames: u32) -> Film {
     let mut traced = 0;
@@ -54,6 +63,7 @@ fn door(width: u32, height: u32, spp: u32) -> (Scene, RenderOptions) {
 /// and the same spread of the frames' means.
 #[test]
 fn two_contexts_render_what_one_renders() {
+    let _serial = one_at_a_time();
     let (scene, opts) = door(32, 24, 10 * 64);
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
     let (a, b) = (gpu(), gpu());
@@ -86,6 +96,7 @@ fn two_contexts_render_what_one_renders() {
 /// one and with the CPU renderer.
 #[test]
 fn a_guided_render_on_two_contexts_agrees_with_one_and_the_cpu() {
+    let _serial = one_at_a_time();
     let (scene, mut opts) = door(32, 24, 24 * 64);
     opts.guiding = GuidingMode::Sphere;
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
@@ -112,6 +123,7 @@ fn a_guided_render_on_two_contexts_agrees_with_one_and_the_cpu() {
 /// one-frame rounds of the first frames and after a round of several.
 #[test]
 fn every_device_holds_the_same_table_after_a_learning_pass() {
+    let _serial = one_at_a_time();
     let (scene, mut opts) = door(24, 16, 64);
     opts.guiding = GuidingMode::Sphere;
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
@@ -152,6 +164,7 @@ fn every_device_holds_the_same_table_after_a_learning_pass() {
 /// session stops with `Stop::DeviceLost`.
 #[test]
 fn a_lost_device_is_dropped_and_its_frames_traced_again() {
+    let _serial = one_at_a_time();
     let (scene, opts) = door(24, 16, 12 * 64);
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
     let (a, b) = (gpu(), gpu());
@@ -185,6 +198,7 @@ fn a_lost_device_is_dropped_and_its_frames_traced_again() {
 /// more nor less, whatever the rounds; and with a time limit it ends by it.
 #[test]
 fn a_session_on_two_contexts_keeps_its_budget() {
+    let _serial = one_at_a_time();
     let (scene, opts) = door(16, 16, 64);
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
     let (a, b) = (gpu(), gpu());
@@ -267,6 +281,7 @@ fn bad_gpu_lists_are_refused_with_a_sentence() {
 /// agrees with the library's two-context film; bench reports each device.
 #[test]
 fn render_and_bench_on_two_gpus_from_the_command_line() {
+    let _serial = one_at_a_time();
     let dir = scratch("cli");
     let (exr, json) = (dir.join("two.exr"), dir.join("bench.json"));
     let door_toml = door_path();

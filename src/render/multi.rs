@@ -196,6 +196,9 @@ impl MultiGpuRenderer {
         let counter = AtomicU32::new(range.start);
         let redo = Mutex::new(std::mem::take(&mut self.redo));
         let (timestamps, learning_frames) = (self.timestamps, self.learning_frames);
+        // A device that traced nothing yet is taken to be as slow as the slowest
+        // that did: only the render's first frames start unjudged.
+        let slowest = self.devices.iter().filter_map(|d| d.last_ms).reduce(f64::max);
         let shares: Vec<Share> = std::thread::scope(|s| {
             let handles: Vec<_> = self
                 .devices
@@ -205,7 +208,7 @@ impl MultiGpuRenderer {
                     s.spawn(move || {
                         let mut share = Share::default();
                         loop {
-                            if let (Some(left), Some(last)) = (time_left, d.last_ms) {
+                            if let (Some(left), Some(last)) = (time_left, d.last_ms.or(slowest)) {
                                 if share.ms + last + reserve_ms > left {
                                     break;
                                 }
@@ -383,7 +386,9 @@ impl Renderer for MultiGpuRenderer {
         if self.devices.is_empty() {
             return Err(Self::all_lost());
         }
-        let time_up = time_left_ms.map(|left| self.devices.iter().all(|d| d.last_ms.is_some_and(|l| l > left - ms)));
+        let slowest = self.devices.iter().filter_map(|d| d.last_ms).reduce(f64::max);
+        let time_up =
+            time_left_ms.map(|left| self.devices.iter().all(|d| d.last_ms.or(slowest).is_some_and(|l| l > left - ms)));
         Ok(RoundReport {
             frames: handed,
             gpu_ms: self.timestamps.then_some(ms),
