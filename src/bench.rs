@@ -295,3 +295,85 @@ mod tests {
         assert_eq!(x[3]["args"]["frame"], 6);
     }
 }
+
+/// One device's share of a `rlpt bench --gpus` run.
+#[derive(Clone, Debug, Serialize)]
+pub struct DeviceBench {
+    /// Its index in `rlpt devices`.
+    pub index: usize,
+    pub name: String,
+    /// Measured frames it traced.
+    pub frames: u32,
+    /// Their GPU time, ms (the device's own timestamps).
+    pub gpu_ms: f64,
+    /// `frames` over `gpu_ms`: the device's own rate while it was busy.
+    pub frames_per_second: f64,
+    /// Whether it was lost during the run (its frames were traced again by the others).
+    pub lost: bool,
+}
+
+/// What `rlpt bench --gpus` measured: the devices' frames and times, and the
+/// whole. The measured frames run in rounds (`render::MultiGpuRenderer`); the
+/// time of a round is its busiest device's GPU time plus the slowest learning
+/// pass, as the devices run in parallel, and `gpu_ms` adds the rounds' times:
+/// the wall-clock time the render would take if the host's work between rounds
+/// (submission, the frame sums' transfers) took none. `wall_s` is the wall clock itself.
+#[derive(Clone, Debug, Serialize)]
+pub struct MultiBenchReport {
+    #[serde(flatten)]
+    pub setup: BenchSetup,
+    pub gpus: usize,
+    pub devices: Vec<DeviceBench>,
+    /// Measured frames, all devices together.
+    pub frames: u32,
+    /// The rounds' times added, ms (see above).
+    pub gpu_ms: f64,
+    /// `frames` over `gpu_ms`.
+    pub frames_per_second: f64,
+    /// Samples traced over `gpu_ms`.
+    pub msamples_per_s: f64,
+    /// Wall-clock time of the measured rounds, s, and the frames over it.
+    pub wall_s: f64,
+    pub wall_frames_per_second: f64,
+}
+
+impl MultiBenchReport {
+    /// The report's table, as `rlpt bench --gpus` prints it.
+    pub fn table(&self) -> String {
+        let s = &self.setup;
+        let mut t = format!(
+            "{} on {} GPUs, {}x{}, guiding {}, NEE {}, {} measured frames after {} warm-up frames:\n",
+            s.scene,
+            self.gpus,
+            s.width,
+            s.height,
+            s.guiding,
+            if s.nee { "on" } else { "off" },
+            self.frames,
+            s.warmup_frames
+        );
+        for d in &self.devices {
+            t += &format!(
+                "  GPU {} {:<32} {:>6} frames {:>10.1} ms GPU time {:>9.2} frames/s{}\n",
+                d.index,
+                format!("\"{}\"", d.name),
+                d.frames,
+                d.gpu_ms,
+                d.frames_per_second,
+                if d.lost { " (lost)" } else { "" }
+            );
+        }
+        t += &format!(
+            "  all GPUs{:>32} {:>6} frames {:>10.1} ms in rounds  {:>9.2} frames/s ({:.1} Msamples/s); wall clock \
+             {:.3} s, {:.2} frames/s\n",
+            "",
+            self.frames,
+            self.gpu_ms,
+            self.frames_per_second,
+            self.msamples_per_s,
+            self.wall_s,
+            self.wall_frames_per_second
+        );
+        t
+    }
+}

@@ -22,6 +22,7 @@ use std::time::Instant;
 
 mod cli;
 use cli::bench::*;
+use cli::gpus::*;
 use cli::info::*;
 use cli::merge::*;
 use cli::render::*;
@@ -140,9 +141,16 @@ struct Settings {
     /// Render on the GPU (Vulkan) or on the CPU (all cores).
     #[arg(long, value_enum, default_value_t = DeviceKind::Gpu)]
     device: DeviceKind,
-    /// Vulkan device index from `rlpt devices` (default: the first discrete GPU).
+    /// Vulkan device index from `rlpt devices` (default: the first discrete GPU): one
+    /// GPU. For several, --gpus; not both.
     #[arg(long)]
     gpu: Option<usize>,
+    /// Several GPUs in one render or bench: `all` (every usable device) or indices from
+    /// `rlpt devices`, e.g. 0,2. Each renders frames as it finishes the last, into one
+    /// image; with guiding, all learn one table (docs/cluster.md). --gpus N is --gpu N
+    /// (`rlpt view` takes one GPU).
+    #[arg(long, value_name = "all|I,J,...", value_parser = parse_gpus)]
+    gpus: Option<GpuList>,
     /// Next-event estimation: sample lights and combine with BSDF sampling by MIS.
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     nee: OnOff,
@@ -280,6 +288,9 @@ impl Settings {
         }
         if self.gpu.is_some() && self.device == DeviceKind::Cpu {
             notes.push("--gpu picks a Vulkan device; ignored with --device cpu".into());
+        }
+        if self.gpus.is_some() && self.device == DeviceKind::Cpu {
+            notes.push("--gpus picks Vulkan devices; ignored with --device cpu".into());
         }
         notes
     }

@@ -1,5 +1,6 @@
-//! One render session: the frame loop both renderers share. A [`Session`] traces
-//! frames of 64 samples per pixel until its [`Budget`] of frames or time is spent,
+//! One render session: the frame loop every renderer shares. A [`Session`] traces
+//! frames of 64 samples per pixel (in rounds of several frames where a renderer
+//! drives several GPUs, `crate::render::MultiGpuRenderer`) until its [`Budget`] of frames or time is spent,
 //! an interrupt is raised (Ctrl-C) or the device is lost; it shows a progress bar
 //! once a render passes a second, keeps each frame's statistics, and measures
 //! relMSE against a reference at the frames [`measure_at`] and [`time_mark`] name.
@@ -29,11 +30,45 @@ pub struct FrameReport {
     pub variance: Option<f64>,
 }
 
+/// What one round of frames reports to the session ([`Renderer::render_round`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RoundReport {
+    /// New frames the round traced (at least one unless `time_up`).
+    pub frames: u32,
+    /// Time of the round, from timestamps: with several devices, as long as the
+    /// busiest device took (they run in parallel); None where there are none.
+    pub gpu_ms: Option<f64>,
+    /// Paths that carried zero radiance, where the renderer counts them.
+    pub zero_paths: Option<u64>,
+    /// Where the renderer keeps the time budget itself: whether no further frame
+    /// fits the time left. None where the session judges it (one frame a round).
+    pub time_up: Option<bool>,
+    /// The kernel of a one-frame round, with guiding (`guide::FrameRace`).
+    pub kind: Option<crate::guide::FrameKind>,
+    /// The one frame's mean relative variance, where the renderer weighs it.
+    pub variance: Option<f64>,
+}
+
 /// What the frame loop needs of a renderer: [`GpuRenderer`] and [`CpuRenderer`]
-/// are both one.
+/// are both one, and so is `crate::render::MultiGpuRenderer`.
 pub trait Renderer {
     /// Traces one frame: a learning frame, or one of the image.
     fn render_frame(&mut self) -> Result<FrameReport, GpuError>;
+    /// Traces a round of at most `max` frames (`max` at least 1), where
+    /// `time_left_ms` is set none that its renderer judges would end past it.
+    /// One frame, the time judged by the session, unless a renderer does more.
+    fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
+        let _ = (max, time_left_ms);
+        let r = self.render_frame()?;
+        Ok(RoundReport {
+            frames: 1,
+            gpu_ms: r.gpu_ms,
+            zero_paths: r.zero_paths,
+            time_up: None,
+            kind: r.kind,
+            variance: r.variance,
+        })
+    }
     /// Frames in the image (the learning frames left out once it starts).
     fn image_frames(&self) -> u32;
     /// The image so far.
@@ -137,7 +172,8 @@ pub struct Session<'a> {
     reference: Option<&'a Reference>,
     /// Paths a frame traces (pixels times 64), for the zero-radiance fraction.
     paths_per_frame: f64,
-    /// Each frame traced, the learning frames included.
+    /// Each frame traced, the learning frames included; with several GPUs, each
+    /// round of frames (its last frame's number, the round's time).
     pub frames: Vec<FrameStats>,
     /// Render time so far: GPU time where the renderer has timestamps, else wall clock.
     pub elapsed_ms: f64,
@@ -150,7 +186,7 @@ impl<'a> Session<'a> {
 
     /// Frames traced so far, the learning frames included.
     pub fn traced(&self) -> u32 {
-        self.frames.len() as u32
+        self.frames.last().map_or(0, |f| f.frame)
     }
 
     /// Renders within `budget`, checking `interrupt` between frames. Returns why it
@@ -167,9 +203,11 @@ impl<'a> Session<'a> {
         let mut shown = false;
         let mut film = None;
         let mut stop = Stop::Finished;
-        for f in self.traced()..budget.frames {
+        let mut f = self.traced();
+        while f < budget.frames {
             let frame_start = Instant::now();
-            let report = match self.renderer.render_frame() {
+            let time_left = budget.time_ms.map(|limit| limit - self.elapsed_ms);
+            let report = match self.renderer.render_round(budget.frames - f, time_left) {
                 Ok(r) => r,
                 Err(GpuError::DeviceLost(detail)) => {
                     stop = Stop::DeviceLost(detail);
@@ -177,16 +215,24 @@ impl<'a> Session<'a> {
                 }
                 Err(e) => return Err(e.into()),
             };
+            let n = report.frames;
+            if n == 0 {
+                // Nothing fitted the time left (a renderer that keeps the budget itself).
+                break;
+            }
             let frame_ms = report.gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
             let mark = time_mark(self.elapsed_ms, self.elapsed_ms + frame_ms);
             self.elapsed_ms += frame_ms;
             // The next frame is taken to last as long as this one: the session
             // stops where it would end past the limit, so that --time T ends by T.
-            let out_of_time = budget.time_ms.is_some_and(|limit| self.elapsed_ms + frame_ms > limit);
-            let interrupted = interrupt.load(Ordering::SeqCst) && f + 1 < budget.frames;
-            let last = f + 1 == budget.frames || out_of_time || interrupted;
+            // A renderer of rounds judges its devices' next frames itself.
+            let out_of_time = report
+                .time_up
+                .unwrap_or_else(|| budget.time_ms.is_some_and(|limit| self.elapsed_ms + frame_ms > limit));
+            let interrupted = interrupt.load(Ordering::SeqCst) && f + n < budget.frames;
+            let last = f + n == budget.frames || out_of_time || interrupted;
             let errors = match self.reference {
-                Some(r) if last || mark || measure_at(f + 1) => {
+                Some(r) if last || mark || (f + 1..=f + n).any(measure_at) => {
                     let current = self.renderer.film()?;
                     let e = r.compare(&current.mean()).map_err(SessionError::Measure)?;
                     if last {
@@ -197,7 +243,7 @@ impl<'a> Session<'a> {
                 _ => None,
             };
             self.frames.push(FrameStats {
-                frame: f + 1,
+                frame: f + n,
                 spp: self.renderer.image_frames() * crate::shared::SAMPLES_PER_FRAME,
                 gpu_ms: report.gpu_ms,
                 elapsed_ms: self.elapsed_ms,
@@ -211,7 +257,8 @@ impl<'a> Session<'a> {
                 bar.set_draw_target(ProgressDrawTarget::stderr());
                 shown = true;
             }
-            bar.set_position(f as u64 + 1);
+            f += n;
+            bar.set_position(f as u64);
             if interrupted {
                 stop = Stop::Interrupted;
                 break;

@@ -46,7 +46,8 @@ pub struct RenderStats {
     /// written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub learning_frames: Option<u32>,
-    /// One entry per frame traced, in order.
+    /// One entry per frame traced, in order (per round of frames with several
+    /// GPUs, `crate::session::Session::frames`).
     pub frames: Vec<FrameStats>,
 }
 

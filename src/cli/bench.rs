@@ -46,6 +46,17 @@ pub(crate) enum AblateArg {
 }
 
 pub(crate) fn bench(args: BenchArgs) -> Result<()> {
+    check_gpu_flags(&args.settings)?;
+    if args.settings.gpus.is_some() && args.settings.device == DeviceKind::Gpu {
+        // Each of these has one device's timeline or counters in mind.
+        for (given, flag) in
+            [(args.trace.is_some(), "--trace"), (!args.ablate.is_empty(), "--ablate"), (args.rays.is_some(), "--rays")]
+        {
+            if given {
+                bail!("{flag} measures one GPU: bench it with --gpu N, not --gpus");
+            }
+        }
+    }
     if let Some(p) = &args.json {
         check_output("--json", p, None)?;
     }
@@ -120,7 +131,11 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
     let mut times = Vec::with_capacity(args.frames as usize);
     let (device, driver, clock, pipelines) = match args.settings.device {
         DeviceKind::Gpu => {
-            let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
+            let mut contexts = open_gpus(&args.settings)?;
+            if contexts.len() > 1 {
+                return bench_gpus(&args, &contexts, &prepared, samples_per_frame);
+            }
+            let ctx = contexts.remove(0);
             let mut r = GpuRenderer::new(&ctx, &prepared)?;
             let ablate = args.ablate.iter().fold(0, |bits, a| {
                 bits | match a {
@@ -193,6 +208,86 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
     if let Some(p) = &args.trace {
         let trace = rlpt::bench::chrome_trace(&device, &times, args.warmup + 1);
         std::fs::write(p, serde_json::to_string(&trace)?).with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(())
+}
+
+/// `rlpt bench --gpus`: the frames of several GPUs in one render, in the rounds
+/// of `MultiGpuRenderer`; per device its frames and GPU time, and for all of them
+/// the frames over the rounds' time (`rlpt::bench::MultiBenchReport`).
+fn bench_gpus(
+    args: &BenchArgs,
+    contexts: &[std::sync::Arc<Context>],
+    prepared: &PreparedScene,
+    samples_per_frame: u64,
+) -> Result<()> {
+    super::gpus::refuse_race_on_several(prepared)?;
+    let mut r = rlpt::render::MultiGpuRenderer::new(contexts, prepared)?;
+    let run = |r: &mut rlpt::render::MultiGpuRenderer, frames: u32| -> Result<f64> {
+        let (mut traced, mut ms) = (0, 0.0);
+        while traced < frames {
+            let start = Instant::now();
+            let round = r.render_round(frames - traced, None)?;
+            traced += round.frames;
+            ms += round.gpu_ms.unwrap_or_else(|| start.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(ms)
+    };
+    run(&mut r, args.warmup)?;
+    let before = r.device_stats();
+    let start = Instant::now();
+    let gpu_ms = run(&mut r, args.frames)?;
+    let wall_s = start.elapsed().as_secs_f64();
+    let devices: Vec<rlpt::bench::DeviceBench> = r
+        .device_stats()
+        .into_iter()
+        .map(|d| {
+            let (f0, ms0) = before.iter().find(|b| b.slot == d.slot).map_or((0, 0.0), |b| (b.frames, b.gpu_ms));
+            let (frames, ms) = (d.frames - f0, d.gpu_ms - ms0);
+            rlpt::bench::DeviceBench {
+                index: d.index,
+                name: d.name,
+                frames,
+                gpu_ms: ms,
+                frames_per_second: frames as f64 / (ms / 1e3),
+                lost: d.lost,
+            }
+        })
+        .collect();
+    let s = &args.settings;
+    let opts = &prepared.params;
+    let setup = rlpt::bench::BenchSetup {
+        scene: args.scene.display().to_string(),
+        device: r.device_name(),
+        driver: contexts[0].info.driver.clone(),
+        clock: "GPU timestamps, the busiest device's per round".into(),
+        width: opts.width,
+        height: opts.height,
+        samples_per_frame,
+        guiding: s.guiding.name().to_string(),
+        guided_fraction: None,
+        learning_rate_exponent: None,
+        exploration_floor: None,
+        q_targets: None,
+        nee: s.nee == OnOff::On,
+        sampler: s.sampler.name().to_string(),
+        warmup_frames: args.warmup,
+    };
+    let report = rlpt::bench::MultiBenchReport {
+        setup,
+        gpus: contexts.len(),
+        devices,
+        frames: args.frames,
+        gpu_ms,
+        frames_per_second: args.frames as f64 / (gpu_ms / 1e3),
+        msamples_per_s: args.frames as f64 * samples_per_frame as f64 / (gpu_ms / 1e3) / 1e6,
+        wall_s,
+        wall_frames_per_second: args.frames as f64 / wall_s,
+    };
+    print!("{}", report.table());
+    if let Some(p) = &args.json {
+        std::fs::write(p, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! and notes they make before rendering.
 
 pub(crate) mod bench;
+pub(crate) mod gpus;
 pub(crate) mod info;
 pub(crate) mod merge;
 pub(crate) mod render;

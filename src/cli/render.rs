@@ -75,6 +75,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     // Ctrl-C from here on stops the render after the frame in flight and writes what it
     // has; during the set-up (scene, device, kernels) it stops after the first frame.
     catch_interrupt();
+    check_gpu_flags(&args.settings)?;
     check_output("output", &args.output, Some(&["png", "exr"]))?;
     if let Some(part) = args.part {
         if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
@@ -185,12 +186,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
             r.set_frame_offset(range.start);
             Box::new(r)
         }
-        DeviceKind::Gpu => {
-            let ctx = Context::new(&ContextOptions::from_env(args.settings.gpu))?;
-            let mut r = GpuRenderer::new(&ctx, &prepared)?;
-            r.set_frame_offset(range.start);
-            Box::new(r)
-        }
+        DeviceKind::Gpu => gpu_renderer(&open_gpus(&args.settings)?, &prepared, range.start)?,
     };
     let device_name = renderer.device_name();
     let mut stats = RenderStats {

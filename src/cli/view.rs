@@ -38,6 +38,18 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
     if args.settings.device == DeviceKind::Cpu {
         bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
     }
+    check_gpu_flags(&args.settings)?;
+    // The viewer presents and renders on one GPU: --gpus of one device is --gpu.
+    let gpu = match &args.settings.gpus {
+        None => args.settings.gpu,
+        Some(list) => match resolve_gpus(list, &rlpt::gpu::list_devices()?, false)?[..] {
+            [one] => Some(one),
+            _ => bail!(
+                "--gpus {list}: `rlpt view` renders on one GPU (several are for `rlpt render` and `rlpt bench`): \
+                 give one, --gpu N"
+            ),
+        },
+    };
     let scene = Scene::load_with(&args.scene, args.settings.strict)?;
     warn_before_render(&args.settings, &scene);
     let render = args.settings.options(&scene);
@@ -60,7 +72,7 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
         scene_path: args.scene,
         scene,
         render,
-        context: ContextOptions::from_env(args.settings.gpu),
+        context: ContextOptions::from_env(gpu),
         frames: args.frames,
         screenshot: args.screenshot,
         resize: args.resize,

@@ -14,13 +14,16 @@ mod dispatch;
 pub mod display;
 mod learning;
 mod memory;
+mod multi;
 mod pipelines;
 pub mod raycast;
+mod sync;
 
 pub use dispatch::*;
 use learning::*;
 pub use memory::scene_geometry_bytes;
 use memory::*;
+pub use multi::*;
 use pipelines::*;
 
 /// What one submission of frames measured.
@@ -127,6 +130,9 @@ pub struct GpuRenderer {
     frame_offset: u32,
     /// Frames in the accumulation buffer.
     accum_frames: u32,
+    /// Whether the accumulation's frames are learning frames, which the first
+    /// image frame moves to `learned_frames` (`next_frame`).
+    accum_holds_learning: bool,
     /// The learning frames left out of the image once it starts (0 until then, and
     /// after `reset_accumulation`): learned roulette's estimate still counts them
     /// (the kernel's `learned_frames`).
@@ -329,6 +335,7 @@ impl GpuRenderer {
             frames_traced: 0,
             frame_offset: 0,
             accum_frames: 0,
+            accum_holds_learning: false,
             learned_frames: 0,
             table_frames: if scene.guide_start.is_some() { crate::guide::GuideField::table_frames() } else { 0 },
             ablate: 0,
@@ -372,9 +379,14 @@ impl GpuRenderer {
     /// (`accumulate`, `crate::film::accumulate`).
     fn next_frame(&mut self, kind: FrameKind) -> PathPush {
         let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
-        if self.accum_frames > 0 && self.frames_traced == learning_frames {
+        // The first image frame (frames traced in order, or handed out by
+        // `MultiGpuRenderer`, which may skip frames) moves the learning frames out.
+        if self.accum_holds_learning && self.frames_traced >= learning_frames {
             self.learned_frames = self.accum_frames;
             self.accum_frames = 0;
+            self.accum_holds_learning = false;
+        } else if self.frames_traced < learning_frames {
+            self.accum_holds_learning = true;
         }
         let push = PathPush {
             frame: if self.learning.is_some() { self.guided_traced } else { self.frames_traced },
@@ -511,6 +523,7 @@ impl GpuRenderer {
     pub fn reset_accumulation(&mut self) -> Result<(), GpuError> {
         self.ctx.run_commands("reset accumulation", |cmd| self.accum.cmd_clear(cmd))?;
         self.accum_frames = 0;
+        self.accum_holds_learning = false;
         self.learned_frames = 0;
         Ok(())
     }
@@ -529,10 +542,18 @@ impl GpuRenderer {
     /// says) and returns what they measured. Times come from timestamp
     /// queries (zero where the queue has none).
     pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
+        self.submit_frames(count, true)
+    }
+
+    /// [`render_frames`](Self::render_frames), learning after the frames that
+    /// `RecordSchedule::learns_after` names only where `learn` (else the targets
+    /// wait in the frame sums: `MultiGpuRenderer` learns from every device's at once).
+    fn submit_frames(&mut self, count: u32, learn: bool) -> Result<FrameTimings, GpuError> {
         self.check_device_lost_hook(count)?;
         let timestamps = self.ctx.info.timestamps;
         let wall = std::time::Instant::now();
-        let before = (self.frames_traced, self.accum_frames, self.learned_frames, self.guided_traced);
+        let before =
+            (self.frames_traced, self.accum_frames, self.learned_frames, self.accum_holds_learning, self.guided_traced);
         // The image's frames of one submission are of one kind.
         let image_kind = self.next_kind();
         let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
@@ -560,7 +581,7 @@ impl GpuRenderer {
                     if timestamps && f + 1 == count {
                         self.timer.cmd_stamp(cmd, 1);
                     }
-                    if kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
+                    if learn && kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
                         l.cmd_learn(&self.ctx, cmd, |_| {});
                     }
                 }
@@ -576,7 +597,13 @@ impl GpuRenderer {
         });
         if let Err(e) = submitted {
             // The frames did not finish: the counts stay those of the accumulation.
-            (self.frames_traced, self.accum_frames, self.learned_frames, self.guided_traced) = before;
+            (
+                self.frames_traced,
+                self.accum_frames,
+                self.learned_frames,
+                self.accum_holds_learning,
+                self.guided_traced,
+            ) = before;
             return Err(e);
         }
         let (zero_paths, segments, subgroup_segments) = self.read_counters();

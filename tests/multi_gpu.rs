@@ -1,0 +1,313 @@
+//! Several GPUs in one render (`render::MultiGpuRenderer`), tested with two
+//! contexts on the one device the test machine has: the merged film against one
+//! device's, guided and not, the tables after a learning pass, a lost device,
+//! and the session's budget.
+
+mod common;
+use common::*;
+use rlpt::film::Film;
+use rlpt::guide::GuidingMode;
+use rlpt::options::RenderOptions;
+use rlpt::prepared::PreparedScene;
+use rlpt::render::{GpuRenderer, MultiGpuRenderer, ROUND_FRAMES_PER_DEVICE};
+use rlpt::scene::Scene;
+use rlpt::session::{Budget, Renderer, Session, Stop};
+use std::sync::atomic::AtomicBool;
+
+const K: f64 = 5.0;
+
+/// Held by each test here that renders: they run one at a time, so that the
+/// time budget's test sees frames as long as those it measured its limit from
+/// (two contexts share the test machine's cores with any other render).
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Renders `frames` frames in rounds, as the session does, and returns the film.
+fn render_multi(r: &mut MultiGpuRenderer, frames: u32) -> Film {
+    let mut traced = 0;
+    while traced < frames {
+        let round = r.render_round(frames - traced, None).expect("round");
+        assert!(round.frames >= 1 && round.frames <= frames - traced, "{round:?}");
+        traced += round.frames;
+    }
+    Renderer::film(r).expect("films")
+}
+
+/// Each pixel's sum of `a` and `b` (films of the same frames, added in another
+/// order) agree to the rounding of adding `frames` nonnegative frame sums.
+fn assert_same_sums(a: &Film, b: &Film, what: &str) {
+    assert_eq!(a.frames, b.frames, "{what}: frames");
+    let u = f32::EPSILON as f64 / 2.0;
+    let bound = 2.0 * a.frames as f64 * u;
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for c in 0..3 {
+            let (x, y) = (p.sum[c] as f64, q.sum[c] as f64);
+            assert!((x - y).abs() <= bound * x.abs().max(y.abs()) + 1e-30, "{what}: pixel {i} channel {c}: {x} vs {y}");
+        }
+    }
+}
+
+fn door(width: u32, height: u32, spp: u32) -> (Scene, RenderOptions) {
+    let s = scene("door.toml");
+    let o = options(&s, width, height, spp);
+    (s, o)
+}
+
+/// Frame k draws the same random numbers on either context: the same frame
+/// traced alone on each gives the same bits. Two contexts that trace 10 frames
+/// between them (handed out as they finish) give the film of one context that
+/// traces them all, to the rounding of the order the frames' sums are added in,
+/// and the same spread of the frames' means.
+#[test]
+fn two_contexts_render_what_one_renders() {
+    let _serial = one_at_a_time();
+    let (scene, opts) = door(32, 24, 10 * 64);
+    let prepared = PreparedScene::new(&scene, &opts).unwrap();
+    let (a, b) = (gpu(), gpu());
+    {
+        let mut one = GpuRenderer::new(&a, &prepared).unwrap();
+        let mut two = GpuRenderer::new(&b, &prepared).unwrap();
+        one.trace_frame(5).unwrap();
+        two.trace_frame(5).unwrap();
+        let (f1, f2) = (one.film().unwrap(), two.film().unwrap());
+        assert!(f1.pixels.iter().zip(&f2.pixels).all(|(p, q)| p.sum == q.sum), "frame 5 differs between contexts");
+    }
+    let single = render_gpu(&a, &scene, &opts);
+    let mut multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
+    let merged = render_multi(&mut multi, 10);
+    let stats = multi.device_stats();
+    assert_eq!(stats.iter().map(|d| d.frames).sum::<u32>(), 10, "{stats:?}");
+    assert!(stats.iter().all(|d| d.frames > 0), "both contexts traced frames: {stats:?}");
+    drop(multi);
+    assert_same_sums(&single, &merged, "two contexts against one");
+    let (v1, v2) = (single.variance_of_mean().unwrap(), merged.variance_of_mean().unwrap());
+    let total = |v: &rlpt::image::Image| v.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>();
+    let (t1, t2) = (total(&v1), total(&v2));
+    assert!((t1 - t2).abs() <= 1e-3 * t1, "the frames' spread: {t1} against {t2}");
+    assert_no_validation_messages(&a);
+    assert_no_validation_messages(&b);
+}
+
+/// A guided render on two contexts (each recording its own paths' targets, the
+/// sums added at each learning pass) agrees within noise with a guided render on
+/// one and with the CPU renderer.
+#[test]
+fn a_guided_render_on_two_contexts_agrees_with_one_and_the_cpu() {
+    let _serial = one_at_a_time();
+    let (scene, mut opts) = door(32, 24, 24 * 64);
+    opts.guiding = GuidingMode::Sphere;
+    let prepared = PreparedScene::new(&scene, &opts).unwrap();
+    let (a, b) = (gpu(), gpu());
+    let single = render_gpu(&a, &scene, &opts);
+    let mut multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
+    let merged = render_multi(&mut multi, prepared.learning_frames() + opts.frames());
+    drop(multi);
+    assert_eq!(merged.frames, opts.frames(), "the image's frames");
+    let z = assert_films_agree(&merged, &single, 4, K, "guided: two contexts against one");
+    eprintln!("guided, two contexts against one: worst block {z:.2} sigma");
+    opts.seed = 7;
+    let cpu = render_cpu(&scene, &opts);
+    let z = assert_films_agree(&merged, &cpu, 4, K, "guided: two contexts against the CPU");
+    eprintln!("guided, two contexts against the CPU: worst block {z:.2} sigma");
+    assert_no_validation_messages(&a);
+    assert_no_validation_messages(&b);
+}
+
+/// After each learning pass every device holds the same table, bit for bit: Q,
+/// visits, sampling rows, fractions, their states and the rows read. The devices
+/// learn from the same sums (added on the host, in device order) with the same
+/// kernel, which has no atomics, from the same table. Checked after the
+/// one-frame rounds of the first frames and after a round of several.
+#[test]
+fn every_device_holds_the_same_table_after_a_learning_pass() {
+    let _serial = one_at_a_time();
+    let (scene, mut opts) = door(24, 16, 64);
+    opts.guiding = GuidingMode::Sphere;
+    let prepared = PreparedScene::new(&scene, &opts).unwrap();
+    let (a, b) = (gpu(), gpu());
+    let mut multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
+    let mut traced = 0;
+    for round in 0..10 {
+        let r = multi.render_round(64, None).unwrap();
+        traced += r.frames;
+        // Each round ends at a learning point: one frame each in the first
+        // frames, then a cycle of the recording rows, capped per device.
+        assert!(r.frames <= 2 * ROUND_FRAMES_PER_DEVICE, "{r:?}");
+        let tables = multi.device_tables().unwrap();
+        let (t0, t1) = (tables[0].as_ref().unwrap(), tables[1].as_ref().unwrap());
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert!(t0.q.iter().any(|&q| q > 0.0), "round {round}: the table learned");
+        assert_eq!(bits(&t0.q), bits(&t1.q), "round {round} (frames {traced}): Q");
+        assert_eq!(t0.visits, t1.visits, "round {round}: visits");
+        assert_eq!(bytemuck::cast_slice::<_, u32>(&t0.rows), bytemuck::cast_slice::<_, u32>(&t1.rows), "rows");
+        assert_eq!(bits(&t0.fractions), bits(&t1.fractions), "round {round}: fractions");
+        assert_eq!(
+            bytemuck::cast_slice::<_, u32>(&t0.fraction_states),
+            bytemuck::cast_slice::<_, u32>(&t1.fraction_states),
+            "round {round}: fraction states"
+        );
+        assert_eq!(t0.rows_read, t1.rows_read, "round {round}: rows read");
+    }
+    assert!(traced > 10, "rounds of several frames after the first ({traced} frames in 10 rounds)");
+    drop(multi);
+    assert_no_validation_messages(&a);
+    assert_no_validation_messages(&b);
+}
+
+/// A device lost in the middle of a round is dropped, and the other traces its
+/// image frames again (frame k draws the same numbers on either): the render
+/// ends with every frame asked for, the film of one context that traced them.
+/// With every device lost, the round fails as one lost device does, and a
+/// session stops with `Stop::DeviceLost`.
+#[test]
+fn a_lost_device_is_dropped_and_its_frames_traced_again() {
+    let _serial = one_at_a_time();
+    let (scene, opts) = door(24, 16, 12 * 64);
+    let prepared = PreparedScene::new(&scene, &opts).unwrap();
+    let (a, b) = (gpu(), gpu());
+    let single = render_gpu(&a, &scene, &opts);
+    let mut multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
+    let first = multi.render_round(4, None).unwrap();
+    assert_eq!(first.frames, 4);
+    multi.device_mut(1).lose_device_at(Some(6));
+    let merged = render_multi(&mut multi, 8);
+    assert_eq!(multi.device_count(), 1, "the lost device is dropped");
+    let stats = multi.device_stats();
+    assert!(stats[1].lost && !stats[0].lost, "{stats:?}");
+    assert_eq!(Renderer::image_frames(&multi), 12);
+    assert_same_sums(&single, &merged, "after a lost device");
+    drop(multi);
+    drop(b); // lost for good: Context::lose_device
+
+    let (c, d) = (gpu(), gpu());
+    let mut multi = MultiGpuRenderer::new(&[c.clone(), d.clone()], &prepared).unwrap();
+    multi.device_mut(0).lose_device_at(Some(3));
+    multi.device_mut(1).lose_device_at(Some(3));
+    let mut session = Session::new(Box::new(multi), None, 1.0);
+    let (stop, _) = session.run(Budget { frames: 12, time_ms: None }, &AtomicBool::new(false)).unwrap();
+    assert!(matches!(stop, Stop::DeviceLost(_)), "{stop:?}");
+    assert!(session.renderer.film().is_err(), "no film is read back from lost devices");
+    drop(session);
+    assert_no_validation_messages(&a);
+}
+
+/// The session gives a render on two contexts the frames it asks for, neither
+/// more nor less, whatever the rounds; and with a time limit it ends by it.
+#[test]
+fn a_session_on_two_contexts_keeps_its_budget() {
+    let _serial = one_at_a_time();
+    let (scene, opts) = door(16, 16, 64);
+    let prepared = PreparedScene::new(&scene, &opts).unwrap();
+    let (a, b) = (gpu(), gpu());
+    let multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
+    let mut session = Session::new(Box::new(multi), None, 1.0);
+    let (stop, _) = session.run(Budget { frames: 11, time_ms: None }, &AtomicBool::new(false)).unwrap();
+    assert_eq!(stop, Stop::Finished);
+    assert_eq!(session.traced(), 11);
+    assert_eq!(session.renderer.image_frames(), 11);
+    assert_eq!(session.renderer.film().unwrap().frames, 11);
+    let limit = session.elapsed_ms / 2.0;
+    drop(session);
+
+    let multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
+    let mut session = Session::new(Box::new(multi), None, 1.0);
+    let (stop, _) = session.run(Budget { frames: 1000, time_ms: Some(limit) }, &AtomicBool::new(false)).unwrap();
+    assert_eq!(stop, Stop::Finished);
+    assert!(session.traced() < 1000, "the time ran out first");
+    assert!(session.elapsed_ms <= limit, "{} ms past the limit of {limit} ms", session.elapsed_ms);
+    assert_eq!(session.renderer.image_frames(), session.traced());
+    drop(session);
+    assert_no_validation_messages(&a);
+    assert_no_validation_messages(&b);
+}
+
+fn rlpt(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rlpt"));
+    c.args(args).env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().expect("rlpt runs")
+}
+
+/// A fresh directory for one test's files.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rlpt-multi-gpu-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn door_path() -> String {
+    format!("{}/scenes/door.toml", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `--gpus` refuses, each with a sentence, on render, bench and view (before
+/// any window opens): `--gpu` beside it, a device named twice, a device past
+/// the last (listing those found), a word that is no index.
+#[test]
+fn bad_gpu_lists_are_refused_with_a_sentence() {
+    let dir = scratch("refusals");
+    let out = dir.join("out.png");
+    let door_toml = door_path();
+    for (gpus, extra, want) in [
+        ("0", &["--gpu", "0"][..], "--gpu 0 and --gpus 0 both pick GPUs: give one of them"),
+        ("0,0", &[][..], "--gpus 0,0: device 0 is named twice"),
+        ("0,9", &[][..], "--gpus 0,9: there is no device 9; 1 Vulkan device(s) found: 0 \""),
+        ("0,x", &[][..], "`x` is not a device index"),
+    ] {
+        for command in ["render", "bench", "view"] {
+            let mut args = vec![command, door_toml.as_str(), "--width", "8", "--height", "8", "--gpus", gpus];
+            if command == "render" {
+                args.extend(["-o", out.to_str().unwrap()]);
+            } else if command == "bench" {
+                args.extend(["--frames", "1", "--warmup", "0"]);
+            }
+            args.extend(extra);
+            let o = rlpt(&args, &[]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!o.status.success() && err.contains(want), "{command} --gpus {gpus}: {err}");
+            assert!(!out.exists(), "nothing written");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `render --gpus` and `bench --gpus` end to end, on two contexts of the one
+/// device (the test hook allows it): the image has the samples asked for and
+/// agrees with the library's two-context film; bench reports each device.
+#[test]
+fn render_and_bench_on_two_gpus_from_the_command_line() {
+    let _serial = one_at_a_time();
+    let dir = scratch("cli");
+    let (exr, json) = (dir.join("two.exr"), dir.join("bench.json"));
+    let door_toml = door_path();
+    let hook = [("RLPT_TEST_DUPLICATE_GPUS", "1")];
+    let args = ["render", &door_toml, "--width", "24", "--height", "16", "--spp", "384", "--gpus", "0,0", "-o"];
+    let o = rlpt(&[&args[..], &[exr.to_str().unwrap()]].concat(), &hook);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("384 spp") && said.contains("on 2 GPUs"), "{said}");
+    let image = rlpt::image::Image::load(&exr).unwrap();
+    let (scene, opts) = door(24, 16, 384);
+    let single = render_gpu(&gpu(), &scene, &opts);
+    let mean = single.mean();
+    let close =
+        image.pixels.iter().zip(&mean.pixels).all(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() <= 1e-5 * b[c].abs()));
+    assert!(close, "the two-GPU image is the one-GPU image of the same frames");
+
+    let args =
+        ["bench", &door_toml, "--width", "16", "--height", "16", "--frames", "6", "--warmup", "2", "--gpus", "0,0"];
+    let o = rlpt(&[&args[..], &["--json", json.to_str().unwrap()]].concat(), &hook);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let devices = report["devices"].as_array().unwrap();
+    assert_eq!(devices.len(), 2, "{report}");
+    let frames: u64 = devices.iter().map(|d| d["frames"].as_u64().unwrap()).sum();
+    assert_eq!((frames, report["frames"].as_u64()), (6, Some(6)), "{report}");
+    assert!(report["frames_per_second"].as_f64().unwrap() > 0.0, "{report}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
