@@ -97,6 +97,7 @@ impl Importer {
                     normals,
                     triangles,
                     materials: vec![material; n],
+                    uvs: file.uvs.clone(),
                 });
             }
             _ => {
@@ -471,6 +472,21 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
             Some(v.chunks(3).map(|c| DVec3::new(c[0], c[1], c[2]).as_vec3()).collect())
         }
     };
+    // pbrt-v4's "point2 uv", pbrt-v3's "float uv" or "float st": one pair per vertex.
+    let uvs = match p.get("uv", &["point2", "float"]).or_else(|| p.get("st", &["point2", "float"])) {
+        None => None,
+        Some(q) => {
+            let v = q.numbers()?;
+            if v.len() != 2 * n {
+                return Err(q.loc.error(format!(
+                    "Shape \"{kind}\": \"{}\" must have one u v pair per vertex ({n}), found {} numbers",
+                    q.name,
+                    v.len()
+                )));
+            }
+            Some(v.chunks(2).map(|c| glam::DVec2::new(c[0], c[1]).as_vec2()).collect())
+        }
+    };
     let triangles = if per == 3 {
         indices.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
     } else {
@@ -478,7 +494,7 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
         // normal, cross(p10 - p00, p01 - p00).
         indices.chunks(4).flat_map(|c| [[c[0], c[1], c[3]], [c[0], c[3], c[2]]]).collect()
     };
-    let builder = Builder { positions, normals, triangles, ..Default::default() };
+    let builder = Builder { positions, normals, uvs, triangles, ..Default::default() };
     builder
         .finish(std::path::Path::new(&*loc.file))
         .map_err(|_| loc.error(format!("Shape \"{kind}\": every triangle has zero area")))
