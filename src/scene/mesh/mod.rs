@@ -11,6 +11,7 @@
 //! The material mapping rules are in `docs/SCENE_FORMAT.md` ("Meshes").
 
 mod gltf;
+mod gltf_material;
 mod mtl;
 mod obj;
 mod place;
