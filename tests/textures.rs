@@ -337,17 +337,15 @@ fn a_glossy_sphere_with_colour_and_roughness_textures_renders_alike_on_gpu_and_c
         let g = 40 + 13 * x as u8;
         [g, g, g, 255]
     });
-    let text = format!(
-        "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 40.0\n\
+    let text = "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 40.0\n\
          [render]\nwidth = 24\nheight = 24\nspp = 256\nmax_bounces = 4\n\
          [environment]\nradiance = [1.0, 1.0, 1.0]\n\
          [[material]]\nname = \"floor\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
          [[material]]\nname = \"tex\"\ntype = \"glossy\"\nalbedo = [0.9, 0.9, 0.9]\nroughness = 0.8\n\
          albedo_texture = \"checker.png\"\nroughness_texture = \"rough.png\"\n\
          [[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"tex\"\n\
-         [[quad]]\norigin = [-3.0, -1.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\nmaterial = \"floor\"\n"
-    );
-    let scene = Scene::load(write_scene(&d, &text)).unwrap();
+         [[quad]]\norigin = [-3.0, -1.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\nmaterial = \"floor\"\n";
+    let scene = Scene::load(write_scene(&d, text)).unwrap();
     assert_eq!(scene.textures.len(), 2);
     let opts = options(&scene, 24, 24, 256);
     let ctx = gpu();
