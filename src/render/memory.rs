@@ -69,7 +69,9 @@ pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result
     }
     let mut parts = vec![format!("{} MB for the {}x{} image", mb(accum), p.width, p.height)];
     if geometry > 0 {
-        parts.push(format!("{} MB for the meshes, the BVH and the images", mb(geometry)));
+        let images = !scene.texels.is_empty() || !scene.env_texels.is_empty();
+        let what = if images { "the meshes, the BVH and the images" } else { "the meshes and the BVH" };
+        parts.push(format!("{} MB for {what}", mb(geometry)));
     }
     if unified {
         parts.push(format!("{} MB to read it back", mb(accum)));

@@ -118,6 +118,8 @@ pub(super) fn map_material(
     let base_texture = image("baseColorTexture", pbr.base_color_texture(), TextureUse::Colour);
     let roughness_use = TextureUse::Roughness { channel: Channel::Green, invert: false, remap: Remap::Identity };
     let roughness_texture = image("metallicRoughnessTexture", pbr.metallic_roughness_texture(), roughness_use);
+    // A slot the closure could not read is noted already; one read but not used is noted below.
+    let (base_read, roughness_read) = (base_texture.is_some(), roughness_texture.is_some());
     if material.kind != MaterialKind::Dielectric {
         if let Some(t) = base_texture {
             mapping += &format!(", times baseColorTexture {}", t.path.display());
@@ -131,11 +133,8 @@ pub(super) fn map_material(
         }
     }
     let textures: Vec<&str> = [
-        ("baseColorTexture", pbr.base_color_texture().is_some() && material.albedo_texture.is_none()),
-        (
-            "metallicRoughnessTexture",
-            pbr.metallic_roughness_texture().is_some() && material.roughness_texture.is_none(),
-        ),
+        ("baseColorTexture", base_read && material.albedo_texture.is_none()),
+        ("metallicRoughnessTexture", roughness_read && material.roughness_texture.is_none()),
         ("normalTexture", m.normal_texture().is_some()),
         ("occlusionTexture", m.occlusion_texture().is_some()),
         ("emissiveTexture", m.emissive_texture().is_some()),
