@@ -216,7 +216,10 @@
 #define SPEC_BVH 401
 // 1: some triangle has shading normals (Triangle.normals != NO_NORMALS).
 #define SPEC_SMOOTH 402
-#define NUM_SPEC_CONSTANTS 403
+// 1: some material has a texture: hits carry UVs and materials read textures
+// (texture.glsl); 0: the kernel has none of that code.
+#define SPEC_TEXTURES 403
+#define NUM_SPEC_CONSTANTS 404
 // Frame counters (pathtrace.comp): the paths without radiance (one word, at most
 // 64 per pixel); the rays traced and the subgroups' rays below (64-bit pairs, low
 // word first: glsl/counters.glsl).
@@ -307,6 +310,25 @@
 // then per row over its texels. Empty for the uniform sky.
 #define BINDING_ENV_TEXELS 20
 #define BINDING_ENV_CDF 21
+// Image textures (texture.glsl; src/math/texture.rs; docs/ARCHITECTURE.md,
+// "Textures"): per texture a TextureHeader; every texture's texels in one array
+// of words; per triangle its vertices' UVs (TriangleUvs). Empty in a scene
+// without textures, whose kernel has no texture code (SPEC_TEXTURES).
+#define BINDING_TEXTURES 22
+#define BINDING_TEXELS 23
+#define BINDING_TRIANGLE_UVS 24
+// TextureHeader.format: one word per texel, RGBA 8 bits each (red the low
+// byte), linear or sRGB-encoded (decoded on lookup); or two words per texel,
+// RGBA as four halves (packHalf2x16 of rg, then of ba), linear.
+#define TEXEL_RGBA8 0
+#define TEXEL_RGBA8_SRGB 1
+#define TEXEL_RGBA16F 2
+// Material.albedo_texture and roughness_texture: 0 for none, else 1 + the
+// index of its TextureHeader. A roughness from a texture is kept within
+// [TEXTURE_MIN_ROUGHNESS, 1]: the smallest roughness GGX is tested at
+// (src/scene/mesh/mod.rs `SPECULAR_BELOW_ROUGHNESS`).
+#define NO_TEXTURE 0
+#define TEXTURE_MIN_ROUGHNESS 0.05
 // tonemap.comp (the viewer's display pass): 16x16 pixels per workgroup.
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16
@@ -324,8 +346,8 @@ struct Material {
     vec4 k;                  // xyz a conductor's k (imaginary part)
     uint kind;               // MAT_*
     uint two_sided;          // emission leaves both sides
-    uint pad0;
-    uint pad1;
+    uint albedo_texture;     // NO_TEXTURE, or 1 + the texture whose RGB multiplies the albedo
+    uint roughness_texture;  // NO_TEXTURE, or 1 + the texture whose red times w is the roughness
 };
 
 struct Sphere {
@@ -380,6 +402,23 @@ struct BvhNode {
     uint b_child;
     vec3 b_hi;
     uint b_count;
+};
+
+// A texture's texels in texels[] from `offset` (words), rows from the top of
+// the image, and the texture's UV transform: st = uv * transform.xy + transform.zw.
+struct TextureHeader {
+    uint offset;
+    uint width;
+    uint height;
+    uint format;             // TEXEL_*
+    vec4 transform;
+};
+
+// The UVs of a triangle's three vertices (texture.glsl `triangle_uv`).
+struct TriangleUvs {
+    vec2 uv0;
+    vec2 uv1;
+    vec2 uv2;
 };
 
 struct Light {

@@ -5,6 +5,7 @@
 #include "sampling.glsl"
 #include "primitives.glsl"
 #include "envmap.glsl"
+#include "texture.glsl"
 #extension GL_EXT_control_flow_attributes : require
 
 struct Hit {
@@ -15,6 +16,7 @@ struct Hit {
     float eps;    // position error bound
     uint material;
     uint light;
+    vec2 uv;      // texture coordinates, where SCENE_TEXTURES (texture.glsl)
 };
 
 #include "bvh.glsl"
@@ -23,6 +25,8 @@ struct Hit {
 layout(constant_id = SPEC_BVH) const bool SCENE_BVH = false;
 // 1: some triangle has shading normals: hits interpolate them.
 layout(constant_id = SPEC_SMOOTH) const bool SCENE_SMOOTH = false;
+// 1: some material has a texture: hits carry their UVs (texture.glsl).
+layout(constant_id = SPEC_TEXTURES) const bool SCENE_TEXTURES = false;
 
 // src/math/geometry.rs `triangle_scale`: a triangle's largest coordinate.
 float triangle_scale(Triangle t) { return max(max_abs(t.v0), max(max_abs(t.v1), max_abs(t.v2))); }
@@ -30,14 +34,8 @@ float triangle_scale(Triangle t) { return max(max_abs(t.v0), max(max_abs(t.v1), 
 // src/math/geometry.rs `shading_normal`: the vertex normals interpolated at p,
 // on the side of the geometric normal n.
 vec3 shading_normal(TriangleNormals tn, Triangle t, vec3 p, vec3 n) {
-    vec3 e1 = t.v1 - t.v0, e2 = t.v2 - t.v0, ep = p - t.v0;
-    float d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2);
-    float d20 = dot(ep, e1), d21 = dot(ep, e2);
-    float denom = d00 * d11 - d01 * d01;
-    float b1 = clamp((d11 * d20 - d01 * d21) / denom, 0.0, 1.0);
-    float b2 = clamp((d00 * d21 - d01 * d20) / denom, 0.0, 1.0 - b1);
-    float b0 = 1.0 - b1 - b2;
-    vec3 ns = normalize(b0 * tn.n0.xyz + b1 * tn.n1.xyz + b2 * tn.n2.xyz);
+    vec3 b = triangle_barycentrics(t.v0, t.v1, t.v2, p);
+    vec3 ns = normalize(b.x * tn.n0.xyz + b.y * tn.n1.xyz + b.z * tn.n2.xyz);
     if (any(isnan(ns)) || any(isinf(ns))) return n;
     return dot(ns, n) < 0.0 ? -ns : ns;
 }
@@ -47,6 +45,7 @@ Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
     Hit hit;
     hit.t = t;
     hit.p = o + t * d;
+    hit.uv = vec2(0.0);
     uint kind = r >> PRIM_KIND_SHIFT;
     uint i = r & PRIM_INDEX_MASK;
     if (kind == PRIM_SPHERE) {
@@ -55,6 +54,7 @@ Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
         hit.eps = hit_epsilon(hit.p, sphere_hit_scale(s));
         hit.material = s.material;
         hit.light = s.light;
+        if (SCENE_TEXTURES) hit.uv = sphere_uv(hit.n);
     } else if (!SCENE_BVH || kind == PRIM_QUAD) {
         // Triangles come with the BVH alone: without it their code is left out.
         Quad q = quads[i];
@@ -62,12 +62,14 @@ Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
         hit.eps = hit_epsilon(hit.p, quad_scale(q));
         hit.material = q.material;
         hit.light = q.light;
+        if (SCENE_TEXTURES) hit.uv = quad_uv(q, hit.p);
     } else {
         Triangle tr = triangles[i];
         hit.n = normalize(cross(tr.v1 - tr.v0, tr.v2 - tr.v0));
         hit.eps = hit_epsilon(hit.p, triangle_scale(tr));
         hit.material = tr.material;
         hit.light = tr.light;
+        if (SCENE_TEXTURES) hit.uv = triangle_uv(i, tr, hit.p);
         if (SCENE_SMOOTH && tr.normals != NO_NORMALS) {
             hit.ns = shading_normal(triangle_normals[tr.normals], tr, hit.p, hit.n);
             return hit;

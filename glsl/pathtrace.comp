@@ -111,7 +111,10 @@ void add_frame_variance(uint pixel, float sum, float sum_sq) {
     counter_add64(slot, frame_variance_term(sum, sum_sq, before));
 }
 
-Bsdf material_bsdf(uint mat) {
+// src/cpu/mod.rs `material_bsdf`: the material's BSDF at a hit of texture
+// coordinates uv, its textures applied (src/math/texture.rs `apply_textures`)
+// where the scene has any.
+Bsdf material_bsdf(uint mat, vec2 uv) {
     Material m = materials[mat];
     Bsdf b;
     b.kind = m.kind;
@@ -121,6 +124,13 @@ Bsdf material_bsdf(uint mat) {
     // Read only where the kernel may meet a conductor: other scenes skip the loads.
     b.eta = scene_has_material(MAT_CONDUCTOR) ? m.eta.xyz : vec3(1.0);
     b.k = scene_has_material(MAT_CONDUCTOR) ? m.k.xyz : vec3(0.0);
+    if (SCENE_TEXTURES) {
+        if (m.albedo_texture != NO_TEXTURE) b.albedo *= texture_lookup(m.albedo_texture - 1u, uv).rgb;
+        if (m.roughness_texture != NO_TEXTURE) {
+            float r = clamp(m.albedo_roughness.w * texture_lookup(m.roughness_texture - 1u, uv).r, TEXTURE_MIN_ROUGHNESS, 1.0);
+            b.alpha = r * r;
+        }
+    }
     return b;
 }
 
@@ -294,7 +304,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
             }
             radiance += beta * le * w_le;
         }
-        Bsdf bsdf = material_bsdf(hit.material);
+        Bsdf bsdf = material_bsdf(hit.material, hit.uv);
         vec3 n = (bsdf_transmits(bsdf) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
         vec3 ns = SCENE_SMOOTH ? shading_side(n, hit, wo) : n;
         mat3 frame = make_frame(ns);

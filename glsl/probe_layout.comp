@@ -15,7 +15,7 @@ void put4(vec4 v) { putf(v.x); putf(v.y); putf(v.z); putf(v.w); }
 
 void main() {
     Material m = materials[1];
-    put4(m.albedo_roughness); put4(m.emission_ior); put4(m.eta); put4(m.k); put(m.kind); put(m.two_sided);
+    put4(m.albedo_roughness); put4(m.emission_ior); put4(m.eta); put4(m.k); put(m.kind); put(m.two_sided); put(m.albedo_texture); put(m.roughness_texture);
     Sphere s = spheres[1];
     put4(s.center_radius); put4(s.anchor_radius); put4(s.axis); put(s.material); put(s.light);
     Quad q = quads[1];

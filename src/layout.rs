@@ -24,7 +24,34 @@ pub struct GpuMaterial {
     pub k: [f32; 4],
     pub kind: u32,
     pub two_sided: u32,
-    pub pad: [u32; 2],
+    /// `shared::NO_TEXTURE`, or 1 + the index in [`SceneArrays::textures`] of the
+    /// texture whose RGB multiplies the albedo.
+    pub albedo_texture: u32,
+    /// `shared::NO_TEXTURE`, or 1 + the index of the texture whose red channel
+    /// times `albedo_roughness[3]` is the roughness.
+    pub roughness_texture: u32,
+}
+
+/// A texture's place in [`SceneArrays::texels`] and its UV transform
+/// (`glsl/common.glsl` `TextureHeader`; `crate::math::texture` reads it).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuTexture {
+    /// The first word of its texels; rows from the image's top.
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    /// `shared::TEXEL_*`.
+    pub format: u32,
+    /// st = uv * (x, y) + (z, w).
+    pub transform: [f32; 4],
+}
+
+/// The UVs of a triangle's vertices (`TriangleUvs`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuTriangleUvs {
+    pub uv: [[f32; 2]; 3],
 }
 
 #[repr(C)]
@@ -236,6 +263,8 @@ const _: () = assert!(std::mem::size_of::<GpuTriangleNormals>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<RenderParams>() == 256);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuTexture>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuTriangleUvs>() == 24);
 // The specialization constants' layout (glsl/common.glsl): the quads' slots
 // follow the scalar constants, the spheres' follow the quads', and nothing after.
 const _: () =
@@ -251,7 +280,8 @@ const _: () = assert!(shared::SPEC_ROOM_FACES == shared::SPEC_ROOM_BOUNDS + 6);
 const _: () = assert!(shared::SPEC_ROOM_ENTERING == shared::SPEC_ROOM_FACES + 6);
 const _: () = assert!(shared::SPEC_BVH == shared::SPEC_ROOM_ENTERING + 1);
 const _: () = assert!(shared::SPEC_SMOOTH == shared::SPEC_BVH + 1);
-const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_SMOOTH + 1);
+const _: () = assert!(shared::SPEC_TEXTURES == shared::SPEC_SMOOTH + 1);
+const _: () = assert!(shared::NUM_SPEC_CONSTANTS == shared::SPEC_TEXTURES + 1);
 // geometry.glsl writes its slots out for 16 of each (FOR_SPEC_SLOTS).
 const _: () = assert!(shared::SPEC_QUADS == 16 && shared::SPEC_SPHERES == 16);
 
@@ -335,4 +365,10 @@ pub struct SceneArrays {
     pub env_texels: Vec<[f32; 4]>,
     /// The environment's sampling cdfs: over rows, then per row over its texels.
     pub env_cdf: Vec<f32>,
+    /// The image textures' headers ([`GpuTexture`]); empty where no material has one.
+    pub textures: Vec<GpuTexture>,
+    /// Every texture's texels, one after another (`shared::TEXEL_*`).
+    pub texels: Vec<u32>,
+    /// Per triangle its vertices' UVs, where the scene has textures; else empty.
+    pub triangle_uvs: Vec<GpuTriangleUvs>,
 }

@@ -147,6 +147,9 @@ fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
         room: Room::NONE,
         env_texels: vec![],
         env_cdf: vec![],
+        textures: vec![],
+        texels: vec![],
+        triangle_uvs: vec![],
     }
 }
 

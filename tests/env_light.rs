@@ -233,6 +233,7 @@ fn tessellated_ball_in_an_image_furnace_renders_its_albedo() {
         source: PathBuf::from("icosphere"),
         positions: unit,
         normals: None,
+        uvs: None,
         materials: vec![grey; triangles.len()],
         triangles,
     });

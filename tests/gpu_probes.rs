@@ -72,7 +72,8 @@ fn struct_layout_matches_the_rust_mirrors() {
         k: v4(),
         kind: 101,
         two_sided: 102,
-        pad: [0; 2],
+        albedo_texture: 103,
+        roughness_texture: 104,
     };
     let sph =
         GpuSphere { center_radius: v4(), anchor_radius: v4(), axis: v4(), material: 201, light: 202, pad: [0; 2] };
@@ -178,7 +179,7 @@ fn struct_layout_matches_the_rust_mirrors() {
     want.extend(f(mat.emission_ior));
     want.extend(f(mat.eta));
     want.extend(f(mat.k));
-    want.extend([mat.kind, mat.two_sided]);
+    want.extend([mat.kind, mat.two_sided, mat.albedo_texture, mat.roughness_texture]);
     want.extend(f(sph.center_radius));
     want.extend(f(sph.anchor_radius));
     want.extend(f(sph.axis));

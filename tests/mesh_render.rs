@@ -26,6 +26,7 @@ fn icosphere(center: Vec3, radius: f32, level: u32, material: u32) -> Mesh {
         source: PathBuf::from("icosphere"),
         positions: unit.iter().map(|p| center + radius * *p).collect(),
         normals: None,
+        uvs: None,
         materials: vec![material; triangles.len()],
         triangles,
     }
@@ -154,6 +155,7 @@ material = "white"
             Vec3::new(-0.5, 2.45, 0.5),
         ],
         normals: None,
+        uvs: None,
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         materials: vec![lamp; 2],
     });
@@ -161,6 +163,7 @@ material = "white"
         source: PathBuf::from("glow"),
         positions: vec![Vec3::new(1.2, 0.2, -1.5), Vec3::new(1.8, 0.2, -1.0), Vec3::new(1.5, 1.4, -1.3)],
         normals: None,
+        uvs: None,
         triangles: vec![[0, 1, 2]],
         materials: vec![glow],
     });

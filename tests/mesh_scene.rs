@@ -88,7 +88,8 @@ fn a_mesh_brings_its_materials_and_lights_the_scene() {
     // One note for the file, prefixed by it.
     assert_eq!(scene.notes.len(), 1, "{:?}", scene.notes);
     assert!(scene.notes[0].starts_with(&format!("{}: rlpt ignores", dir.join("box.obj").display())));
-    assert!(scene.notes[0].contains("textures (map_Kd of `white`)"), "{:?}", scene.notes);
+    assert!(scene.notes[0].contains("textures (map_Kd of `white` (line 3: \"wood.png\""), "{:?}", scene.notes);
+    assert!(scene.notes[0].contains("wood.png) does not exist"), "{:?}", scene.notes);
 
     // The file twice: its materials once, its note once.
     let scene = ok(&dir, "[[mesh]]\nfile = \"box.obj\"\n[[mesh]]\nfile = \"box.obj\"\ntranslate = [2, 0, 0]\n");

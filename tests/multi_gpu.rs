@@ -14,8 +14,6 @@ use rlpt::scene::Scene;
 use rlpt::session::{Budget, Renderer, Session, Stop};
 use std::sync::atomic::AtomicBool;
 
-const K: f64 = 5.0;
-
 /// Held by each test here that renders: they run one at a time, so that the
 /// time budget's test sees frames as long as those it measured its limit from
 /// (two contexts share the test machine's cores with any other render).

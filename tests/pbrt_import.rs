@@ -402,7 +402,7 @@ fn srgb_to_linear(c: f64) -> f64 {
 }
 
 #[test]
-fn image_textures_and_maps_stand_in_as_their_mean() {
+fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
     let d = dir("texture");
     // A 2x2 8-bit image: its mean is taken after sRGB decoding, as pbrt reads it.
     let px = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [128, 128, 128]];
@@ -430,13 +430,18 @@ fn image_textures_and_maps_stand_in_as_their_mean() {
             srgb_to_linear(c[2] as f64 / 255.0),
         ) / 4.0;
     }
+    // The reflectance reads the image (its texture has no scale: albedo 1); the
+    // triangle has no UVs, so its copy of the material takes the image's mean, noted.
     let m = &s.materials[s.meshes[0].materials[0] as usize];
     assert!(close(m.albedo, mean.as_vec3()), "{} vs {mean}", m.albedo);
-    let n = note(&s, "texture \"t\"");
-    assert!(n.contains("scene.pbrt:4:") && n.contains("scene.pbrt:2)"), "the material's line and the texture's: {n}");
-    // A missing image found under another extension beside it, said so.
+    let textured = s.materials.iter().find(|m| m.albedo_texture.is_some()).expect("a textured material");
+    assert_eq!(textured.albedo, Vec3::ONE);
+    assert!(textured.albedo_texture.as_ref().unwrap().path.ends_with("tex.png"));
+    note(&s, "has no texture coordinates");
+    // A missing image found under another extension beside it, said so, and read.
     let n = note(&s, "texture image \"tga/other.tga\"");
     assert!(n.contains("is missing") && n.contains("other.png"), "{n}");
+    assert!(s.textures.iter().any(|t| t.path.ends_with("jpg/other.png")));
     assert!(close(s.materials[s.meshes[1].materials[0] as usize].albedo, mean.as_vec3()));
     assert!(close(s.environment, mean.as_vec3()));
     note(&s, "uniform sky of its mean radiance");

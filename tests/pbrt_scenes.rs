@@ -43,7 +43,10 @@ fn veach_ajar_loads_with_its_instances_and_the_jpeg_textures_named() {
         let n = note(&s, &format!("texture image \"textures/{missing}.tga\""));
         assert!(n.contains("is missing") && n.contains(&format!("textures_jpg_mitsuba_release/{missing}.jpg")), "{n}");
     }
-    note(&s, "texture \"Texture03\"");
+    // The three image textures are read as textures (the door's TGA, the two JPEGs).
+    assert_eq!(s.textures.len(), 3);
+    let door = s.materials.iter().find(|m| m.name == "Door").unwrap();
+    assert!(door.albedo_texture.as_ref().unwrap().path.ends_with("textures/cherry-wood-texture.tga"));
     let light: Vec<_> = s.materials.iter().filter(|m| m.emits()).collect();
     assert_eq!(light.len(), 1);
     assert_eq!((light[0].emission, light[0].two_sided), (Vec3::splat(1000.0), false));

@@ -12,8 +12,6 @@ use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::shared;
 
-const K: f64 = 5.0;
-
 fn racing(scene: &rlpt::scene::Scene, w: u32, h: u32, spp: u32, seed: u32) -> rlpt::options::RenderOptions {
     let mut o = options(scene, w, h, spp);
     o.guiding = GuidingMode::Sphere;

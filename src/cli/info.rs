@@ -80,7 +80,20 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         if m.emits() {
             line += &format!(", emission {}{}", v(e), if m.two_sided { " (two-sided)" } else { "" });
         }
+        if let Some(t) = &m.albedo_texture {
+            line += &format!(", albedo times texture {}", t.path.display());
+        }
+        if let Some(t) = &m.roughness_texture {
+            line += &format!(", roughness times texture {}", t.path.display());
+        }
         println!("{line}");
+    }
+    if !scene.textures.is_empty() {
+        let bytes: usize = scene.textures.iter().map(|t| 4 * t.texels.len()).sum();
+        println!("  textures: {}, {:.1} MB of texels", scene.textures.len(), bytes as f64 / 1e6);
+        for line in rlpt::scene::texture::describe(&scene.textures) {
+            println!("    {line}");
+        }
     }
     for m in &scene.material_mappings {
         println!("  mapped {m}");

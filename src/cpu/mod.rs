@@ -22,8 +22,15 @@ fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
-fn material_bsdf(scene: &PreparedScene, mat: u32) -> Bsdf {
-    scene.materials[mat as usize].bsdf()
+/// The material's BSDF at a hit of texture coordinates `uv`, its textures
+/// applied where the scene has any (`glsl/pathtrace.comp` `material_bsdf`).
+fn material_bsdf(scene: &PreparedScene, mat: u32, uv: glam::Vec2) -> Bsdf {
+    let m = &scene.materials[mat as usize];
+    let mut b = m.bsdf();
+    if !scene.textures.is_empty() {
+        crate::math::texture::apply_textures(scene, m, uv, &mut b);
+    }
+    b
 }
 
 /// The guiding state a path reads: configuration and the table of the previous frames.
@@ -127,7 +134,7 @@ pub fn trace_path(
         }
         // What the target of the ray that arrived here counts of that emission.
         let le_target = if mis_targets { le_counted } else { mean3(le) };
-        let bsdf = material_bsdf(scene, hit.material);
+        let bsdf = material_bsdf(scene, hit.material, hit.uv);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.transmits() || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
         let ns = shading_side(n, hit, wo);

@@ -534,6 +534,9 @@ mod tests {
             room: Room::NONE,
             env_texels: vec![],
             env_cdf: vec![],
+            textures: vec![],
+            texels: vec![],
+            triangle_uvs: vec![],
         }
     }
 

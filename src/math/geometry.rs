@@ -1,9 +1,10 @@
 //! Ray intersection, surface offsets and light sampling on a [`SceneArrays`];
 //! `glsl/geometry.glsl` is the same code.
 
-use super::Vec3;
+use super::{texture, Vec3};
 use crate::layout::{prim_kind_index, prim_ref, GpuQuad, GpuSphere, GpuTriangle, RenderParams, Room, SceneArrays};
 use crate::shared;
+use glam::Vec2;
 use std::f32::consts::PI;
 
 /// A surface hit.
@@ -20,6 +21,8 @@ pub struct Hit {
     pub eps: f32,
     pub material: u32,
     pub light: u32,
+    /// Texture coordinates (`crate::math::texture`), where the scene has textures; else zero.
+    pub uv: Vec2,
 }
 
 fn xyz(v: [f32; 4]) -> Vec3 {
@@ -323,16 +326,21 @@ pub fn prim_hit(scene: &SceneArrays, r: u32, o: Vec3, d: Vec3, t: f32) -> Hit {
     let p = o + t * d;
     let (kind, i) = prim_kind_index(r);
     let i = i as usize;
+    // Texture coordinates only where some material reads them.
+    let textures = !scene.textures.is_empty();
+    let uv = |f: &dyn Fn() -> Vec2| if textures { f() } else { Vec2::ZERO };
     match kind {
         shared::PRIM_SPHERE => {
             let s = &scene.spheres[i];
             let n = ((p - xyz(s.center_radius)) / s.center_radius[3]).normalize();
-            Hit { t, p, n, ns: n, eps: hit_epsilon(p, sphere_hit_scale(s)), material: s.material, light: s.light }
+            let eps = hit_epsilon(p, sphere_hit_scale(s));
+            Hit { t, p, n, ns: n, eps, material: s.material, light: s.light, uv: uv(&|| texture::sphere_uv(n)) }
         }
         shared::PRIM_QUAD => {
             let q = &scene.quads[i];
             let n = xyz(q.normal);
-            Hit { t, p, n, ns: n, eps: hit_epsilon(p, quad_scale(q)), material: q.material, light: q.light }
+            let eps = hit_epsilon(p, quad_scale(q));
+            Hit { t, p, n, ns: n, eps, material: q.material, light: q.light, uv: uv(&|| texture::quad_uv(q, p)) }
         }
         _ => {
             let tri = &scene.triangles[i];
@@ -343,7 +351,9 @@ pub fn prim_hit(scene: &SceneArrays, r: u32, o: Vec3, d: Vec3, t: f32) -> Hit {
             } else {
                 shading_normal(&scene.triangle_normals[tri.normals as usize].n, [v0, v1, v2], p, n)
             };
-            Hit { t, p, n, ns, eps: hit_epsilon(p, triangle_scale(tri)), material: tri.material, light: tri.light }
+            let eps = hit_epsilon(p, triangle_scale(tri));
+            let uv = uv(&|| texture::triangle_uv(scene, i, p));
+            Hit { t, p, n, ns, eps, material: tri.material, light: tri.light, uv }
         }
     }
 }
@@ -359,14 +369,8 @@ pub fn triangle_scale(tri: &GpuTriangle) -> f32 {
 /// normal `n` (the winding decides which side is the front; a file's normals
 /// may disagree). `glsl/geometry.glsl` `shading_normal`.
 pub fn shading_normal(normals: &[[f32; 4]; 3], v: [Vec3; 3], p: Vec3, n: Vec3) -> Vec3 {
-    let (e1, e2, ep) = (v[1] - v[0], v[2] - v[0], p - v[0]);
-    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let (d20, d21) = (ep.dot(e1), ep.dot(e2));
-    let denom = d00 * d11 - d01 * d01;
-    let b1 = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
-    let b2 = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - b1);
-    let b0 = 1.0 - b1 - b2;
-    let ns = (b0 * xyz(normals[0]) + b1 * xyz(normals[1]) + b2 * xyz(normals[2])).normalize();
+    let b = texture::triangle_barycentrics(v, p);
+    let ns = (b.x * xyz(normals[0]) + b.y * xyz(normals[1]) + b.z * xyz(normals[2])).normalize();
     if !ns.is_finite() {
         n
     } else if ns.dot(n) < 0.0 {

@@ -9,6 +9,7 @@ pub mod geometry;
 pub mod rng;
 pub mod sampler;
 pub mod sampling;
+pub mod texture;
 pub mod triangle;
 
 pub use glam::Vec3;

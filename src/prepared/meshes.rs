@@ -1,7 +1,7 @@
 //! The meshes' triangles as the renderers trace them, their lights, and the
 //! boxes the BVH is built from (`crate::math::bvh`).
 
-use crate::layout::{v4, GpuLight, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals};
+use crate::layout::{v4, GpuLight, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals, GpuTriangleUvs};
 use crate::math::bvh;
 use crate::math::Vec3;
 use crate::scene::Scene;
@@ -17,20 +17,28 @@ pub fn uses_bvh(scene: &Scene) -> bool {
     scene.meshes.iter().any(|m| !m.triangles.is_empty()) || scene.spheres.len() + scene.quads.len() > BVH_MIN_ANALYTIC
 }
 
-/// The meshes' triangles and the shading normals of the smooth ones; a triangle
-/// of an emitting material becomes a light (appended to `lights`, its power to
-/// `powers`), as spheres and quads do.
+/// The meshes' triangles, the shading normals of the smooth ones, and with
+/// `uvs` every triangle's vertex UVs (zero where its mesh has none: a textured
+/// material there was replaced, `crate::scene::texture::load_textures`); a
+/// triangle of an emitting material becomes a light (appended to `lights`, its
+/// power to `powers`), as spheres and quads do.
 pub(super) fn mesh_triangles(
     scene: &Scene,
     lights: &mut Vec<GpuLight>,
     powers: &mut Vec<f64>,
     power: &dyn Fn(u32, f64) -> f64,
-) -> (Vec<GpuTriangle>, Vec<GpuTriangleNormals>) {
+    with_uvs: bool,
+) -> (Vec<GpuTriangle>, Vec<GpuTriangleNormals>, Vec<GpuTriangleUvs>) {
     let count = scene.meshes.iter().map(|m| m.triangles.len()).sum();
     let mut triangles = Vec::with_capacity(count);
     let mut normals = Vec::new();
+    let mut uvs = Vec::with_capacity(if with_uvs { count } else { 0 });
     for mesh in &scene.meshes {
         for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
+            if with_uvs {
+                let uv = |i: u32| mesh.uvs.as_ref().map_or([0.0; 2], |u| u[i as usize].to_array());
+                uvs.push(GpuTriangleUvs { uv: [uv(a), uv(b), uv(c)] });
+            }
             let material = mesh.materials[t];
             let v = [a, b, c].map(|i| mesh.positions[i as usize]);
             let mut light = shared::NO_LIGHT;
@@ -56,7 +64,7 @@ pub(super) fn mesh_triangles(
             });
         }
     }
-    (triangles, normals)
+    (triangles, normals, uvs)
 }
 
 /// The boxes of every primitive, for the BVH's build (and `rlpt info`'s bounds).

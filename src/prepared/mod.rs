@@ -17,6 +17,7 @@ use crate::shared;
 
 mod analysis;
 mod meshes;
+mod textures;
 pub use analysis::*;
 use meshes::mesh_triangles;
 pub use meshes::{prim_boxes, uses_bvh, BVH_MIN_ANALYTIC};
@@ -132,6 +133,7 @@ impl PreparedScene {
         out[at(shared::SPEC_ROOM_ENTERING)] = r.entering as u32;
         out[at(shared::SPEC_BVH)] = !self.bvh_nodes.is_empty() as u32;
         out[at(shared::SPEC_SMOOTH)] = !self.triangle_normals.is_empty() as u32;
+        out[at(shared::SPEC_TEXTURES)] = !self.textures.is_empty() as u32;
         out
     }
 
@@ -139,7 +141,7 @@ impl PreparedScene {
     /// is out of range ([`RenderOptions::check`]).
     pub fn new(scene: &Scene, opts: &RenderOptions) -> Result<PreparedScene, OptionError> {
         opts.check()?;
-        let materials: Vec<GpuMaterial> = scene
+        let mut materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
             .map(|m| GpuMaterial {
@@ -149,9 +151,11 @@ impl PreparedScene {
                 k: v4(m.k, 0.0),
                 kind: m.kind as u32,
                 two_sided: m.two_sided as u32,
-                pad: [0; 2],
+                albedo_texture: shared::NO_TEXTURE,
+                roughness_texture: shared::NO_TEXTURE,
             })
             .collect();
+        let (textures, texels) = textures::scene_textures(scene, &mut materials);
         // Lights are chosen in proportion to emitted power: area x mean emission (x2 if two-sided).
         // In f64: a large lamp's power overflows f32 (1e12 radiance over 1e24 of
         // area), and the probabilities are all that leaves here.
@@ -204,7 +208,8 @@ impl PreparedScene {
                 }
             })
             .collect();
-        let (triangles, triangle_normals) = mesh_triangles(scene, &mut lights, &mut powers, &power);
+        let (triangles, triangle_normals, triangle_uvs) =
+            mesh_triangles(scene, &mut lights, &mut powers, &power, !textures.is_empty());
         let bvh = uses_bvh(scene);
         // Without a BVH, the quads that can block a shadow ray first, the room's
         // walls last; lights follow their quads. The BVH tests every primitive.
@@ -351,6 +356,9 @@ impl PreparedScene {
                 room,
                 env_texels: env.as_ref().map_or(Vec::new(), |(_, (t, _))| t.clone()),
                 env_cdf: env.map_or(Vec::new(), |(_, (_, c))| c),
+                textures,
+                texels,
+                triangle_uvs,
             },
             guide: None,
             guide_start: None,

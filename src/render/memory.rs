@@ -19,14 +19,18 @@ pub(super) fn mb(bytes: u64) -> u64 {
     bytes.div_ceil(1 << 20)
 }
 
-/// Bytes of the device-local scene geometry: triangles, shading normals, BVH nodes and refs.
+/// Bytes of the device-local scene data: triangles, shading normals, BVH nodes
+/// and refs, the image environment, the textures and the triangles' UVs.
 pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
     (std::mem::size_of_val(scene.triangles.as_slice())
         + std::mem::size_of_val(scene.triangle_normals.as_slice())
         + std::mem::size_of_val(scene.bvh_nodes.as_slice())
         + std::mem::size_of_val(scene.prim_refs.as_slice())
         + std::mem::size_of_val(scene.env_texels.as_slice())
-        + std::mem::size_of_val(scene.env_cdf.as_slice())) as u64
+        + std::mem::size_of_val(scene.env_cdf.as_slice())
+        + std::mem::size_of_val(scene.textures.as_slice())
+        + std::mem::size_of_val(scene.texels.as_slice())
+        + std::mem::size_of_val(scene.triangle_uvs.as_slice())) as u64
 }
 
 /// The device memory a render of `scene` takes, against what `ctx`'s device has:
@@ -65,7 +69,9 @@ pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result
     }
     let mut parts = vec![format!("{} MB for the {}x{} image", mb(accum), p.width, p.height)];
     if geometry > 0 {
-        parts.push(format!("{} MB for the meshes and the BVH", mb(geometry)));
+        let images = !scene.texels.is_empty() || !scene.env_texels.is_empty();
+        let what = if images { "the meshes, the BVH and the images" } else { "the meshes and the BVH" };
+        parts.push(format!("{} MB for {what}", mb(geometry)));
     }
     if unified {
         parts.push(format!("{} MB to read it back", mb(accum)));

@@ -172,13 +172,16 @@ fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
 }
 
 /// The bindings of the meshes and the BVH, in the order of [`geometry_buffers`].
-const GEOMETRY_BINDINGS: [u32; 6] = [
+const GEOMETRY_BINDINGS: [u32; 9] = [
     shared::BINDING_TRIANGLES,
     shared::BINDING_TRIANGLE_NORMALS,
     shared::BINDING_BVH_NODES,
     shared::BINDING_PRIM_REFS,
     shared::BINDING_ENV_TEXELS,
     shared::BINDING_ENV_CDF,
+    shared::BINDING_TEXTURES,
+    shared::BINDING_TEXELS,
+    shared::BINDING_TRIANGLE_UVS,
 ];
 
 /// The meshes and the BVH on the device (the path tracer's and `raycast`'s):
@@ -191,6 +194,9 @@ fn geometry_buffers(ctx: &Arc<Context>, scene: &crate::layout::SceneArrays) -> R
         Buffer::device_with_data(ctx, "primitive refs", bytes(&scene.prim_refs))?,
         Buffer::device_with_data(ctx, "environment texels", bytes(&scene.env_texels))?,
         Buffer::device_with_data(ctx, "environment cdfs", bytes(&scene.env_cdf))?,
+        Buffer::device_with_data(ctx, "texture headers", bytes(&scene.textures))?,
+        Buffer::device_with_data(ctx, "texels", bytes(&scene.texels))?,
+        Buffer::device_with_data(ctx, "triangle UVs", bytes(&scene.triangle_uvs))?,
     ])
 }
 
@@ -224,6 +230,12 @@ impl GpuRenderer {
         ] {
             fits_one_buffer(ctx, what, size as u64, "split the scene's meshes or render on the CPU (--device cpu)")?;
         }
+        fits_one_buffer(
+            ctx,
+            "the textures' texels",
+            std::mem::size_of_val(scene.texels.as_slice()) as u64,
+            "use smaller texture images, or render on the CPU (--device cpu)",
+        )?;
         let geometry = scene.geometry_specialization();
         let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
         let racing = scene.guide.is_some_and(|g| g.unguided_frames);

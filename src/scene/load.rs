@@ -176,7 +176,7 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
     let mut materials: Vec<Material> = Vec::new();
     let mut name_lines: Vec<usize> = Vec::new();
     for table in table_array(&src, "material", root.get("material"))? {
-        let (material, name_span) = parse_material(&table, &materials, &name_lines)?;
+        let (material, name_span) = parse_material(&table, &materials, &name_lines, base)?;
         name_lines.push(src.line_col(name_span.start).0);
         materials.push(material);
     }
@@ -202,7 +202,7 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
         ));
     }
 
-    Ok(Scene {
+    let mut scene = Scene {
         source: PathBuf::from("<string>"),
         camera,
         render,
@@ -215,7 +215,10 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
         notes,
         material_mappings,
         guiding,
-    })
+        textures: Vec::new(),
+    };
+    super::texture::load_textures(&mut scene)?;
+    Ok(scene)
 }
 
 /// `[name]`: one table (a header table or an inline table), not an array of tables.

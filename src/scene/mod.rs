@@ -8,11 +8,13 @@ mod envmap;
 mod load;
 pub mod mesh;
 mod pbrt;
+pub mod texture;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 pub use envmap::EnvironmentMap;
+pub use texture::{TextureImage, TextureRef, TextureUse};
 
 pub use load::SceneError;
 
@@ -85,6 +87,10 @@ pub struct Material {
     pub emission: Vec3,
     /// Emission leaves both sides (default: the front side only).
     pub two_sided: bool,
+    /// An image whose RGB multiplies `albedo` at each hit (`docs/SCENE_FORMAT.md`).
+    pub albedo_texture: Option<TextureRef>,
+    /// An image whose value times `roughness` is the roughness at each hit.
+    pub roughness_texture: Option<TextureRef>,
 }
 
 impl Material {
@@ -102,6 +108,8 @@ impl Material {
             k: Vec3::ZERO,
             emission: Vec3::ZERO,
             two_sided: false,
+            albedo_texture: None,
+            roughness_texture: None,
         }
     }
 
@@ -147,6 +155,9 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Per triangle, the index into `Scene::materials`.
     pub materials: Vec<u32>,
+    /// Texture coordinates per vertex, where the file has them (v up: OBJ's and
+    /// pbrt's convention; glTF's are flipped on reading).
+    pub uvs: Option<Vec<Vec2>>,
 }
 
 /// The optional `[guiding]` table: where the guiding grid lies and how fine it is.
@@ -186,6 +197,8 @@ pub struct Scene {
     pub material_mappings: Vec<String>,
     /// The optional `[guiding]` table (all `None` when absent).
     pub guiding: GuidingSettings,
+    /// The images the materials' textures read, decoded ([`texture::load_textures`]).
+    pub textures: Vec<TextureImage>,
 }
 
 impl Scene {

@@ -134,6 +134,7 @@ fn mesh(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
         source: PathBuf::from("test mesh"),
         positions,
         normals: None,
+        uvs: None,
         materials: vec![0; triangles.len()],
         triangles,
     }

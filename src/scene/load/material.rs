@@ -2,6 +2,11 @@
 //! by name for the shapes that use it.
 
 use super::*;
+use crate::scene::texture::{Channel, Remap, TextureRef, TextureUse};
+
+/// A TOML scene's roughness texture: the mean of its RGB, read as the roughness.
+const ROUGHNESS_TEXELS: TextureUse =
+    TextureUse::Roughness { channel: Channel::Average, invert: false, remap: Remap::Identity };
 
 pub(super) const MATERIAL_TYPES: &[&str] =
     &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive"];
@@ -10,15 +15,54 @@ pub(super) const MAX_CONDUCTOR_INDEX: f64 = 100.0;
 
 pub(super) fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
     match kind {
-        MaterialKind::Diffuse | MaterialKind::Specular => &["name", "type", "albedo", "emission", "two_sided"],
-        MaterialKind::Glossy => &["name", "type", "albedo", "roughness", "emission", "two_sided"],
-        MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
-            &["name", "type", "ior", "albedo", "roughness", "emission", "two_sided"]
+        MaterialKind::Diffuse | MaterialKind::Specular => {
+            &["name", "type", "albedo", "emission", "two_sided", "albedo_texture"]
         }
-        MaterialKind::Conductor => &["name", "type", "eta", "k", "roughness", "emission", "two_sided"],
-        MaterialKind::Coated => &["name", "type", "albedo", "roughness", "ior", "emission", "two_sided"],
+        MaterialKind::Glossy => {
+            &["name", "type", "albedo", "roughness", "emission", "two_sided", "albedo_texture", "roughness_texture"]
+        }
+        MaterialKind::Coated => &[
+            "name",
+            "type",
+            "albedo",
+            "roughness",
+            "ior",
+            "emission",
+            "two_sided",
+            "albedo_texture",
+            "roughness_texture",
+        ],
+        MaterialKind::Dielectric | MaterialKind::RoughDielectric => &[
+            "name",
+            "type",
+            "ior",
+            "albedo",
+            "roughness",
+            "emission",
+            "two_sided",
+            "albedo_texture",
+            "roughness_texture",
+        ],
+        MaterialKind::Conductor => {
+            &["name", "type", "eta", "k", "roughness", "emission", "two_sided", "roughness_texture"]
+        }
         MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
     }
+}
+
+/// The optional texture key `key` (a file name, resolved against `base`).
+fn texture_key(
+    t: &Table<'_, '_, '_>,
+    key: &str,
+    base: &Path,
+    usage: TextureUse,
+) -> Result<Option<TextureRef>, SceneError> {
+    let Some(v) = t.get(key) else { return Ok(None) };
+    let written = t.string(key, v, "the file name of a PNG, JPEG, TGA, EXR or HDR image")?;
+    if written.is_empty() {
+        return Err(t.error_at(v.span(), format!("key `{key}` must name an image file, found \"\"")));
+    }
+    Ok(Some(TextureRef::new(written, base, t.src.file, Some(t.src.line_col(v.span().start)), usage)))
 }
 
 pub(super) fn type_name(kind: MaterialKind) -> &'static str {
@@ -38,6 +82,7 @@ pub(super) fn parse_material(
     t: &Table<'_, '_, '_>,
     defined: &[Material],
     defined_lines: &[usize],
+    base: &Path,
 ) -> Result<(Material, Range<usize>), SceneError> {
     let name_value = t.required("name", "a unique, non-empty string naming the material")?;
     let name = t.string("name", name_value, "a non-empty string")?;
@@ -87,8 +132,12 @@ pub(super) fn parse_material(
             None => false,
             Some(v) => t.boolean("two_sided", v)?,
         },
+        albedo_texture: texture_key(&t, "albedo_texture", base, TextureUse::Colour)?,
+        roughness_texture: texture_key(&t, "roughness_texture", base, ROUGHNESS_TEXELS)?,
         ..Material::plain(name, kind, Vec3::ZERO)
     };
+    // With a roughness texture, `roughness` is its factor, 1 where not given.
+    let textured = material.roughness_texture.is_some();
     match kind {
         MaterialKind::Diffuse => {
             material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
@@ -98,7 +147,7 @@ pub(super) fn parse_material(
         }
         MaterialKind::Glossy => {
             material.albedo = albedo("reflectance [r, g, b], components in [0, 1]")?;
-            material.roughness = ggx_roughness(&t, "GGX roughness, a number in (0, 1]")?;
+            material.roughness = ggx_roughness(&t, "GGX roughness, a number in (0, 1]", textured)?;
         }
         MaterialKind::Dielectric | MaterialKind::RoughDielectric => {
             material.ior = t.ranged(
@@ -113,9 +162,13 @@ pub(super) fn parse_material(
                     t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: smooth)")?;
                 if material.roughness > 0.0 {
                     material.kind = MaterialKind::RoughDielectric;
+                } else if textured {
+                    return Err(t.error_here("a `roughness_texture` needs `roughness` above 0 (its factor) or none"));
                 } else {
                     material.roughness = 1.0;
                 }
+            } else if textured {
+                material.kind = MaterialKind::RoughDielectric;
             }
             material.albedo = match t.get("albedo") {
                 None => Vec3::ONE,
@@ -131,6 +184,7 @@ pub(super) fn parse_material(
             material.k = index("k", |x| (0.0..=MAX_CONDUCTOR_INDEX).contains(&x), "in [0, 100]")?;
             material.albedo = Vec3::ONE;
             material.roughness = match t.get("roughness") {
+                None if textured => 1.0,
                 None => 0.0,
                 Some(v) => {
                     t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: a mirror)")?
@@ -139,7 +193,7 @@ pub(super) fn parse_material(
         }
         MaterialKind::Coated => {
             material.albedo = albedo("the base's reflectance [r, g, b], components in [0, 1]")?;
-            material.roughness = ggx_roughness(&t, "the coat's GGX roughness, a number in (0, 1]")?;
+            material.roughness = ggx_roughness(&t, "the coat's GGX roughness, a number in (0, 1]", textured)?;
             material.ior = match t.get("ior") {
                 None => 1.5,
                 Some(v) => {
@@ -170,7 +224,11 @@ pub(super) fn material_index(t: &Table<'_, '_, '_>, materials: &[Material]) -> R
 
 /// The required `roughness` key of a GGX lobe, in (0, 1]; `expected` says what a
 /// missing key should have been.
-fn ggx_roughness(t: &Table<'_, '_, '_>, expected: &str) -> Result<f32, SceneError> {
+/// With a roughness texture the key is its factor, 1 where absent.
+fn ggx_roughness(t: &Table<'_, '_, '_>, expected: &str, textured: bool) -> Result<f32, SceneError> {
+    if textured && t.get("roughness").is_none() {
+        return Ok(1.0);
+    }
     t.ranged(
         "roughness",
         t.required("roughness", expected)?,

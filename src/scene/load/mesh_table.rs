@@ -127,6 +127,7 @@ fn parse_mesh(
         normals: placed.normals,
         triangles: placed.triangles,
         materials,
+        uvs: f.uvs.clone(),
     })
 }
 

@@ -5,7 +5,8 @@
 //! positions, its inverse transpose to normals; a node that mirrors reverses
 //! its triangles' order (glTF's rule). TRIANGLES primitives are read, indexed
 //! or not (u8, u16, u32 indices); strips and fans are turned into triangles;
-//! points and lines are named in the note.
+//! points and lines are named in the note. TEXCOORD_0 gives the UVs (v
+//! flipped: glTF's v runs down the image, rlpt's up).
 //!
 //! Materials (`docs/SCENE_FORMAT.md`, "Meshes"): `baseColorFactor` is the
 //! albedo; `emissiveFactor` x `KHR_materials_emissive_strength` the emission
@@ -15,14 +16,13 @@
 
 use std::path::Path;
 
-use glam::{DMat3, DMat4, Vec3};
+use glam::{DMat3, DMat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use gltf::{Accessor, Document, Semantic};
 
-use super::SPECULAR_BELOW_ROUGHNESS;
-use super::{number, read_file, vec_text, Builder, FileMaterial, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
-use crate::scene::{Material, MaterialKind};
+use super::gltf_material::map_material;
+use super::{number, read_file, vec_text, Builder, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
 
 /// Deepest node hierarchy followed (a deeper one is a cycle or a mistake).
 const MAX_DEPTH: usize = 1024;
@@ -40,6 +40,7 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
         builder: Builder::default(),
         material_of: vec![None; gltf.document.materials().len()],
         normals_missing: false,
+        uvs_missing: false,
         ignored: Ignored::default(),
     };
     reader.note_document();
@@ -56,7 +57,13 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
     for root in roots {
         reader.node(root, DMat4::IDENTITY, 0)?;
     }
-    let GltfReader { mut builder, normals_missing, mut ignored, .. } = reader;
+    let GltfReader { mut builder, normals_missing, uvs_missing, mut ignored, .. } = reader;
+    if uvs_missing {
+        if builder.uvs.is_some() {
+            ignored.add("the texture coordinates of some primitives, as others have none", "");
+        }
+        builder.uvs = None;
+    }
     if normals_missing {
         if builder.normals.is_some() {
             ignored.add("the normals of some primitives, as others have none (`smooth` computes them all)", "");
@@ -142,8 +149,9 @@ struct GltfReader<'a> {
     builder: Builder,
     /// glTF material index -> index into `builder.materials`.
     material_of: Vec<Option<u32>>,
-    /// Some primitive read had no NORMAL.
+    /// Some primitive read had no NORMAL (TEXCOORD_0).
     normals_missing: bool,
+    uvs_missing: bool,
     ignored: Ignored,
 }
 
@@ -241,6 +249,20 @@ impl GltfReader<'_> {
             }
             None => None,
         };
+        let uvs = match primitive.get(&Semantic::TexCoords(0)) {
+            Some(a) => {
+                let uv_json = format!("{json}.attributes.TEXCOORD_0");
+                let uv = self.vec2s(&a, &uv_json)?;
+                if uv.len() != positions.len() {
+                    return Err(self.error_at(
+                        &uv_json,
+                        format!("{} UVs for {} positions; expected one per position", uv.len(), positions.len()),
+                    ));
+                }
+                Some(uv)
+            }
+            None => None,
+        };
         if primitive.attributes().any(|(s, _)| matches!(s, Semantic::Colors(_))) {
             self.ignored.add("vertex colours", json.clone());
         }
@@ -300,6 +322,15 @@ impl GltfReader<'_> {
             }
             None => self.normals_missing = true,
         }
+        match uvs {
+            // glTF's v runs down the image; rlpt's up.
+            Some(uv) => {
+                let out = self.builder.uvs.get_or_insert_with(Vec::new);
+                out.resize(base as usize, Vec2::ZERO);
+                out.extend(uv.iter().map(|t| Vec2::new(t.x, 1.0 - t.y)));
+            }
+            None => self.uvs_missing = true,
+        }
         for t in triangles {
             self.builder.triangles.push(t.map(|i| i + base));
             self.builder.triangle_materials.push(material);
@@ -316,7 +347,7 @@ impl GltfReader<'_> {
         if let Some(m) = self.material_of[index] {
             return m;
         }
-        let mapped = map_material(&material, index, &mut self.ignored);
+        let mapped = map_material(&material, index, self.dir, self.path, &mut self.ignored);
         let m = self.builder.materials.len() as u32;
         self.builder.materials.push(mapped);
         self.material_of[index] = Some(m);
@@ -444,6 +475,50 @@ impl GltfReader<'_> {
         Ok(out)
     }
 
+    /// A VEC2 accessor of FLOAT, or of normalized UNSIGNED_BYTE or
+    /// UNSIGNED_SHORT (TEXCOORD_n), every value finite.
+    fn vec2s(&mut self, accessor: &Accessor<'_>, json: &str) -> Result<Vec<Vec2>, MeshError> {
+        let ty = accessor.data_type();
+        let ok = match ty {
+            DataType::F32 => true,
+            DataType::U8 | DataType::U16 => accessor.normalized(),
+            _ => false,
+        };
+        if accessor.dimensions() != Dimensions::Vec2 || !ok {
+            return Err(self.error_at(
+                json,
+                format!(
+                    "accessors[{}] is {} of {}{}; expected VEC2 of FLOAT (or normalized UNSIGNED_BYTE or UNSIGNED_SHORT)",
+                    accessor.index(),
+                    dimensions_name(accessor.dimensions()),
+                    type_name(ty),
+                    if accessor.normalized() { " (normalized)" } else { "" }
+                ),
+            ));
+        }
+        let bytes = self.elements(accessor, json)?;
+        let size = accessor.size() / 2;
+        let mut out = Vec::with_capacity(accessor.count());
+        for (k, c) in bytes.chunks_exact(2 * size).enumerate() {
+            let f = |i: usize| match ty {
+                DataType::F32 => f32::from_le_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]),
+                DataType::U8 => c[i] as f32 / 255.0,
+                _ => u16::from_le_bytes([c[i], c[i + 1]]) as f32 / 65535.0,
+            };
+            let v = Vec2::new(f(0), f(size));
+            if !v.is_finite() {
+                return Err(MeshError::NotFinite {
+                    path: self.path.to_path_buf(),
+                    location: Location::Json(format!("{json}[{k}]")),
+                    what: format!("a component of element {k}"),
+                    value: number(if v.x.is_finite() { v.y } else { v.x } as f64),
+                });
+            }
+            out.push(v);
+        }
+        Ok(out)
+    }
+
     /// A VEC3 of FLOAT accessor, every value finite.
     fn vec3s(&mut self, accessor: &Accessor<'_>, json: &str) -> Result<Vec<Vec3>, MeshError> {
         if accessor.dimensions() != Dimensions::Vec3 || accessor.data_type() != DataType::F32 {
@@ -518,101 +593,6 @@ impl GltfReader<'_> {
     }
 }
 
-/// Maps a glTF material onto rlpt's (this module's doc); what it drops goes
-/// into `ignored`.
-fn map_material(m: &gltf::Material<'_>, index: usize, ignored: &mut Ignored) -> FileMaterial {
-    let name = m.name().filter(|n| !n.is_empty()).map_or_else(|| format!("material{index}"), str::to_string);
-    let who = format!("materials[{index}] `{name}`");
-    let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, _] = pbr.base_color_factor();
-    let base = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
-    let strength = m.emissive_strength().unwrap_or(1.0);
-    let emission = (Vec3::from(m.emissive_factor()) * strength).clamp(Vec3::ZERO, Vec3::splat(1e12));
-    let metallic = pbr.metallic_factor();
-    let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
-    let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
-
-    let mut material = Material {
-        emission,
-        two_sided: m.double_sided(),
-        ..Material::plain(name.clone(), MaterialKind::Diffuse, base)
-    };
-    let mut mapping;
-    if transmission > 0.5 {
-        material.kind = MaterialKind::Dielectric;
-        material.ior = m.ior().filter(|i| *i >= 1.0).unwrap_or(1.5);
-        mapping = format!(
-            "dielectric (transmissionFactor {transmission} > 0.5), albedo {} from baseColorFactor, ior {}{}",
-            vec_text(base),
-            material.ior,
-            if m.ior().is_some() { " from KHR_materials_ior" } else { " (default)" }
-        );
-        if transmission < 1.0 {
-            ignored.add("partial transmission (rendered as full)", who.clone());
-        }
-    } else if metallic >= 0.5 {
-        if roughness < SPECULAR_BELOW_ROUGHNESS {
-            material.kind = MaterialKind::Specular;
-            mapping = format!(
-                "specular mirror (metallicFactor {metallic} >= 0.5, roughnessFactor {roughness} < {SPECULAR_BELOW_ROUGHNESS}), albedo {} from baseColorFactor",
-                vec_text(base)
-            );
-        } else {
-            material.kind = MaterialKind::Glossy;
-            material.roughness = roughness;
-            mapping = format!(
-                "glossy (metallicFactor {metallic} >= 0.5), albedo {} from baseColorFactor, roughness {roughness} from roughnessFactor",
-                vec_text(base)
-            );
-        }
-        if metallic < 1.0 {
-            ignored.add("the diffuse part of partly metallic materials", who.clone());
-        }
-    } else {
-        mapping = format!("diffuse (metallicFactor {metallic} < 0.5), albedo {} from baseColorFactor", vec_text(base));
-        if metallic > 0.0 {
-            ignored.add("the metal part of partly metallic materials", who.clone());
-        }
-        if transmission > 0.0 {
-            ignored.add("transmission of 0.5 or less", who.clone());
-        }
-    }
-    if emission.max_element() > 0.0 {
-        mapping += &format!(
-            ", emission {} from emissiveFactor{}",
-            vec_text(emission),
-            if m.emissive_strength().is_some() { " x KHR_materials_emissive_strength" } else { "" }
-        );
-        if m.double_sided() {
-            mapping += " (two-sided: doubleSided)";
-        }
-    }
-    let textures: Vec<&str> = [
-        ("baseColorTexture", pbr.base_color_texture().is_some()),
-        ("metallicRoughnessTexture", pbr.metallic_roughness_texture().is_some()),
-        ("normalTexture", m.normal_texture().is_some()),
-        ("occlusionTexture", m.occlusion_texture().is_some()),
-        ("emissiveTexture", m.emissive_texture().is_some()),
-        ("transmissionTexture", m.transmission().is_some_and(|t| t.transmission_texture().is_some())),
-    ]
-    .into_iter()
-    .filter_map(|(n, present)| present.then_some(n))
-    .collect();
-    if !textures.is_empty() {
-        ignored.add("textures", format!("{} of {who}", textures.join(", ")));
-    }
-    match m.alpha_mode() {
-        gltf::material::AlphaMode::Opaque => {}
-        mode => ignored.add("alpha", format!("alphaMode {mode:?} of {who}")),
-    }
-    if let Some(others) = m.extensions() {
-        for key in others.keys() {
-            ignored.add("material extensions", format!("{key} of {who}"));
-        }
-    }
-    FileMaterial { name, material, mapping: format!("glTF {who}: {mapping}") }
-}
-
 /// An accessor's `type` as glTF writes it.
 fn dimensions_name(d: Dimensions) -> &'static str {
     match d {
@@ -639,7 +619,7 @@ fn type_name(t: DataType) -> &'static str {
 }
 
 /// `%20` and the like in a relative URI.
-fn percent_decode(uri: &str) -> String {
+pub(super) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

@@ -11,6 +11,7 @@
 //! The material mapping rules are in `docs/SCENE_FORMAT.md` ("Meshes").
 
 mod gltf;
+mod gltf_material;
 mod mtl;
 mod obj;
 mod place;
@@ -19,7 +20,7 @@ mod ply;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::Material;
 
@@ -41,6 +42,9 @@ pub struct MeshFile {
     /// Per vertex (aligned with `positions`), where the file gives a normal for
     /// every vertex of every triangle; not normalised.
     pub normals: Option<Vec<Vec3>>,
+    /// Texture coordinates per vertex (aligned with `positions`, v up), where
+    /// the file gives them for every vertex of every triangle.
+    pub uvs: Option<Vec<Vec2>>,
     /// Vertex indices; none has zero area in f32 (such triangles are skipped).
     pub triangles: Vec<[u32; 3]>,
     /// Per triangle, the index into `materials` (or [`NO_MATERIAL`]); empty
@@ -306,6 +310,7 @@ impl Ignored {
 pub(crate) struct Builder {
     pub(crate) positions: Vec<Vec3>,
     pub(crate) normals: Option<Vec<Vec3>>,
+    pub(crate) uvs: Option<Vec<Vec2>>,
     pub(crate) triangles: Vec<[u32; 3]>,
     /// Per triangle, an index into `materials` or [`NO_MATERIAL`] (may be
     /// empty where no triangle has one).
@@ -319,7 +324,7 @@ impl Builder {
     /// (in order of first use), and writes the notes. The indices must be in
     /// range and the positions finite (each reader checks, naming the place).
     pub(crate) fn finish(self, path: &Path) -> Result<MeshFile, MeshError> {
-        let Builder { positions, normals, triangles, triangle_materials, materials, ignored } = self;
+        let Builder { positions, normals, uvs, triangles, triangle_materials, materials, ignored } = self;
         let has_materials = triangle_materials.iter().any(|&m| m != NO_MATERIAL);
         let mut kept = Vec::with_capacity(triangles.len());
         let mut kept_materials = Vec::new();
@@ -357,6 +362,7 @@ impl Builder {
         Ok(MeshFile {
             positions,
             normals,
+            uvs,
             triangles: kept,
             triangle_materials: kept_materials,
             materials: used,

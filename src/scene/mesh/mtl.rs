@@ -22,7 +22,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::{vec_text, FileMaterial, Ignored, Location, MeshError, SPECULAR_BELOW_ROUGHNESS};
-use crate::scene::{Material, MaterialKind};
+use crate::scene::{Material, MaterialKind, TextureRef};
 
 /// `Ns` from which a material whose `Ks` outshines its `Kd` counts as glossy.
 const GLOSSY_MIN_NS: f32 = 20.0;
@@ -47,6 +47,11 @@ pub(super) struct MtlMaterial {
     pub(super) illum: Option<u32>,
     /// Texture statements (`map_Kd`, `bump`, ...), by keyword.
     pub(super) textures: Vec<String>,
+    /// `map_Kd`: the image as written, its line, and the UV scale and offset
+    /// of its `-s` and `-o` options ([su, sv, ou, ov]).
+    pub(super) map_kd: Option<(String, usize, [f32; 4])>,
+    /// The MTL file (its directory resolves `map_Kd`).
+    pub(super) file: std::path::PathBuf,
     /// Statements rlpt does not read (`Pr`, `sharpness`, spectral colours, ...).
     pub(super) other: Vec<String>,
 }
@@ -56,6 +61,38 @@ const TEXTURE_KEYWORDS: &[&str] = &[
     "map_Ka", "map_Kd", "map_Ks", "map_Ke", "map_Ns", "map_d", "map_Tr", "map_bump", "map_Bump", "bump", "disp",
     "decal", "refl", "norm", "map_Pr", "map_Pm", "map_Ps", "map_aat",
 ];
+
+/// A texture statement's words after its keyword: the file name (the words
+/// after the options, joined by spaces), the UV transform of `-s` and `-o`
+/// ([su, sv, ou, ov]), and the other options as written (not read).
+fn texture_statement(rest: &[&str]) -> (String, [f32; 4], Vec<String>) {
+    let mut transform = [1.0, 1.0, 0.0, 0.0];
+    let mut other = Vec::new();
+    let mut k = 0;
+    while k < rest.len() && rest[k].starts_with('-') && rest[k].len() > 1 {
+        let option = rest[k];
+        // Arguments: up to three numbers for -s, -o, -t; two for -mm; one otherwise.
+        let most = match option {
+            "-s" | "-o" | "-t" => 3,
+            "-mm" => 2,
+            _ => 1,
+        };
+        let mut args = Vec::new();
+        k += 1;
+        while k < rest.len() && args.len() < most && (most == 1 || rest[k].parse::<f32>().is_ok()) {
+            args.push(rest[k]);
+            k += 1;
+        }
+        let n =
+            |i: usize, d: f32| args.get(i).and_then(|a| a.parse::<f32>().ok()).filter(|x| x.is_finite()).unwrap_or(d);
+        match option {
+            "-s" => (transform[0], transform[1]) = (n(0, 1.0), n(1, 1.0)),
+            "-o" => (transform[2], transform[3]) = (n(0, 0.0), n(1, 0.0)),
+            _ => other.push(format!("{option} {}", args.join(" ")).trim().to_string()),
+        }
+    }
+    (rest[k.min(rest.len())..].join(" "), transform, other)
+}
 
 /// Parses an MTL file's text; errors name `path` and the line.
 pub(super) fn parse(path: &Path, text: &str) -> Result<Vec<MtlMaterial>, MeshError> {
@@ -71,7 +108,7 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Vec<MtlMaterial>, MeshErr
             if name.is_empty() {
                 return Err(malformed("`newmtl` without a name; expected `newmtl NAME`".to_string()));
             }
-            materials.push(MtlMaterial { name: name.to_string(), ..Default::default() });
+            materials.push(MtlMaterial { name: name.to_string(), file: path.to_path_buf(), ..Default::default() });
             continue;
         }
         let Some(m) = materials.last_mut() else {
@@ -124,6 +161,16 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Vec<MtlMaterial>, MeshErr
                         )))
                     }
                 }
+            }
+            "map_Kd" => {
+                let (file, transform, options) = texture_statement(&rest);
+                if file.is_empty() {
+                    return Err(malformed("`map_Kd` without a file name; expected `map_Kd [options] FILE`".into()));
+                }
+                if !options.is_empty() {
+                    m.other.push(format!("map_Kd options {}", options.join(" ")));
+                }
+                m.map_kd = Some((file, line, transform));
             }
             k if TEXTURE_KEYWORDS.contains(&k) => {
                 if !m.textures.iter().any(|t| t == k) {
@@ -194,6 +241,7 @@ pub(crate) fn roughness_from_ns(ns: f32) -> f32 {
 /// Maps one MTL material onto rlpt's (the rules of this module's doc);
 /// what it drops goes into `ignored`.
 pub(super) fn map(m: &MtlMaterial, ignored: &mut Ignored) -> FileMaterial {
+    let mut textures = m.textures.clone();
     let who = format!("`{}`", m.name);
     let mut clamped = false;
     let mut clamp = |v: Vec3, max: f32| {
@@ -270,6 +318,22 @@ pub(super) fn map(m: &MtlMaterial, ignored: &mut Ignored) -> FileMaterial {
         if m.kd.is_none() {
             mapping += " (no Kd: black)";
         }
+        // map_Kd takes Kd's place (as Blender reads it); a missing image leaves Kd, noted.
+        if let Some((file, line, transform)) = &m.map_kd {
+            let dir = m.file.parent().unwrap_or(Path::new(""));
+            let usage = crate::scene::TextureUse::Colour;
+            let origin = m.file.display().to_string();
+            let r =
+                TextureRef { transform: *transform, ..TextureRef::new(file, dir, &origin, Some((*line, 1)), usage) };
+            if r.path.is_file() {
+                material.albedo = Vec3::ONE;
+                mapping = format!("diffuse, albedo texture {} from map_Kd (in place of Kd)", r.path.display());
+                material.albedo_texture = Some(r);
+            } else {
+                let place = format!("{} of {who} (line {line}: {} does not exist)", "map_Kd", r.shown());
+                ignored.add("textures", place);
+            }
+        }
         if ks.max_element() > 0.0 {
             ignored.add("the specular layer (Ks) of diffuse materials", who.clone());
         }
@@ -294,8 +358,11 @@ pub(super) fn map(m: &MtlMaterial, ignored: &mut Ignored) -> FileMaterial {
             ignored.add("ambient colour Ka (rlpt reads emission from Ke)", who.clone());
         }
     }
-    if !m.textures.is_empty() {
-        ignored.add("textures", format!("{} of {who}", m.textures.join(", ")));
+    if m.map_kd.is_some() && material.kind != MaterialKind::Diffuse {
+        textures.insert(0, "map_Kd".to_string());
+    }
+    if !textures.is_empty() {
+        ignored.add("textures", format!("{} of {who}", textures.join(", ")));
     }
     for other in &m.other {
         ignored.add("MTL statements rlpt does not read", format!("{other} of {who}"));
@@ -386,7 +453,12 @@ mod tests {
         let (m, note) = one("newmtl wood\nKd 1.5 0.5 0.5\nmap_Kd wood.png\nbump wood_n.png\nPr 0.5\n");
         assert_eq!(m.material.albedo, Vec3::new(1.0, 0.5, 0.5));
         let note = note.unwrap();
-        assert!(note.contains("textures (map_Kd, bump of `wood`)"), "{note}");
+        // The missing map_Kd image leaves Kd, said so with its line; bump maps are not read.
+        assert!(m.material.albedo_texture.is_none());
+        assert!(
+            note.contains("textures (map_Kd of `wood` (line 3: \"wood.png\" does not exist), bump of `wood`)"),
+            "{note}"
+        );
         assert!(note.contains("MTL statements rlpt does not read (Pr of `wood`)"), "{note}");
         assert!(note.contains("colours beyond [0, 1] (clamped) (`wood`)"), "{note}");
     }

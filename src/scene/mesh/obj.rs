@@ -11,12 +11,12 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::mtl::{self, MtlMaterial};
 use super::{read_file, Builder, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
 
-/// A corner's normal where the face gives none.
+/// A corner's normal (or texture coordinate) where the face gives none.
 const NO_NORMAL: u64 = u64::MAX;
 
 /// The faces as written: corners flat, each face's first corner, line and `usemtl`.
@@ -26,6 +26,8 @@ struct Faces {
     /// the end, so faces may come before their vertices).
     corner_v: Vec<u64>,
     corner_n: Vec<u64>,
+    /// 0-based texture-coordinate index of each corner, or NO_NORMAL.
+    corner_t: Vec<u64>,
     start: Vec<usize>,
     line: Vec<usize>,
     /// Index into the `usemtl` names, or NO_MATERIAL.
@@ -39,6 +41,7 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
 
     let mut positions: Vec<Vec3> = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
+    let mut texcoords: Vec<Vec2> = Vec::new();
     let mut faces = Faces::default();
     let mut usemtl_names: Vec<(String, usize)> = Vec::new();
     let mut current_usemtl = NO_MATERIAL;
@@ -72,10 +75,20 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
                 let c = |k: usize, axis: &str| coordinate(path, line, rest[k], &format!("normal component {axis}"));
                 normals.push(Vec3::new(c(0, "x")?, c(1, "y")?, c(2, "z")?));
             }
-            // Texture coordinates (only textures use them) and free-form
-            // parameter vertices; groups and smoothing groups (`smooth` in the
-            // scene decides the shading).
-            "vt" | "vp" | "o" | "g" | "s" => {}
+            "vt" => {
+                if !matches!(rest.len(), 1..=3) {
+                    return Err(malformed(format!(
+                        "expected `vt u v` (v and w optional), found {} values",
+                        rest.len()
+                    )));
+                }
+                let u = coordinate(path, line, rest[0], "texture coordinate u")?;
+                let v = if rest.len() > 1 { coordinate(path, line, rest[1], "texture coordinate v")? } else { 0.0 };
+                texcoords.push(Vec2::new(u, v));
+            }
+            // Free-form parameter vertices; groups and smoothing groups
+            // (`smooth` in the scene decides the shading).
+            "vp" | "o" | "g" | "s" => {}
             "f" | "fo" => {
                 if rest.len() < 3 {
                     return Err(malformed(format!("a face needs at least 3 vertices, found {}", rest.len())));
@@ -84,8 +97,9 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
                 faces.line.push(line);
                 faces.usemtl.push(current_usemtl);
                 for token in &rest {
-                    let (v, n) = corner(path, line, token, positions.len(), normals.len())?;
+                    let (v, t, n) = corner(path, line, token, [positions.len(), texcoords.len(), normals.len()])?;
                     faces.corner_v.push(v);
+                    faces.corner_t.push(t);
                     faces.corner_n.push(n);
                 }
             }
@@ -129,35 +143,44 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
         }
     }
 
-    check_indices(path, &faces, positions.len(), normals.len())?;
+    check_indices(path, &faces, [positions.len(), texcoords.len(), normals.len()])?;
 
-    // Per-vertex normals where every corner has one: a vertex per (v, vn) pair.
-    let with_normals = faces.corner_n.iter().filter(|&&n| n != NO_NORMAL).count();
-    let (corners, positions, normals) = if with_normals > 0 && with_normals == faces.corner_n.len() {
-        let mut map: HashMap<(u64, u64), u32> = HashMap::new();
-        let (mut p, mut n) = (Vec::new(), Vec::new());
-        let corners = faces
-            .corner_v
-            .iter()
-            .zip(&faces.corner_n)
-            .map(|(&v, &vn)| {
-                *map.entry((v, vn)).or_insert_with(|| {
-                    p.push(positions[v as usize]);
+    // Per-vertex normals (texture coordinates) where every corner has one: a
+    // vertex per (v, vt, vn) triple of the attributes kept.
+    let all = |c: &[u64]| !c.is_empty() && c.iter().all(|&n| n != NO_NORMAL);
+    let (use_n, use_t) = (all(&faces.corner_n), all(&faces.corner_t));
+    if !use_n && faces.corner_n.iter().any(|&n| n != NO_NORMAL) {
+        ignored.add("the normals (vn) of some faces, as others have none (`smooth` computes them all)", "");
+    }
+    if !use_t && faces.corner_t.iter().any(|&t| t != NO_NORMAL) {
+        ignored.add("the texture coordinates (vt) of some faces, as others have none", "");
+    }
+    let (corners, positions, normals, uvs) = if use_n || use_t {
+        let mut map: HashMap<(u64, u64, u64), u32> = HashMap::new();
+        let (mut p, mut n, mut t) = (Vec::new(), Vec::new(), Vec::new());
+        let mut corners = Vec::with_capacity(faces.corner_v.len());
+        for k in 0..faces.corner_v.len() {
+            let v = faces.corner_v[k];
+            let vn = if use_n { faces.corner_n[k] } else { NO_NORMAL };
+            let vt = if use_t { faces.corner_t[k] } else { NO_NORMAL };
+            corners.push(*map.entry((v, vt, vn)).or_insert_with(|| {
+                p.push(positions[v as usize]);
+                if use_n {
                     n.push(normals[vn as usize]);
-                    (p.len() - 1) as u32
-                })
-            })
-            .collect::<Vec<u32>>();
-        (corners, p, Some(n))
-    } else {
-        if with_normals > 0 {
-            ignored.add("the normals (vn) of some faces, as others have none (`smooth` computes them all)", "");
+                }
+                if use_t {
+                    t.push(texcoords[vt as usize]);
+                }
+                (p.len() - 1) as u32
+            }));
         }
-        (faces.corner_v.iter().map(|&v| v as u32).collect(), positions, None)
+        (corners, p, use_n.then_some(n), use_t.then_some(t))
+    } else {
+        (faces.corner_v.iter().map(|&v| v as u32).collect(), positions, None, None)
     };
 
     // The materials: each `usemtl` name that faces use, mapped once.
-    let mut builder = Builder { positions, normals, ..Default::default() };
+    let mut builder = Builder { positions, normals, uvs, ..Default::default() };
     let mut name_to_material: Vec<Option<u32>> = vec![None; usemtl_names.len()];
     for (k, (name, first_line)) in usemtl_names.iter().enumerate() {
         if !faces.usemtl.contains(&(k as u32)) {
@@ -195,10 +218,11 @@ fn coordinate(path: &Path, line: usize, word: &str, what: &str) -> Result<f32, M
     super::line_f32(path, line, word, "the ", what)
 }
 
-/// One face corner, `v`, `v/vt`, `v//vn` or `v/vt/vn`: 0-based vertex and
-/// normal indices (`NO_NORMAL` without one). Negative indices are resolved
-/// (and checked) against the counts so far.
-fn corner(path: &Path, line: usize, token: &str, vertices: usize, normals: usize) -> Result<(u64, u64), MeshError> {
+/// One face corner, `v`, `v/vt`, `v//vn` or `v/vt/vn`: 0-based vertex,
+/// texture-coordinate and normal indices (`NO_NORMAL` where it gives none),
+/// `counts` the three so far. Negative indices are resolved (and checked)
+/// against the counts.
+fn corner(path: &Path, line: usize, token: &str, counts: [usize; 3]) -> Result<(u64, u64, u64), MeshError> {
     let parts: Vec<&str> = token.split('/').collect();
     if parts.len() > 3 || parts[0].is_empty() {
         return Err(MeshError::Malformed {
@@ -207,23 +231,16 @@ fn corner(path: &Path, line: usize, token: &str, vertices: usize, normals: usize
             message: format!("expected a face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`, found `{token}`"),
         });
     }
-    let v = index(path, line, token, parts[0], vertices, "vertex")?;
-    let n = match parts.get(2) {
-        Some(p) if !p.is_empty() => index(path, line, token, p, normals, "normal")?,
+    let v = index(path, line, token, parts[0], counts[0], "vertex")?;
+    let t = match parts.get(1) {
+        Some(p) if !p.is_empty() => index(path, line, token, p, counts[1], "texture-coordinate")?,
         _ => NO_NORMAL,
     };
-    if let Some(vt) = parts.get(1).filter(|p| !p.is_empty()) {
-        if vt.parse::<i64>().is_err() {
-            return Err(MeshError::Malformed {
-                path: path.to_path_buf(),
-                location: Location::Line(line),
-                message: format!(
-                    "expected an integer texture-coordinate index in the face corner `{token}`, found `{vt}`"
-                ),
-            });
-        }
-    }
-    Ok((v, n))
+    let n = match parts.get(2) {
+        Some(p) if !p.is_empty() => index(path, line, token, p, counts[2], "normal")?,
+        _ => NO_NORMAL,
+    };
+    Ok((v, t, n))
 }
 
 fn index(path: &Path, line: usize, token: &str, word: &str, count: usize, what: &str) -> Result<u64, MeshError> {
@@ -243,7 +260,11 @@ fn index(path: &Path, line: usize, token: &str, word: &str, count: usize, what: 
                 return Err(MeshError::IndexOutOfRange {
                     path: path.to_path_buf(),
                     location: Location::Line(line),
-                    what: if what == "vertex" { "relative vertex index" } else { "relative normal index" },
+                    what: match what {
+                        "vertex" => "relative vertex index",
+                        "normal" => "relative normal index",
+                        _ => "relative texture-coordinate index",
+                    },
                     index: i,
                     expected: match count {
                         0 => format!("a {what} defined before it (there is none by this line)"),
@@ -260,23 +281,30 @@ fn index(path: &Path, line: usize, token: &str, word: &str, count: usize, what: 
 fn plural(what: &str) -> &str {
     match what {
         "vertex" => "vertices",
-        _ => "normals",
+        "normal" => "normals",
+        _ => "texture coordinates",
     }
 }
 
-/// Every positive index within the file's vertices and normals.
-fn check_indices(path: &Path, faces: &Faces, vertices: usize, normals: usize) -> Result<(), MeshError> {
+/// Every positive index within the file's vertices, texture coordinates and normals.
+fn check_indices(path: &Path, faces: &Faces, counts: [usize; 3]) -> Result<(), MeshError> {
     for (f, &start) in faces.start.iter().enumerate() {
         let end = faces.start.get(f + 1).copied().unwrap_or(faces.corner_v.len());
         for k in start..end {
-            for (index, count, what) in
-                [(faces.corner_v[k], vertices, "vertex"), (faces.corner_n[k], normals, "normal")]
-            {
+            for (index, count, what) in [
+                (faces.corner_v[k], counts[0], "vertex"),
+                (faces.corner_t[k], counts[1], "texture-coordinate"),
+                (faces.corner_n[k], counts[2], "normal"),
+            ] {
                 if index != NO_NORMAL && index >= count as u64 {
                     return Err(MeshError::IndexOutOfRange {
                         path: path.to_path_buf(),
                         location: Location::Line(faces.line[f]),
-                        what: if what == "vertex" { "vertex index" } else { "normal index" },
+                        what: match what {
+                            "vertex" => "vertex index",
+                            "normal" => "normal index",
+                            _ => "texture-coordinate index",
+                        },
                         index: index as i64 + 1,
                         expected: match count {
                             0 => format!("a defined {what} (the file has none)"),

@@ -117,6 +117,7 @@ mod tests {
         MeshFile {
             positions,
             normals,
+            uvs: None,
             triangles,
             triangle_materials: Vec::new(),
             materials: Vec::new(),

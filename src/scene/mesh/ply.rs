@@ -3,7 +3,8 @@
 //! every refusal names the element and its index ("face 12"). Read: `vertex`
 //! `x y z` (float or double) with optional `nx ny nz`, and `face`
 //! `vertex_indices` (or `vertex_index`), a list of integers, n-gons
-//! fan-triangulated. Other elements and properties are ignored (vertex colours
+//! fan-triangulated; texture coordinates `u v` (or `s t`, `texture_u
+//! texture_v`, `texture_s texture_t`). Other elements and properties are ignored (vertex colours
 //! and texture files named in the note).
 
 use std::fs::File;
@@ -20,7 +21,11 @@ use super::{number, Builder, Ignored, Location, MeshError, MeshFile};
 struct Vertex {
     p: [f64; 3],
     n: [f64; 3],
+    uv: [f64; 2],
 }
+
+/// The names of a vertex's texture coordinates, u then v, in the order tried.
+const UV_NAMES: [[&str; 2]; 4] = [["u", "v"], ["s", "t"], ["texture_u", "texture_v"], ["texture_s", "texture_t"]];
 
 impl Vertex {
     fn set(&mut self, name: &str, x: f64) -> PropertyAccessResult {
@@ -31,6 +36,8 @@ impl Vertex {
             "nx" => &mut self.n[0],
             "ny" => &mut self.n[1],
             "nz" => &mut self.n[2],
+            "u" | "s" | "texture_u" | "texture_s" => &mut self.uv[0],
+            "v" | "t" | "texture_v" | "texture_t" => &mut self.uv[1],
             _ => return PropertyAccessResult::Ignored,
         };
         *slot = x;
@@ -130,6 +137,7 @@ fn is_integer(s: &ScalarType) -> bool {
 /// What the header says: which properties are read, and what is noted.
 struct Layout {
     normals: bool,
+    uvs: bool,
     face_list: Option<String>,
 }
 
@@ -166,6 +174,18 @@ fn check_header(path: &Path, header: &Header, ignored: &mut Ignored) -> Result<L
         }
     }
     let normals = normal_props.len() == 3;
+    // Texture coordinates: the first pair of UV_NAMES the vertex has, both floats.
+    let mut uvs = false;
+    for pair in UV_NAMES {
+        let props: Vec<_> = pair.iter().filter_map(|n| vertex.properties.get(*n)).collect();
+        if let Some(p) = props.iter().find(|p| !is_float(&p.data_type)) {
+            return Err(unsupported("vertex", &p.name, type_text(&p.data_type), "float or double"));
+        }
+        if props.len() == 2 {
+            uvs = true;
+            break;
+        }
+    }
     if !normal_props.is_empty() && !normals {
         ignored.add("partial vertex normals (not all of nx, ny, nz)", "");
     }
@@ -213,7 +233,7 @@ fn check_header(path: &Path, header: &Header, ignored: &mut Ignored) -> Result<L
             ignored.add("textures", words.collect::<Vec<_>>().join(" "));
         }
     }
-    Ok(Layout { normals, face_list })
+    Ok(Layout { normals, uvs, face_list })
 }
 
 /// A header line that the parser refused: its number and text.
@@ -316,6 +336,15 @@ pub(super) fn load(path: &Path) -> Result<MeshFile, MeshError> {
     }
     if layout.normals {
         builder.normals = Some(normals);
+    }
+    if layout.uvs {
+        let mut uvs = Vec::with_capacity(vertices.len());
+        for (index, v) in vertices.iter().enumerate() {
+            let [u, w] = v.uv;
+            let uv = finite(path, &Location::element("vertex", index), "u v", [u, w, 0.0])?;
+            uvs.push(uv.truncate());
+        }
+        builder.uvs = Some(uvs);
     }
     let count = vertices.len();
     let list = layout.face_list.as_deref().unwrap_or("vertex_indices");

@@ -1,5 +1,5 @@
-//! The mean colour of an image (textures and environment maps stand in as
-//! their means until rlpt samples images), and a stand-in for a missing one.
+//! The mean colour of an image (what a texture stands in as where a parameter
+//! takes no image), and a stand-in for a missing one.
 
 use std::path::{Path, PathBuf};
 
@@ -42,6 +42,14 @@ pub(super) fn mean(path: &Path, srgb: Option<bool>, latlong: bool) -> Result<Vec
         return Err(format!("has a mean {mean} that is not a finite non-negative colour"));
     }
     Ok(mean)
+}
+
+/// Whether the image at `path` has 8 bits per channel (read as sRGB by the
+/// renderers); None where its header does not read.
+pub(super) fn eight_bit(path: &Path) -> Option<bool> {
+    use image::ImageDecoder;
+    let decoder = image::ImageReader::open(path).ok()?.with_guessed_format().ok()?.into_decoder().ok()?;
+    Some(decoder.color_type().bytes_per_pixel() == decoder.color_type().channel_count())
 }
 
 /// A file of the same name with another image extension, in the missing

@@ -8,11 +8,16 @@ use glam::Vec3;
 use super::lexer::Loc;
 use super::params::{Param, Params};
 use super::{Importer, Notes};
-use crate::scene::{Material, MaterialKind, SceneError};
+use crate::scene::{Material, MaterialKind, SceneError, TextureRef};
 
-/// A `Texture` as the materials see it: its mean colour where its image reads.
+/// A `Texture` as the materials see it: an `imagemap`'s image (a reflectance
+/// reads it as a texture), else its mean colour where it has one.
 #[derive(Clone, Debug)]
 pub(crate) struct Texture {
+    /// The image, with its UV transform (`imagemap`).
+    pub image: Option<TextureRef>,
+    /// The texture's `scale`, which multiplies the image.
+    pub scale: f32,
     pub mean: Option<Vec3>,
     pub loc: Loc,
     /// Why there is no mean, or where it came from (for the note).
@@ -54,6 +59,16 @@ fn text(v: Vec3) -> String {
     format!("[{}, {}, {}]", v.x, v.y, v.z)
 }
 
+/// A reflectance for the mapping line: `Kd [r, g, b]`, or with an image
+/// `Kd texture dir/wood.png` (times a scale other than 1).
+fn textured(key: &str, v: Vec3, image: &Option<TextureRef>) -> String {
+    match image {
+        None => format!("{key} {}", text(v)),
+        Some(t) if v == Vec3::ONE => format!("{key} texture {}", t.path.display()),
+        Some(t) => format!("{key} texture {} times {}", t.path.display(), text(v)),
+    }
+}
+
 /// Reads materials' parameters, noting what it approximates.
 pub(crate) struct Reader<'a> {
     pub params: &'a Params,
@@ -92,6 +107,20 @@ impl Reader<'_> {
         }
     }
 
+    /// A reflectance parameter: a colour as [`Reader::colour`] reads it, or an
+    /// `imagemap` texture, which the material reads at each hit: then its
+    /// `scale` as the colour, and the image.
+    pub fn reflectance(&mut self, name: &str, default: Vec3) -> Result<(Vec3, Option<TextureRef>), SceneError> {
+        if let Some(p) = self.params.get(name, &["texture"]) {
+            let p = p.clone();
+            let tex = p.string()?;
+            if let Some(Texture { image: Some(image), scale, .. }) = self.textures.get(&tex) {
+                return Ok((Vec3::splat(*scale), Some(image.clone())));
+            }
+        }
+        Ok((self.colour(name, default)?, None))
+    }
+
     fn texture(&mut self, p: &Param, default: Vec3) -> Result<Vec3, SceneError> {
         let name = p.string()?;
         let Some(t) = self.textures.get(&name) else {
@@ -101,7 +130,8 @@ impl Reader<'_> {
         match t.mean {
             Some(mean) => {
                 self.note(format!(
-                    "{} is texture \"{name}\" ({}), taken as its mean colour {} ({}; rlpt has no image textures yet)",
+                    "{} is texture \"{name}\" ({}), taken as its mean colour {} ({}; rlpt reads image textures as \
+                     reflectances alone)",
                     p.label(),
                     t.loc.at(),
                     text(mean),
@@ -268,11 +298,14 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
     let (material, how) = match ty {
         "diffuse" | "matte" => {
             let key = if ty == "diffuse" { "reflectance" } else { "Kd" };
-            let a = r.colour(key, Vec3::splat(0.5))?;
+            let (a, image) = r.reflectance(key, Vec3::splat(0.5))?;
             if ty == "matte" && r.scalar("sigma", 0.0)? != 0.0 {
                 r.note("Oren-Nayar `sigma` dropped (Lambertian)".to_string())?;
             }
-            (plain(MaterialKind::Diffuse, r.albedo(a, key)?), format!("{key} {}", text(a)))
+            let mut m = plain(MaterialKind::Diffuse, r.albedo(a, key)?);
+            let how = textured(key, a, &image);
+            m.albedo_texture = image;
+            (m, how)
         }
         "conductor" | "metal" | "coatedconductor" => {
             let prefix = if ty == "coatedconductor" { "conductor." } else { "" };
@@ -300,8 +333,11 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             (m, format!("{from}, alpha {} -> {rough}", alpha as f32))
         }
         "mirror" => {
-            let a = r.colour("Kr", Vec3::splat(0.9))?;
-            (plain(MaterialKind::Specular, r.albedo(a, "Kr")?), format!("Kr {}", text(a)))
+            let (a, image) = r.reflectance("Kr", Vec3::splat(0.9))?;
+            let mut m = plain(MaterialKind::Specular, r.albedo(a, "Kr")?);
+            let how = textured("Kr", a, &image);
+            m.albedo_texture = image;
+            (m, how)
         }
         "dielectric" | "glass" | "thindielectric" => {
             let eta = match r.params.get("eta", &["float", "spectrum"]).or_else(|| r.params.get("index", &["float"])) {
@@ -347,7 +383,7 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
         "coateddiffuse" | "plastic" | "substrate" => {
             let (key, default) = if ty == "coateddiffuse" { ("reflectance", 0.5) } else { ("Kd", 0.25) };
             let default = if ty == "substrate" { 0.5 } else { default };
-            let a = r.colour(key, Vec3::splat(default))?;
+            let (a, image) = r.reflectance(key, Vec3::splat(default))?;
             let albedo = r.albedo(a, key)?;
             // pbrt-v3's plastic and substrate: a dielectric interface of index 1.5 over
             // the diffuse layer; their Ks scales what rlpt's coat reflects by its Fresnel.
@@ -372,7 +408,13 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             }
             let mut m = plain(MaterialKind::Coated, albedo);
             (m.ior, m.roughness) = (ior, roughness);
-            (m, format!("{key} {}, eta {ior}, alpha {} -> roughness {roughness}", text(albedo), alpha as f32))
+            let how = format!(
+                "{}, eta {ior}, alpha {} -> roughness {roughness}",
+                textured(key, albedo, &image),
+                alpha as f32
+            );
+            m.albedo_texture = image;
+            (m, how)
         }
         "interface" | "none" | "" => {
             r.note("no surface (a medium boundary): rendered as a dielectric of eta 1, which light passes straight through".to_string())?;
@@ -396,7 +438,8 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 }
             };
             let key = if ty == "kdsubsurface" { "Kd" } else { key };
-            let a = if key.is_empty() { Vec3::splat(default) } else { r.colour(key, Vec3::splat(default))? };
+            let (a, image) =
+                if key.is_empty() { (Vec3::splat(default), None) } else { r.reflectance(key, Vec3::splat(default))? };
             r.note(format!("{ty} rendered as diffuse ({what})"))?;
             // The dropped layers' parameters are covered by that note.
             let names: Vec<String> = r.params.list.iter().map(|p| p.name.clone()).collect();
@@ -404,7 +447,10 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 r.params.touch(&n);
             }
             let a = r.albedo(a, if key.is_empty() { "albedo" } else { key })?;
-            (plain(MaterialKind::Diffuse, a), format!("{} {}", if key.is_empty() { "albedo" } else { key }, text(a)))
+            let mut m = plain(MaterialKind::Diffuse, a);
+            let how = textured(if key.is_empty() { "albedo" } else { key }, a, &image);
+            m.albedo_texture = image;
+            (m, how)
         }
     };
     let kind = format!("{:?}", material.kind).to_lowercase();
@@ -464,7 +510,8 @@ impl Importer {
         }
         let (a, b) = (&pair[0].material, &pair[1].material);
         let t = amount.clamp(0.0, 1.0) as f32;
-        let (material, how) = if a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse {
+        let untextured = a.albedo_texture.is_none() && b.albedo_texture.is_none();
+        let (material, how) = if a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse && untextured {
             let mut m = a.clone();
             m.albedo = a.albedo.lerp(b.albedo, t);
             (m, format!("albedos of \"{}\" and \"{}\" blended by amount {amount}", names[0], names[1]))

@@ -514,7 +514,7 @@ impl Importer {
             });
         }
         let mappings = self.materials.iter().map(|m| m.mapping.clone()).collect();
-        Ok(Scene {
+        let mut scene = Scene {
             source: path.to_path_buf(),
             camera,
             render: self.render,
@@ -527,6 +527,9 @@ impl Importer {
             notes: self.notes.list,
             material_mappings: mappings,
             guiding: GuidingSettings::default(),
-        })
+            textures: Vec::new(),
+        };
+        crate::scene::texture::load_textures(&mut scene)?;
+        Ok(scene)
     }
 }

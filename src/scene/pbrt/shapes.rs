@@ -12,6 +12,7 @@ use super::material::{Reader, Texture};
 use super::params::Params;
 use super::{AreaLight, Importer, Pending};
 use crate::scene::mesh::{self, Builder, MeshFile, PlaceError};
+use crate::scene::TextureRef;
 use crate::scene::{Material, Mesh, SceneError, Sphere};
 
 /// Largest coordinate magnitude (as the TOML loader's).
@@ -97,6 +98,7 @@ impl Importer {
                     normals,
                     triangles,
                     materials: vec![material; n],
+                    uvs: file.uvs.clone(),
                 });
             }
             _ => {
@@ -339,11 +341,11 @@ impl Importer {
         }
     }
 
-    /// `Texture`: an `imagemap`'s mean colour where its image reads (a missing
-    /// image may be found under another image extension nearby, noted).
-    pub(super) fn texture(&mut self, _ty: &str, class: &str, p: &Params, loc: &Loc) -> Result<Texture, SceneError> {
-        for name in ["filter", "wrap", "maxanisotropy", "trilinear", "uscale", "vscale", "udelta", "vdelta", "mapping"]
-        {
+    /// `Texture`: an `imagemap`'s image with its UV transform (and its mean
+    /// colour, for parameters that take it as one); a missing image may be
+    /// found under another image extension nearby, noted.
+    pub(super) fn texture(&mut self, ty: &str, class: &str, p: &Params, loc: &Loc) -> Result<Texture, SceneError> {
+        for name in ["filter", "maxanisotropy", "trilinear"] {
             p.touch(name);
         }
         let texture = match class {
@@ -369,6 +371,8 @@ impl Importer {
                         }
                         None => {
                             return Ok(Texture {
+                                image: None,
+                                scale: 1.0,
                                 mean: None,
                                 loc: loc.clone(),
                                 detail: format!("\"{f}\" does not exist (resolved to {})", path.display()),
@@ -383,13 +387,70 @@ impl Importer {
                 };
                 let scale = p.float_or("scale", 1.0)? as f32;
                 let invert = p.bool("invert")?.unwrap_or(false);
+                let wrap = p.string("wrap")?.unwrap_or_else(|| "repeat".into());
+                if wrap != "repeat" {
+                    self.notes.approximated(loc, format!("Texture \"imagemap\": wrap \"{wrap}\" read as repeat"))?;
+                }
+                let mapping = p.string("mapping")?.unwrap_or_else(|| "uv".into());
+                if mapping != "uv" {
+                    self.notes.approximated(
+                        loc,
+                        format!("Texture \"imagemap\": mapping \"{mapping}\" read as \"uv\" (the shapes' own UVs)"),
+                    )?;
+                }
+                let transform = [
+                    p.float_or("uscale", 1.0)? as f32,
+                    p.float_or("vscale", 1.0)? as f32,
+                    p.float_or("udelta", 0.0)? as f32,
+                    p.float_or("vdelta", 0.0)? as f32,
+                ];
+                if transform.iter().any(|x| !x.is_finite()) {
+                    return Err(loc.error(format!(
+                        "Texture \"imagemap\": uscale, vscale, udelta, vdelta {transform:?} must be finite"
+                    )));
+                }
+                // The renderers read 8-bit images as sRGB and others as linear; a
+                // reflectance of another encoding, or inverted, keeps its mean.
+                let eight_bit = images::eight_bit(&path);
+                let as_read = srgb.is_none_or(|s| Some(s) == eight_bit);
+                let image = (ty != "float" && as_read && !invert).then(|| TextureRef {
+                    transform,
+                    ..TextureRef::new(
+                        &f,
+                        &self.base,
+                        &loc.file,
+                        Some((loc.line, loc.column)),
+                        crate::scene::TextureUse::Colour,
+                    )
+                });
+                // The image read: the stand-in where the file named is missing.
+                let image = image.map(|r| TextureRef { path: path.clone(), ..r });
+                if ty != "float" && image.is_none() {
+                    let why = if invert {
+                        "\"invert\" on a colour image".to_string()
+                    } else {
+                        "an encoding other than the file's (rlpt reads 8-bit images as sRGB, others as linear)".into()
+                    };
+                    self.notes.approximated(loc, format!("Texture \"imagemap\": {why}: taken as its mean colour"))?;
+                }
                 match images::mean(&path, srgb, false) {
                     Ok(mean) => {
                         let mean = mean * scale;
                         let mean = if invert { Vec3::ONE - mean } else { mean };
-                        Texture { mean: Some(mean), loc: loc.clone(), detail }
+                        Texture { image, scale, mean: Some(mean), loc: loc.clone(), detail }
                     }
-                    Err(why) => Texture { mean: None, loc: loc.clone(), detail: format!("{} {why}", path.display()) },
+                    Err(why) => {
+                        if image.is_some() {
+                            return Err(loc.error(format!("texture image \"{f}\" ({}) {why}", path.display())));
+                        }
+                        Texture {
+                            image,
+                            scale,
+                            mean: None,
+                            loc: loc.clone(),
+                            detail: format!("{} {why}", path.display()),
+                        }
+                    }
                 }
             }
             "constant" => {
@@ -401,13 +462,19 @@ impl Importer {
                     what: "Texture \"constant\"".into(),
                 };
                 let v = r.colour("value", Vec3::ONE)?;
-                Texture { mean: Some(v), loc: loc.clone(), detail: "a constant".into() }
+                Texture { image: None, scale: 1.0, mean: Some(v), loc: loc.clone(), detail: "a constant".into() }
             }
             _ => {
                 for q in &p.list {
                     p.touch(&q.name);
                 }
-                Texture { mean: None, loc: loc.clone(), detail: format!("rlpt does not evaluate \"{class}\" textures") }
+                Texture {
+                    image: None,
+                    scale: 1.0,
+                    mean: None,
+                    loc: loc.clone(),
+                    detail: format!("rlpt does not evaluate \"{class}\" textures"),
+                }
             }
         };
         let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
@@ -471,6 +538,21 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
             Some(v.chunks(3).map(|c| DVec3::new(c[0], c[1], c[2]).as_vec3()).collect())
         }
     };
+    // pbrt-v4's "point2 uv", pbrt-v3's "float uv" or "float st": one pair per vertex.
+    let uvs = match p.get("uv", &["point2", "float"]).or_else(|| p.get("st", &["point2", "float"])) {
+        None => None,
+        Some(q) => {
+            let v = q.numbers()?;
+            if v.len() != 2 * n {
+                return Err(q.loc.error(format!(
+                    "Shape \"{kind}\": \"{}\" must have one u v pair per vertex ({n}), found {} numbers",
+                    q.name,
+                    v.len()
+                )));
+            }
+            Some(v.chunks(2).map(|c| glam::DVec2::new(c[0], c[1]).as_vec2()).collect())
+        }
+    };
     let triangles = if per == 3 {
         indices.chunks(3).map(|c| [c[0], c[1], c[2]]).collect()
     } else {
@@ -478,7 +560,7 @@ fn inline_mesh(kind: &str, p: &Params, loc: &Loc) -> Result<MeshFile, SceneError
         // normal, cross(p10 - p00, p01 - p00).
         indices.chunks(4).flat_map(|c| [[c[0], c[1], c[3]], [c[0], c[3], c[2]]]).collect()
     };
-    let builder = Builder { positions, normals, triangles, ..Default::default() };
+    let builder = Builder { positions, normals, uvs, triangles, ..Default::default() };
     builder
         .finish(std::path::Path::new(&*loc.file))
         .map_err(|_| loc.error(format!("Shape \"{kind}\": every triangle has zero area")))

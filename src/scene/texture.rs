@@ -1,0 +1,308 @@
+//! Image textures: what a material names ([`TextureRef`]: a file, what it is
+//! read for, its UV transform) and the images decoded once per scene
+//! ([`TextureImage`], in [`Scene::textures`]), in the texel formats the
+//! renderers read (`crate::math::texture`, `glsl/texture.glsl`). The scene
+//! readers only name files; [`load_textures`] decodes them all at the end of a
+//! load, and gives the triangles of meshes without UVs an untextured material.
+
+use std::path::{Path, PathBuf};
+
+use glam::{DVec3, Vec3};
+
+use super::{Scene, SceneError};
+use crate::shared;
+
+/// How a texture's texels are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TextureUse {
+    /// RGB reflectance that multiplies the albedo: 8-bit images are sRGB-encoded
+    /// (decoded on lookup), others linear; clamped to [0, 1].
+    Colour,
+    /// GGX roughness (times the material's `roughness`), from one channel, read
+    /// linearly, each texel mapped by `remap` (after `invert`) before filtering.
+    Roughness { channel: Channel, invert: bool, remap: Remap },
+}
+
+/// The channel a roughness texture is read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Channel {
+    /// The mean of red, green and blue (grey images; pbrt's float textures).
+    Average,
+    /// Green (glTF's `metallicRoughnessTexture`).
+    Green,
+}
+
+/// From a roughness texel's value v to rlpt's roughness (alpha = roughness^2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Remap {
+    /// v is the roughness (TOML, glTF).
+    Identity,
+    /// v is GGX alpha: roughness sqrt(v) (pbrt with `remaproughness false`).
+    Alpha,
+    /// pbrt-v4's remap, alpha = sqrt(v): roughness v^(1/4).
+    PbrtV4,
+    /// pbrt-v3's polynomial remap of v to alpha, then sqrt.
+    PbrtV3,
+}
+
+impl Remap {
+    /// rlpt's roughness of a texel's value `v` in [0, 1].
+    pub fn roughness(self, v: f32) -> f32 {
+        let v = v.clamp(0.0, 1.0);
+        match self {
+            Remap::Identity => v,
+            Remap::Alpha => v.sqrt(),
+            Remap::PbrtV4 => v.sqrt().sqrt(),
+            Remap::PbrtV3 => {
+                let x = v.max(1e-3).ln();
+                let alpha = 1.62142 + 0.819955 * x + 0.1734 * x * x + 0.0171201 * x.powi(3) + 0.000640711 * x.powi(4);
+                alpha.clamp(0.0, 1.0).sqrt()
+            }
+        }
+    }
+}
+
+/// A texture a material names: the image file, where it was named (for
+/// errors), how it is read and its UV transform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureRef {
+    /// The file as resolved (against the naming file's directory).
+    pub path: PathBuf,
+    /// The file name as written.
+    pub written: String,
+    /// The file that names it, and the 1-based line and column there, if known.
+    pub origin: String,
+    pub position: Option<(usize, usize)>,
+    pub usage: TextureUse,
+    /// st = (u * x + z, v * y + w): pbrt's `uscale`, `vscale`, `udelta`, `vdelta`.
+    pub transform: [f32; 4],
+}
+
+impl TextureRef {
+    /// A texture `written` in `origin` (at `position`), resolved against `base`,
+    /// with the identity UV transform.
+    pub fn new(written: &str, base: &Path, origin: &str, position: Option<(usize, usize)>, usage: TextureUse) -> Self {
+        TextureRef {
+            path: base.join(written),
+            written: written.to_string(),
+            origin: origin.to_string(),
+            position,
+            usage,
+            transform: [1.0, 1.0, 0.0, 0.0],
+        }
+    }
+
+    /// `"wood.png"`, with `(resolved to dir/wood.png)` where that differs.
+    pub fn shown(&self) -> String {
+        if self.path.as_os_str() == self.written.as_str() {
+            format!("\"{}\"", self.written)
+        } else {
+            format!("\"{}\" (resolved to {})", self.written, self.path.display())
+        }
+    }
+
+    fn error(&self, message: String) -> SceneError {
+        SceneError::Invalid { file: self.origin.clone(), position: self.position, message }
+    }
+}
+
+/// An image decoded for one use, as the renderers read it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureImage {
+    pub path: PathBuf,
+    pub usage: TextureUse,
+    pub width: u32,
+    pub height: u32,
+    /// `shared::TEXEL_*`.
+    pub format: u32,
+    /// Rows from the image's top: one word per texel (RGBA8, red the low byte)
+    /// or two (RGBA as halves).
+    pub texels: Vec<u32>,
+    /// The mean linear value of the texels as read (RGB; roughness in each).
+    pub mean: Vec3,
+}
+
+/// Largest texture side: texel indices stay within 32 bits with room to spare.
+pub const MAX_TEXTURE_SIDE: u32 = 32768;
+
+/// sRGB's transfer function inverted: the linear value of an encoded one in [0, 1].
+/// `glsl/texture.glsl` `srgb_to_linear` is its twin.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Two halves in one word, as GLSL's `packHalf2x16` (a the low half).
+pub fn pack_half2(a: f32, b: f32) -> u32 {
+    half::f16::from_f32(a).to_bits() as u32 | (half::f16::from_f32(b).to_bits() as u32) << 16
+}
+
+/// Decodes the image of `r` for its use; the error names the file as written
+/// and resolved, and where it was named.
+pub fn decode(r: &TextureRef) -> Result<TextureImage, SceneError> {
+    if !r.path.is_file() {
+        return Err(r.error(format!("the texture image {} does not exist", r.shown())));
+    }
+    let image =
+        image::open(&r.path).map_err(|e| r.error(format!("the texture image {} cannot be read: {e}", r.shown())))?;
+    let (width, height) = (image.width(), image.height());
+    if width == 0 || height == 0 || width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+        return Err(r.error(format!(
+            "the texture image {} is {width}x{height}; expected each side from 1 to {MAX_TEXTURE_SIDE}",
+            r.shown()
+        )));
+    }
+    use image::DynamicImage as D;
+    let eight_bit = matches!(image, D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_));
+    let float = matches!(image, D::ImageRgb32F(_) | D::ImageRgba32F(_));
+    let n = width as usize * height as usize;
+    let mut sum = DVec3::ZERO;
+    let (format, texels) = match r.usage {
+        TextureUse::Colour if eight_bit => {
+            let rgba = image.to_rgba8();
+            for p in rgba.pixels() {
+                sum += DVec3::new(lin8(p[0]), lin8(p[1]), lin8(p[2]));
+            }
+            (shared::TEXEL_RGBA8_SRGB, rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect())
+        }
+        TextureUse::Colour => {
+            // 16-bit integer images are sRGB-encoded too, float ones linear.
+            let rgba = image.to_rgba32f();
+            let mut texels = Vec::with_capacity(2 * n);
+            for p in rgba.pixels() {
+                let c = p.0.map(|c| {
+                    let c = if c.is_finite() { c.clamp(0.0, 1.0) } else { 0.0 };
+                    if float {
+                        c
+                    } else {
+                        srgb_to_linear(c)
+                    }
+                });
+                let h = |x: f32| half::f16::from_f32(x).to_f32() as f64;
+                sum += DVec3::new(h(c[0]), h(c[1]), h(c[2]));
+                texels.push(pack_half2(c[0], c[1]));
+                texels.push(pack_half2(c[2], c[3]));
+            }
+            (shared::TEXEL_RGBA16F, texels)
+        }
+        TextureUse::Roughness { channel, invert, remap } => {
+            let rgba = image.to_rgba32f();
+            let mut texels = Vec::with_capacity(n);
+            for p in rgba.pixels() {
+                let v = match channel {
+                    Channel::Average => (p[0] + p[1] + p[2]) / 3.0,
+                    Channel::Green => p[1],
+                };
+                let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+                let byte = (remap.roughness(if invert { 1.0 - v } else { v }) * 255.0).round() as u8;
+                sum += DVec3::splat(byte as f64 / 255.0);
+                texels.push(u32::from_le_bytes([byte; 4]));
+            }
+            (shared::TEXEL_RGBA8, texels)
+        }
+    };
+    Ok(TextureImage {
+        path: r.path.clone(),
+        usage: r.usage,
+        width,
+        height,
+        format,
+        texels,
+        mean: (sum / n as f64).as_vec3(),
+    })
+}
+
+fn lin8(b: u8) -> f64 {
+    srgb_to_linear(b as f32 / 255.0) as f64
+}
+
+/// The index in `textures` of the image `r` reads, if decoded.
+pub fn find(textures: &[TextureImage], r: &TextureRef) -> Option<usize> {
+    textures.iter().position(|t| t.path == r.path && t.usage == r.usage)
+}
+
+/// Decodes every texture the scene's materials name (each file once per use)
+/// into `scene.textures`; then gives the triangles of meshes without UVs whose
+/// material has a texture a copy of that material without it, its albedo times
+/// the texture's mean colour (its roughness times the mean roughness), noted.
+pub fn load_textures(scene: &mut Scene) -> Result<(), SceneError> {
+    for m in &scene.materials {
+        for r in [&m.albedo_texture, &m.roughness_texture].into_iter().flatten() {
+            if find(&scene.textures, r).is_none() {
+                scene.textures.push(decode(r)?);
+            }
+        }
+    }
+    let textured = |m: &super::Material| m.albedo_texture.is_some() || m.roughness_texture.is_some();
+    if !scene.materials.iter().any(textured) {
+        return Ok(());
+    }
+    let mut untextured: Vec<Option<u32>> = vec![None; scene.materials.len()];
+    for mesh in &mut scene.meshes {
+        if mesh.uvs.is_some() {
+            continue;
+        }
+        let mut named = Vec::new();
+        for m in &mut mesh.materials {
+            let material = &scene.materials[*m as usize];
+            if !textured(material) {
+                continue;
+            }
+            if untextured[*m as usize].is_none() {
+                let mut plain = material.clone();
+                if let Some(r) = plain.albedo_texture.take() {
+                    plain.albedo =
+                        (plain.albedo * scene.textures[find(&scene.textures, &r).unwrap()].mean).min(Vec3::ONE);
+                }
+                if let Some(r) = plain.roughness_texture.take() {
+                    let mean = scene.textures[find(&scene.textures, &r).unwrap()].mean.x;
+                    plain.roughness = (plain.roughness * mean).clamp(shared::TEXTURE_MIN_ROUGHNESS, 1.0);
+                }
+                plain.name = format!("{} (untextured)", material.name);
+                untextured[*m as usize] = Some(scene.materials.len() as u32);
+                scene.materials.push(plain);
+            }
+            if !named.contains(m) {
+                named.push(*m);
+            }
+            *m = untextured[*m as usize].unwrap();
+        }
+        for m in named {
+            let name = &scene.materials[m as usize].name;
+            scene.notes.push(format!(
+                "{}: has no texture coordinates, so its triangles of textured material `{name}` take the texture's \
+                 mean in place of the texture",
+                mesh.source.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One line per texture for `rlpt info`: its file, use, size and memory.
+pub fn describe(textures: &[TextureImage]) -> Vec<String> {
+    textures
+        .iter()
+        .map(|t| {
+            let what = match t.usage {
+                TextureUse::Colour => "colour",
+                TextureUse::Roughness { .. } => "roughness",
+            };
+            let format = match t.format {
+                shared::TEXEL_RGBA8_SRGB => "RGBA8 sRGB",
+                shared::TEXEL_RGBA16F => "RGBA16F",
+                _ => "RGBA8 linear",
+            };
+            format!(
+                "{} ({what}): {}x{} {format}, {:.1} MB",
+                t.path.display(),
+                t.width,
+                t.height,
+                4.0 * t.texels.len() as f64 / 1e6
+            )
+        })
+        .collect()
+}
