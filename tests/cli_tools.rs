@@ -258,7 +258,7 @@ fn compare_says_whether_two_renders_agree() {
 #[test]
 fn plot_says_what_it_cannot_draw() {
     // A bench report is not render statistics.
-    let bench_json = tmp("bench.json");
+    let bench_json = tmp("bench-for-plot.json");
     let line = format!(
         "bench scenes/furnace-open.toml --width 8 --height 8 --frames 1 --warmup 0 --device cpu --json {}",
         bench_json.display()
