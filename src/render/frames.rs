@@ -1,0 +1,273 @@
+//! A frame's work on the device: its push constants and kind, the dispatches
+//! that trace it, the submission of frames with their learning passes and
+//! timestamps, and what the kernel counted (`GpuRenderer::render_frames`,
+//! `render_frame_profiled`).
+
+use super::*;
+
+impl GpuRenderer {
+    /// The kernel's push constants for the next frame (`rows` left 0, `cmd_trace`
+    /// sets it per dispatch), counting the frame as traced and accumulated. The
+    /// frame after the learning frames starts the image: the accumulation's
+    /// frames become the learned frames, and the kernel writes over them
+    /// (`accumulate`, `crate::film::accumulate`).
+    pub(super) fn next_frame(&mut self, kind: FrameKind) -> PathPush {
+        let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        // The first image frame (frames traced in order, or handed out by
+        // `MultiGpuRenderer`, which may skip frames) moves the learning frames out.
+        if self.accum_holds_learning && self.frames_traced >= learning_frames {
+            self.learned_frames = self.accum_frames;
+            self.accum_frames = 0;
+            self.accum_holds_learning = false;
+        } else if self.frames_traced < learning_frames {
+            self.accum_holds_learning = true;
+        }
+        let push = PathPush {
+            frame: if self.learning.is_some() { self.guided_traced } else { self.frames_traced },
+            rng_frame: rng_frame(self.frames_traced, learning_frames, self.frame_offset),
+            accum_frames: self.accum_frames,
+            ablate: self.ablate,
+            rows: 0,
+            learned_frames: self.learned_frames,
+            table_frames: self.table_frames,
+        };
+        self.frames_traced += 1;
+        self.accum_frames += 1;
+        if kind == FrameKind::Guided {
+            self.guided_traced += 1;
+        }
+        push
+    }
+
+    /// The kind of the next frame: guided with guiding (the race's choice past
+    /// the learning frames, where there is a race), else unguided.
+    pub(super) fn next_kind(&self) -> FrameKind {
+        let Some(l) = &self.learning else { return FrameKind::Unguided };
+        crate::guide::frame_kind(self.race.as_ref(), self.frames_traced, self.guided_traced, l.cfg.learning_frames)
+    }
+
+    /// Records the dispatches of one frame (`frame_dispatches`) by the kernel of its kind.
+    pub(super) fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: PathPush, kind: FrameKind) {
+        if let (Some(u), FrameKind::Unguided) = (&self.unguided, kind) {
+            let wide = self.width.div_ceil(pixels_per_group(false, self.params.scene_kinds));
+            let push = PathPush { rows: shared::ROWS_ALL, ..push };
+            u.cmd_dispatch(cmd, [wide, self.height, 1], bytemuck::bytes_of(&push));
+            return;
+        }
+        let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some(), self.params.scene_kinds));
+        for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push.frame, self.height) {
+            let pipeline = match (&self.recording, d.recording) {
+                (Some(r), true) => r,
+                _ => &self.pipeline,
+            };
+            let push = PathPush { rows: d.rows, ..push };
+            pipeline.cmd_dispatch(cmd, [wide, d.groups_y, 1], bytemuck::bytes_of(&push));
+        }
+    }
+
+    /// [`DEVICE_LOST_HOOK`]: the device lost where tracing `count` more frames
+    /// would pass the frames it names.
+    pub(super) fn check_device_lost_hook(&self, count: u32) -> Result<(), GpuError> {
+        match self.lose_device_after {
+            Some(n) if self.frames_traced.saturating_add(count) > n => Err(self.ctx.lose_device("vkQueueSubmit")),
+            _ => Ok(()),
+        }
+    }
+
+    /// Renders `count` frames in one submission (each followed by learning when
+    /// guiding is on: the fold and the rows' rebuild as `RecordSchedule::learns_after`
+    /// says) and returns what they measured. Times come from timestamp
+    /// queries (zero where the queue has none).
+    pub fn render_frames(&mut self, count: u32) -> Result<FrameTimings, GpuError> {
+        self.submit_frames(count, true)
+    }
+
+    /// [`render_frames`](Self::render_frames), learning after the frames that
+    /// `RecordSchedule::learns_after` names only where `learn` (else the targets
+    /// wait in the frame sums: `MultiGpuRenderer` learns from every device's at once).
+    pub(super) fn submit_frames(&mut self, count: u32, learn: bool) -> Result<FrameTimings, GpuError> {
+        self.check_device_lost_hook(count)?;
+        let timestamps = self.ctx.info.timestamps;
+        let wall = std::time::Instant::now();
+        let before =
+            (self.frames_traced, self.accum_frames, self.learned_frames, self.accum_holds_learning, self.guided_traced);
+        // The image's frames of one submission are of one kind.
+        let image_kind = self.next_kind();
+        let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        let pushes: Vec<(PathPush, FrameKind)> = (0..count)
+            .map(|_| {
+                let kind = if self.frames_traced < learning_frames { self.next_kind() } else { image_kind };
+                (PathPush { ablate: 0, ..self.next_frame(kind) }, kind)
+            })
+            .collect();
+        let submitted = self.ctx.run_commands("pathtrace frames", |cmd| {
+            self.counters.cmd_clear(cmd);
+            self.ctx.barrier(cmd);
+            if timestamps {
+                self.timer.cmd_reset(cmd);
+            }
+            for (f, &(push, kind)) in (0..count).zip(&pushes) {
+                if f > 0 {
+                    self.ctx.barrier(cmd);
+                }
+                if timestamps && f == 0 {
+                    self.timer.cmd_stamp(cmd, 0);
+                }
+                self.cmd_trace(cmd, push, kind);
+                if let Some(l) = &self.learning {
+                    if timestamps && f + 1 == count {
+                        self.timer.cmd_stamp(cmd, 1);
+                    }
+                    if learn && kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
+                        l.cmd_learn(&self.ctx, cmd, |_| {});
+                    }
+                }
+            }
+            if timestamps {
+                if self.learning.is_none() {
+                    self.timer.cmd_stamp(cmd, 1);
+                }
+                self.timer.cmd_stamp(cmd, 2);
+            }
+            self.ctx.barrier(cmd);
+            self.counters.cmd_copy_to(cmd, &self.counters_readback);
+        });
+        if let Err(e) = submitted {
+            // The frames did not finish: the counts stay those of the accumulation.
+            (
+                self.frames_traced,
+                self.accum_frames,
+                self.learned_frames,
+                self.accum_holds_learning,
+                self.guided_traced,
+            ) = before;
+            return Err(e);
+        }
+        let (zero_paths, segments, subgroup_segments) = self.read_counters();
+        let kind = pushes.last().map(|&(_, k)| k).filter(|_| self.learning.is_some());
+        let variance = self.read_frame_variance(count);
+        let mut t = FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, ..Default::default() };
+        if timestamps {
+            let s = self.timer.read(3)?;
+            // With several frames in one submission, learning between them counts as path tracing
+            // except after the last; call with count = 1 to separate the passes exactly.
+            t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[1]);
+            t.learn_ms = self.timer.ticks_to_ms(s[1], s[2]);
+        }
+        if let (Some(race), Some(v), Some(l)) = (self.race.as_mut(), variance, &self.learning) {
+            let n = count as f64;
+            let (trace_ms, learn_ms) = if timestamps {
+                (t.pathtrace_ms / n, t.learn_ms)
+            } else {
+                (wall.elapsed().as_secs_f64() * 1e3 / n, 0.0)
+            };
+            let first = self.frames_traced - count;
+            for (i, &(push, kind)) in pushes.iter().enumerate() {
+                // A guided frame's push.frame counts the guided frames before it.
+                let guided_before = if kind == FrameKind::Guided { push.frame } else { self.guided_traced };
+                if !crate::guide::race_weighs(kind, first + i as u32, guided_before, learning_frames) {
+                    continue;
+                }
+                match kind {
+                    FrameKind::Guided => {
+                        let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
+                        race.report_guided(v, trace_ms, learned, l.schedule.learning_period(push.frame));
+                    }
+                    FrameKind::Unguided => race.report(kind, v, trace_ms),
+                }
+            }
+        }
+        Ok(t)
+    }
+
+    /// The race of the image's frames' kernels, where there is one.
+    pub fn race(&self) -> Option<&FrameRace> {
+        self.race.as_ref()
+    }
+
+    /// The mean relative variance of the last submission's `frames` frames, from
+    /// the kernel's `add_frame_variance` slots; None where it keeps none.
+    pub(super) fn read_frame_variance(&self, frames: u32) -> Option<f64> {
+        if self.params.flags & shared::FLAG_FRAME_VARIANCE == 0 {
+            return None;
+        }
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let sum = (0..shared::FRAME_VARIANCE_SLOTS)
+            .map(|i| {
+                let lo = (shared::COUNTER_FRAME_VARIANCE + 2 * i) as usize;
+                c[lo] as u64 | (c[lo + 1] as u64) << 32
+            })
+            .sum::<u64>();
+        let pixels = (self.width * self.height) as f64;
+        Some(sum as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels / frames as f64)
+    }
+
+    /// Renders one frame in its own submission with a timestamp after each pass:
+    /// what `rlpt bench` measures. Needs timestamp queries on the compute queue.
+    pub fn render_frame_profiled(&mut self) -> Result<PassTimes, GpuError> {
+        if !self.ctx.info.timestamps {
+            return Err(GpuError::Unsupported {
+                index: self.ctx.info.index,
+                name: self.ctx.info.name.clone(),
+                missing: "timestamp queries on the compute queue, which GPU timing needs".into(),
+            });
+        }
+        self.check_device_lost_hook(1)?;
+        // Profiling measures the kernels as they are: every frame guided with guiding.
+        let kind = if self.learning.is_some() { FrameKind::Guided } else { FrameKind::Unguided };
+        let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.guided_traced));
+        let push = self.next_frame(kind);
+        self.ctx.run_commands("profiled frame", |cmd| {
+            self.counters.cmd_clear(cmd);
+            self.timer.cmd_reset(cmd);
+            self.ctx.barrier(cmd);
+            self.timer.cmd_stamp(cmd, 0);
+            self.cmd_trace(cmd, push, kind);
+            self.timer.cmd_stamp(cmd, 1);
+            // Learning's passes, and their stamps, after the frames it follows alone.
+            if let Some(l) = self.learning.as_ref().filter(|_| learns) {
+                l.cmd_learn(&self.ctx, cmd, |phase| self.timer.cmd_stamp(cmd, 2 + phase));
+            }
+            self.ctx.barrier(cmd);
+            self.counters.cmd_copy_to(cmd, &self.counters_readback);
+        })?;
+        let (zero_paths, segments, subgroup_segments) = self.read_counters();
+        let s = self.timer.read(if learns { 4 } else { 2 })?;
+        let ms = |a: u64, b: u64| self.timer.ticks_to_ms(a, b);
+        let mut t = PassTimes {
+            start_ms: s[0] as f64 * self.ctx.info.timestamp_period_ns as f64 * 1e-6,
+            pathtrace_ms: ms(s[0], s[1]),
+            zero_paths,
+            segments,
+            subgroup_segments,
+            ..Default::default()
+        };
+        if learns {
+            t.learn_fold_ms = ms(s[1], s[2]);
+            t.learn_rows_ms = ms(s[2], s[3]);
+        }
+        Ok(t)
+    }
+
+    /// The frame counters copied back by the last submission: (paths that carried
+    /// nothing, rays traced, the subgroups' rays as `FrameTimings::subgroup_segments`
+    /// has them), None where the kernel keeps none (`FLAG_COUNTERS`,
+    /// `FLAG_COUNT_RAYS`).
+    pub(super) fn read_counters(&self) -> (Option<u64>, Option<u64>, Option<u64>) {
+        let flags = self.params.flags;
+        if flags & shared::FLAG_COUNTERS == 0 {
+            return (None, None, None);
+        }
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let zero = Some(c[shared::COUNTER_ZERO_PATHS as usize] as u64);
+        if flags & shared::FLAG_COUNT_RAYS == 0 {
+            return (zero, None, None);
+        }
+        // The kernel adds the longest path's rays once per subgroup's worth of
+        // lanes that trace paths, min(subgroup size, 64) lanes (pathtrace.comp).
+        let lanes = self.ctx.info.subgroup_size.min(shared::SAMPLES_PER_FRAME) as u64;
+        // 64-bit pairs, low word first (glsl/counters.glsl).
+        let pair = |i: u32| c[i as usize] as u64 | (c[i as usize + 1] as u64) << 32;
+        (zero, Some(pair(shared::COUNTER_SEGMENTS)), Some(pair(shared::COUNTER_SUBGROUP_SEGMENTS) * lanes))
+    }
+}
