@@ -134,3 +134,45 @@ fn frame_variance_term_is_the_relative_variance_of_the_frames_mean() {
     // A firefly is clamped, not wrapped.
     assert_eq!(frame_variance_term(1e6, 1e12, 0.0), (65535.0 * scale) as u32);
 }
+
+/// `rlpt render --unguided-frames`: `auto` traces unguided frames and `--stats`
+/// says which; `never` (the default) traces none; it is a note with guiding off,
+/// and refused with several GPUs, which trace every frame guided.
+#[test]
+fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
+    use common::cli::{run, tmp};
+    let (out, stats) = (tmp("race.exr"), tmp("race-stats.json"));
+    let (out, stats) = (out.to_str().unwrap(), stats.to_str().unwrap());
+    let base = ["render", "scenes/seed-exp1.toml", "--width", "16", "--height", "12", "--spp", "1024"];
+    let unguided_frames = |mode: &str| {
+        let args =
+            [&base[..], &["--guiding", "sphere", "--unguided-frames", mode, "--stats", stats, "-o", out]].concat();
+        let (ok, err) = run(&args);
+        assert!(ok, "{err}");
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap();
+        let frames = json["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 16);
+        frames.iter().filter(|f| f["unguided"] == true).count()
+    };
+    // Eight guided frames, two more, then two unguided: the race's start.
+    assert!(unguided_frames("auto") >= 2);
+    assert_eq!(unguided_frames("never"), 0);
+
+    let (ok, err) = run(&[&base[..], &["--unguided-frames", "auto", "-o", out]].concat());
+    assert!(
+        ok && err.contains("--unguided-frames is a setting of learned guiding; ignored with --guiding off"),
+        "{err}"
+    );
+
+    let o = common::cli::rlpt()
+        .env("RLPT_TEST_DUPLICATE_GPUS", "1")
+        .args(base)
+        .args(["--guiding", "sphere", "--unguided-frames", "auto", "--gpus", "0,0", "-o", out])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("--unguided-frames auto chooses each frame's kernel on one GPU"),
+        "{err}"
+    );
+}
