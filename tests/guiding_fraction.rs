@@ -262,10 +262,10 @@ fn mis_targets_are_the_full_ones_without_nee() {
 /// an unbiased estimate from the first frame, while full targets take the lamp
 /// from Q entries that learn it over many visits, and the running mean keeps
 /// their early low targets for long. MIS over full on those entries, seed 5, with
-/// the exploration floor at 0.5 (`ef6bd25`): 1.38 after 8 frames, 1.29 after 24,
+/// the exploration floor at 0.5: 1.38 after 8 frames, 1.29 after 24,
 /// 1.16 after 96, 1.10 after 256; without the light sample's term, 0.06. At the
-/// floor of 0.25: 1.40 and 1.31 after 8 and 24 frames; at 0.1 (the default since
-/// `79fb864`) 1.41 and 1.33, towards the lamp 0.027.
+/// floor of 0.25: 1.40 and 1.31 after 8 and 24 frames; at 0.1 (the default)
+/// 1.41 and 1.33, towards the lamp 0.027.
 #[test]
 fn mis_targets_leave_the_lamp_to_light_sampling() {
     let frames = [8, 24];

@@ -340,7 +340,7 @@ fn render_after_warmup(ctx: &Arc<Context>, scene: &Scene, opts: &RenderOptions, 
 /// Russian roulette) the named pair gave 0.28 to 0.37 in four runs, and 16x32
 /// bins learned too slowly for this size (0.43 to 0.62 over the six pairs, which
 /// failed the test about half the time). With MIS-weighted targets, the floor at
-/// 0.1 and 20x40 bins, the defaults since `79fb864` (`guide::default_bins`): 0.193
+/// 0.1 and 20x40 bins, today's defaults (`guide::default_bins`): 0.193
 /// and 0.237 for the named pair, 0.165 to 0.223 over six others (seeds p and p + 100).
 #[test]
 fn learning_reduces_variance_on_door() {
