@@ -1,6 +1,12 @@
+//! The Vulkan context: instance, device, queue and allocator made and destroyed in order,
+//! the device chosen, and the memory its buffers take.
+
+use super::device::{enumerate, DeviceInfo};
+use super::instance::{create_instance, load_entry};
+use super::validation::debug_callback;
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
-use std::ffi::{c_void, CStr, CString};
+use std::ffi::c_void;
 use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -70,44 +76,6 @@ impl GpuError {
 
 pub type Result<T> = std::result::Result<T, GpuError>;
 
-/// What a device is and whether rlpt can use it.
-#[derive(Clone, Debug)]
-pub struct DeviceInfo {
-    pub index: usize,
-    pub name: String,
-    pub device_type: String,
-    pub driver: String,
-    pub api_version: String,
-    pub subgroup_size: u32,
-    /// Subgroup operation classes supported in compute shaders.
-    pub subgroup_operations: Vec<&'static str>,
-    /// `VK_EXT_shader_atomic_float` with float atomic add on storage buffers (learned guiding).
-    pub float_atomic_add: bool,
-    /// `VK_NV_shader_subgroup_partitioned` (faster aggregated atomics).
-    pub subgroup_partitioned: bool,
-    pub timestamp_period_ns: f32,
-    pub timestamps: bool,
-    /// `maxComputeSharedMemorySize`: bytes of shared memory a workgroup may use
-    /// (at least 16384 on every Vulkan device).
-    pub max_compute_shared_memory: u32,
-    /// `maxStorageBufferRange`: the largest storage buffer a shader can address.
-    pub max_storage_buffer_range: u32,
-    /// Bytes of the largest device-local memory heap: what buffers that shaders
-    /// read and write are allocated from (see [`DEVICE_MEMORY_HOOK`] for tests).
-    pub device_memory: u64,
-    /// Every memory heap is device-local (lavapipe, integrated GPUs): host-visible
-    /// buffers (uploads, readbacks) take the same memory as the device's own.
-    pub unified_memory: bool,
-    /// `VK_KHR_pipeline_executable_properties`: the driver reports each pipeline's
-    /// register and memory use (`rlpt bench`).
-    pub pipeline_statistics: bool,
-    /// What rlpt requires and this device lacks; empty if usable.
-    pub missing: Vec<String>,
-    physical: vk::PhysicalDevice,
-    queue_family: u32,
-    discrete: bool,
-}
-
 /// How to make a [`Context`].
 #[derive(Clone, Debug, Default)]
 pub struct ContextOptions {
@@ -167,13 +135,13 @@ pub struct Context {
     /// The window surface, when made with [`ContextOptions::window`].
     pub surface: Option<Surface>,
     allocator: ManuallyDrop<Mutex<Allocator>>,
-    command_pool: Mutex<vk::CommandPool>,
-    debug_instance: Option<ash::ext::debug_utils::Instance>,
-    debug_device: Option<ash::ext::debug_utils::Device>,
+    pub(super) command_pool: Mutex<vk::CommandPool>,
+    pub(super) debug_instance: Option<ash::ext::debug_utils::Instance>,
+    pub(super) debug_device: Option<ash::ext::debug_utils::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
     /// Validation messages of warning or error severity; shared so the callback's pointer
     /// stays valid and so that a [`ValidationCounter`] can read it after the context is gone.
-    messages: Arc<AtomicU32>,
+    pub(super) messages: Arc<AtomicU32>,
     /// Set once a call returned `VK_ERROR_DEVICE_LOST` (or [`Context::lose_device`]
     /// said so): every later submission fails the same way, without touching the device.
     lost: AtomicBool,
@@ -183,281 +151,12 @@ pub struct Context {
     memory_cap: Option<u64>,
 }
 
-/// Validation messages of warning or error severity reported in this process, by
-/// every context, including those counted while a context was destroyed.
-static MESSAGES_TOTAL: AtomicU32 = AtomicU32::new(0);
-
-/// Number of warnings and errors the validation layer reported in this process so
-/// far, over every context made and destroyed (the CLI fails on any, at exit).
-pub fn validation_messages_total() -> u32 {
-    MESSAGES_TOTAL.load(Ordering::SeqCst)
-}
-
-/// A context's validation message count that outlives the context: it also counts
-/// what the layer reports while the context is destroyed (leaked objects, for one).
-#[derive(Clone, Debug)]
-pub struct ValidationCounter(Arc<AtomicU32>);
-
-impl ValidationCounter {
-    pub fn get(&self) -> u32 {
-        self.0.load(Ordering::SeqCst)
-    }
-}
-
 /// Test hook, for tests only: `RLPT_TEST_DEVICE_MEMORY_MB=N` makes a [`Context`]
 /// report a device of N MiB of memory ([`DeviceInfo::device_memory`]), and refuse
 /// buffer allocations past it as out of memory, the way a real device that is full
 /// does: lavapipe reports 2 GiB but lets every buffer take host memory, and no render
 /// its 128 MiB buffer limit allows comes near that, so a test cannot fill it.
 pub const DEVICE_MEMORY_HOOK: &str = "RLPT_TEST_DEVICE_MEMORY_MB";
-
-const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
-
-unsafe extern "system" fn debug_callback(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _types: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user: *mut c_void,
-) -> vk::Bool32 {
-    if severity
-        .intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
-    {
-        MESSAGES_TOTAL.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: `user` is the `AtomicU32` the Context holds until after it destroys the
-        // messenger and the instance; `data` is valid for the duration of the callback.
-        unsafe {
-            (*(user as *const AtomicU32)).fetch_add(1, Ordering::SeqCst);
-            let msg = if data.is_null() || (*data).p_message.is_null() {
-                "(no message)".into()
-            } else {
-                CStr::from_ptr((*data).p_message).to_string_lossy()
-            };
-            eprintln!("vulkan validation ({severity:?}): {msg}");
-        }
-    }
-    vk::FALSE
-}
-
-fn load_entry() -> Result<ash::Entry> {
-    // SAFETY: loading the system Vulkan loader; ash checks the library's entry points.
-    unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoLoader(e.to_string()))
-}
-
-fn create_instance(
-    entry: &ash::Entry,
-    validation: bool,
-    messenger_info: Option<&mut vk::DebugUtilsMessengerCreateInfoEXT<'_>>,
-    display: Option<raw_window_handle::RawDisplayHandle>,
-) -> Result<ash::Instance> {
-    let app_name = c"rlpt";
-    let app = vk::ApplicationInfo::default()
-        .application_name(app_name)
-        .application_version(1)
-        .engine_name(app_name)
-        .api_version(vk::API_VERSION_1_2);
-    let mut layers = Vec::new();
-    let mut extensions = Vec::new();
-    let mut sync_validation = false;
-    if let Some(display) = display {
-        let needed = ash_window::enumerate_required_extensions(display)
-            .map_err(|e| GpuError::vk("ash_window::enumerate_required_extensions", e))?;
-        // SAFETY: plain enumeration.
-        let available = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .map_err(|e| GpuError::vk("vkEnumerateInstanceExtensionProperties", e))?;
-        for &ext in needed {
-            // SAFETY: ash_window returns pointers to static NUL-terminated names.
-            let name = unsafe { CStr::from_ptr(ext) };
-            if !available.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name)) {
-                return Err(GpuError::NoPresentation(format!(
-                    "the Vulkan loader offers no {} (the window system's surface extension)",
-                    name.to_string_lossy()
-                )));
-            }
-        }
-        extensions.extend_from_slice(needed);
-    }
-    if validation {
-        // SAFETY: plain enumeration.
-        let available = unsafe { entry.enumerate_instance_layer_properties() }
-            .map_err(|e| GpuError::vk("vkEnumerateInstanceLayerProperties", e))?;
-        if !available.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)) {
-            return Err(GpuError::NoValidationLayer);
-        }
-        layers.push(VALIDATION_LAYER.as_ptr());
-        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        // SAFETY: plain enumeration of the layer's own extensions.
-        let layer_extensions = unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
-            .map_err(|e| GpuError::vk("vkEnumerateInstanceExtensionProperties", e))?;
-        sync_validation = layer_extensions
-            .iter()
-            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::validation_features::NAME));
-        if sync_validation {
-            extensions.push(ash::ext::validation_features::NAME.as_ptr());
-        }
-    }
-    // Synchronization validation too: read/write hazards between commands (dispatches,
-    // copies) within and across submissions, which the core checks do not see.
-    let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
-    let mut info = vk::InstanceCreateInfo::default()
-        .application_info(&app)
-        .enabled_layer_names(&layers)
-        .enabled_extension_names(&extensions);
-    if sync_validation {
-        info = info.push_next(&mut features);
-    }
-    if let Some(m) = messenger_info {
-        info = info.push_next(m);
-    }
-    // SAFETY: every pointer in `info` outlives the call.
-    match unsafe { entry.create_instance(&info, None) } {
-        Ok(i) => Ok(i),
-        Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => Err(GpuError::NoDevice),
-        Err(e) => Err(GpuError::vk("vkCreateInstance", e)),
-    }
-}
-
-fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice) -> DeviceInfo {
-    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-    let mut driver = vk::PhysicalDeviceDriverProperties::default();
-    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup).push_next(&mut driver);
-    // SAFETY: `physical` came from this instance; the chained structs live through the call.
-    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
-    let props = props2.properties;
-    let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let driver_name = driver.driver_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let driver_info = driver.driver_info_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let api = props.api_version;
-    let api_version =
-        format!("{}.{}.{}", vk::api_version_major(api), vk::api_version_minor(api), vk::api_version_patch(api));
-    let device_type = match props.device_type {
-        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
-        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
-        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
-        vk::PhysicalDeviceType::CPU => "CPU",
-        _ => "other",
-    }
-    .to_string();
-    // SAFETY: as above.
-    let extensions = unsafe { instance.enumerate_device_extension_properties(physical) }.unwrap_or_default();
-    let has_ext = |ext: &CStr| extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ext));
-    let mut float_atomic_add = false;
-    if has_ext(ash::ext::shader_atomic_float::NAME) {
-        let mut atomic = vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT::default();
-        let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut atomic);
-        // SAFETY: as above.
-        unsafe { instance.get_physical_device_features2(physical, &mut features) };
-        float_atomic_add = atomic.shader_buffer_float32_atomic_add == vk::TRUE;
-    }
-    let mut pipeline_statistics = false;
-    if has_ext(ash::khr::pipeline_executable_properties::NAME) {
-        let mut exec = vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default();
-        let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut exec);
-        // SAFETY: as above.
-        unsafe { instance.get_physical_device_features2(physical, &mut features) };
-        pipeline_statistics = exec.pipeline_executable_info == vk::TRUE;
-    }
-    // SAFETY: as above.
-    let memory = unsafe { instance.get_physical_device_memory_properties(physical) };
-    let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
-    let local = |h: &&vk::MemoryHeap| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL);
-    let device_memory = heaps.iter().filter(local).map(|h| h.size).max().unwrap_or(0);
-    let unified_memory = !heaps.is_empty() && heaps.iter().all(|h| local(&h));
-    // SAFETY: as above.
-    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-    let queue_family = families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE));
-    let timestamps = queue_family.is_some_and(|q| families[q].timestamp_valid_bits > 0)
-        && props.limits.timestamp_compute_and_graphics == vk::TRUE;
-
-    let ops = subgroup.supported_operations;
-    let mut subgroup_operations = Vec::new();
-    for (flag, label) in [
-        (vk::SubgroupFeatureFlags::BASIC, "basic"),
-        (vk::SubgroupFeatureFlags::VOTE, "vote"),
-        (vk::SubgroupFeatureFlags::ARITHMETIC, "arithmetic"),
-        (vk::SubgroupFeatureFlags::BALLOT, "ballot"),
-        (vk::SubgroupFeatureFlags::SHUFFLE, "shuffle"),
-        (vk::SubgroupFeatureFlags::CLUSTERED, "clustered"),
-        (vk::SubgroupFeatureFlags::PARTITIONED_NV, "partitioned"),
-    ] {
-        if ops.contains(flag) {
-            subgroup_operations.push(label);
-        }
-    }
-    let mut missing = Vec::new();
-    if vk::api_version_major(api) < 1 || (vk::api_version_major(api) == 1 && vk::api_version_minor(api) < 2) {
-        missing.push(format!("Vulkan 1.2 (it offers {api_version})"));
-    }
-    if queue_family.is_none() {
-        missing.push("a compute queue".into());
-    }
-    if !subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE) {
-        missing.push("subgroup operations in compute shaders".into());
-    }
-    // What the kernels use: elect (basic), sums (arithmetic), ballots (ballot)
-    // and the reduction's shuffles.
-    for (flag, label) in [
-        (vk::SubgroupFeatureFlags::BASIC, "basic"),
-        (vk::SubgroupFeatureFlags::ARITHMETIC, "arithmetic"),
-        (vk::SubgroupFeatureFlags::BALLOT, "ballot"),
-        (vk::SubgroupFeatureFlags::SHUFFLE, "shuffle"),
-    ] {
-        if !ops.contains(flag) {
-            missing.push(format!("subgroup {label} operations"));
-        }
-    }
-    if !subgroup.subgroup_size.is_power_of_two() {
-        missing.push(format!("a power-of-two subgroup size (it reports {})", subgroup.subgroup_size));
-    }
-    DeviceInfo {
-        index,
-        name,
-        device_type,
-        driver: format!("{driver_name} {driver_info}").trim().to_string(),
-        api_version,
-        subgroup_size: subgroup.subgroup_size,
-        subgroup_operations,
-        float_atomic_add,
-        // RLPT_SUBGROUP_PARTITION=0 runs the portable ballot loop where the device
-        // offers partitioning too (scripts/consistency.sh checks both).
-        subgroup_partitioned: ops.contains(vk::SubgroupFeatureFlags::PARTITIONED_NV)
-            && std::env::var("RLPT_SUBGROUP_PARTITION").map_or(true, |v| v != "0"),
-        timestamp_period_ns: props.limits.timestamp_period,
-        timestamps,
-        max_compute_shared_memory: props.limits.max_compute_shared_memory_size,
-        max_storage_buffer_range: props.limits.max_storage_buffer_range,
-        device_memory,
-        unified_memory,
-        pipeline_statistics,
-        missing,
-        physical,
-        queue_family: queue_family.unwrap_or(0) as u32,
-        discrete: props.device_type == vk::PhysicalDeviceType::DISCRETE_GPU,
-    }
-}
-
-fn enumerate(instance: &ash::Instance) -> Result<Vec<DeviceInfo>> {
-    // SAFETY: plain enumeration on a live instance.
-    let physicals = match unsafe { instance.enumerate_physical_devices() } {
-        Ok(p) => p,
-        Err(vk::Result::ERROR_INITIALIZATION_FAILED) => return Err(GpuError::NoDevice),
-        Err(e) => return Err(GpuError::vk("vkEnumeratePhysicalDevices", e)),
-    };
-    if physicals.is_empty() {
-        return Err(GpuError::NoDevice);
-    }
-    Ok(physicals.into_iter().enumerate().map(|(i, p)| describe(instance, i, p)).collect())
-}
-
-/// Every Vulkan device the loader finds, usable or not (`rlpt devices`).
-pub fn list_devices() -> Result<Vec<DeviceInfo>> {
-    let entry = load_entry()?;
-    let instance = create_instance(&entry, false, None, None)?;
-    let result = enumerate(&instance);
-    // SAFETY: nothing made from the instance outlives it.
-    unsafe { instance.destroy_instance(None) };
-    result
-}
 
 impl Context {
     pub fn new(options: &ContextOptions) -> Result<Arc<Context>> {
@@ -649,32 +348,6 @@ impl Context {
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Number of warnings and errors the validation layer reported so far (0 when it is off).
-    pub fn validation_messages(&self) -> u32 {
-        self.messages.load(Ordering::SeqCst)
-    }
-
-    /// The count of [`validation_messages`](Self::validation_messages), readable after the
-    /// context is dropped, so that messages at its destruction are seen too.
-    pub fn validation_counter(&self) -> ValidationCounter {
-        ValidationCounter(self.messages.clone())
-    }
-
-    /// True when the validation layer is on.
-    pub fn validation_enabled(&self) -> bool {
-        self.debug_instance.is_some()
-    }
-
-    /// Gives a Vulkan object a name that validation messages and debuggers show.
-    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
-        if let Some(d) = &self.debug_device {
-            let name = CString::new(name.replace('\0', " ")).unwrap_or_default();
-            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
-            // SAFETY: the handle belongs to this device. A failure to name is harmless.
-            let _ = unsafe { d.set_debug_utils_object_name(&info) };
-        }
-    }
-
     /// Whether the device was lost: every submission fails from then on.
     pub fn is_lost(&self) -> bool {
         self.lost.load(Ordering::SeqCst)
@@ -689,7 +362,7 @@ impl Context {
     }
 
     /// `GpuError::vk`, noting a lost device.
-    fn vk_error(&self, call: &'static str, result: vk::Result) -> GpuError {
+    pub(super) fn vk_error(&self, call: &'static str, result: vk::Result) -> GpuError {
         if result == vk::Result::ERROR_DEVICE_LOST {
             self.lost.store(true, Ordering::SeqCst);
         }
@@ -711,108 +384,6 @@ impl Context {
     /// Gives back what [`Context::note_allocation`] counted.
     pub(crate) fn note_free(&self, bytes: u64) {
         self.allocated.fetch_sub(bytes, Ordering::SeqCst);
-    }
-
-    /// Records commands with `record`, submits them and waits for completion.
-    pub fn run_commands(&self, name: &str, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
-        self.run_commands_synced(name, &[], &[], record)
-    }
-
-    /// [`run_commands`](Self::run_commands) whose submission first waits on `waits`
-    /// (each semaphore at its stage) and signals `signals` when done (presentation).
-    pub fn run_commands_synced(
-        &self,
-        name: &str,
-        waits: &[(vk::Semaphore, vk::PipelineStageFlags)],
-        signals: &[vk::Semaphore],
-        record: impl FnOnce(vk::CommandBuffer),
-    ) -> Result<()> {
-        if self.is_lost() {
-            return Err(GpuError::vk("vkQueueSubmit", vk::Result::ERROR_DEVICE_LOST));
-        }
-        let wait_semaphores: Vec<vk::Semaphore> = waits.iter().map(|w| w.0).collect();
-        let wait_stages: Vec<vk::PipelineStageFlags> = waits.iter().map(|w| w.1).collect();
-        let pool = self.command_pool.lock().unwrap_or_else(|e| e.into_inner());
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(*pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: the pool is locked for the duration; the command buffer is freed below.
-        let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }
-            .map_err(|e| GpuError::vk("vkAllocateCommandBuffers", e))?[0];
-        self.set_name(cmd, name);
-        let result = (|| {
-            let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-            // SAFETY: fresh command buffer from our pool.
-            unsafe { self.device.begin_command_buffer(cmd, &begin) }
-                .map_err(|e| GpuError::vk("vkBeginCommandBuffer", e))?;
-            record(cmd);
-            // SAFETY: recording state.
-            unsafe { self.device.end_command_buffer(cmd) }.map_err(|e| GpuError::vk("vkEndCommandBuffer", e))?;
-            // SAFETY: plain fence.
-            let fence = unsafe { self.device.create_fence(&vk::FenceCreateInfo::default(), None) }
-                .map_err(|e| GpuError::vk("vkCreateFence", e))?;
-            let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default()
-                .command_buffers(&cmds)
-                .wait_semaphores(&wait_semaphores)
-                .wait_dst_stage_mask(&wait_stages)
-                .signal_semaphores(signals)];
-            // SAFETY: the queue is used from one thread at a time (the pool lock is held).
-            let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
-                .map_err(|e| self.vk_error("vkQueueSubmit", e))
-                // SAFETY: the fence was just submitted.
-                .and_then(|_| {
-                    unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) }
-                        .map_err(|e| self.vk_error("vkWaitForFences", e))
-                });
-            // SAFETY: after the wait (or a failed submit) the fence is unused.
-            unsafe { self.device.destroy_fence(fence, None) };
-            r
-        })();
-        // SAFETY: the command buffer is no longer executing (waited above or never submitted).
-        unsafe { self.device.free_command_buffers(*pool, &[cmd]) };
-        result
-    }
-
-    /// Presents swapchain image `index` once `wait` is signalled, on the context's queue.
-    /// `Ok(true)` when the swapchain no longer matches the surface (suboptimal or out of
-    /// date) and should be recreated.
-    pub fn present(
-        &self,
-        loader: &ash::khr::swapchain::Device,
-        swapchain: vk::SwapchainKHR,
-        index: u32,
-        wait: vk::Semaphore,
-    ) -> Result<bool> {
-        // Queue access is serialised by the command pool's lock, as in run_commands.
-        let _pool = self.command_pool.lock().unwrap_or_else(|e| e.into_inner());
-        let (waits, swapchains, indices) = ([wait], [swapchain], [index]);
-        let info =
-            vk::PresentInfoKHR::default().wait_semaphores(&waits).swapchains(&swapchains).image_indices(&indices);
-        // SAFETY: the swapchain belongs to this device and `index` was acquired from it.
-        match unsafe { loader.queue_present(self.queue, &info) } {
-            Ok(suboptimal) => Ok(suboptimal),
-            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(true),
-            Err(e) => Err(self.vk_error("vkQueuePresentKHR", e)),
-        }
-    }
-
-    /// A memory barrier making compute and transfer writes visible to later compute and transfer work.
-    pub fn barrier(&self, cmd: vk::CommandBuffer) {
-        let barrier = [vk::MemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(
-                vk::AccessFlags::SHADER_READ
-                    | vk::AccessFlags::SHADER_WRITE
-                    | vk::AccessFlags::TRANSFER_READ
-                    | vk::AccessFlags::TRANSFER_WRITE,
-            )];
-        let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
-        // SAFETY: `cmd` is recording.
-        unsafe {
-            self.device.cmd_pipeline_barrier(cmd, stages, stages, vk::DependencyFlags::empty(), &barrier, &[], &[])
-        };
     }
 }
 

@@ -4,19 +4,22 @@
 //! viewer's [`Swapchain`]. Everything else in the crate is safe code on top of these.
 
 mod buffer;
+mod commands;
 mod context;
+mod device;
+mod instance;
 mod pipeline;
 mod swapchain;
 mod timer;
+mod validation;
 
 pub use buffer::{Buffer, BufferUsage};
-pub use context::{
-    list_devices, validation_messages_total, Context, ContextOptions, DeviceInfo, GpuError, Surface, ValidationCounter,
-    WindowTarget, DEVICE_MEMORY_HOOK,
-};
+pub use context::{Context, ContextOptions, GpuError, Surface, WindowTarget, DEVICE_MEMORY_HOOK};
+pub use device::{list_devices, DeviceInfo};
 pub use pipeline::{Binding, Pipeline, PipelineStatistic};
 pub use swapchain::{Acquired, Image, Swapchain};
 pub use timer::Timer;
+pub use validation::{validation_messages_total, ValidationCounter};
 
 pub use ash::vk;
 

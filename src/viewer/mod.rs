@@ -9,18 +9,22 @@
 //! scales it to fit. Vulkan stays in `crate::gpu`; this module is winit and state.
 
 mod camera;
+mod input;
 mod inset;
+mod modes;
+mod timings;
 
 pub use camera::ViewCamera;
 pub use inset::{inset_texels, letterbox, window_to_pixel};
+
+use modes::{make_renderer, ModeRenderer};
+use timings::{FrameTime, RecentFrames};
 
 use crate::gpu::{Acquired, Context, ContextOptions, Swapchain, WindowTarget};
 use crate::guide::{GuideField, GuidingMode};
 use crate::math::geometry::intersect;
 use crate::options::RenderOptions;
-use crate::prepared::PreparedScene;
 use crate::render::display::{Display, Inset};
-use crate::render::GpuRenderer;
 use crate::scene::Scene;
 use crate::shared;
 use anyhow::{anyhow, bail, Context as _, Result};
@@ -29,9 +33,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
-use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use winit::window::{Window, WindowId};
 
@@ -164,55 +167,6 @@ enum Flow {
     Exit,
 }
 
-/// One guiding mode's renderer (made when first shown; each keeps its own table).
-struct ModeRenderer {
-    mode: GuidingMode,
-    prepared: PreparedScene,
-    renderer: GpuRenderer,
-}
-
-/// Timings of one frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct FrameTime {
-    pathtrace_ms: f64,
-    learn_ms: f64,
-    /// From timestamps; false: wall clock.
-    gpu: bool,
-}
-
-/// How many frames the title's timings average: two cycles of guiding's learning
-/// at its longest, which runs after one guided frame in a stride of up to
-/// `RECORD_MAX_STRIDE` and makes that frame longer (`RecordSchedule::learns_after`),
-/// so that the readout holds still.
-const RECENT_FRAMES: usize = 2 * crate::shared::RECORD_MAX_STRIDE as usize;
-
-/// The timings of the last `RECENT_FRAMES` frames since the accumulation restarted.
-#[derive(Default)]
-struct RecentFrames(std::collections::VecDeque<FrameTime>);
-
-impl RecentFrames {
-    fn push(&mut self, t: FrameTime) {
-        if self.0.len() == RECENT_FRAMES {
-            self.0.pop_front();
-        }
-        self.0.push_back(t);
-    }
-
-    fn clear(&mut self) {
-        self.0.clear();
-    }
-
-    /// The mean of the frames held (zero where there are none); `gpu` as the newest says.
-    fn mean(&self) -> FrameTime {
-        let n = self.0.len().max(1) as f64;
-        FrameTime {
-            pathtrace_ms: self.0.iter().map(|t| t.pathtrace_ms).sum::<f64>() / n,
-            learn_ms: self.0.iter().map(|t| t.learn_ms).sum::<f64>() / n,
-            gpu: self.0.back().is_some_and(|t| t.gpu),
-        }
-    }
-}
-
 struct Viewer {
     // Fields drop in order: GPU objects first, then the context, the window last
     // (the context's surface refers to it).
@@ -313,10 +267,6 @@ impl Viewer {
         })
     }
 
-    fn renderer(&self) -> &ModeRenderer {
-        &self.renderers[self.current]
-    }
-
     /// Minimised or fully covered: nothing would be seen, so nothing is rendered
     /// (except in the scripted mode, which must finish).
     fn hidden(&self) -> bool {
@@ -332,114 +282,6 @@ impl Viewer {
         match options.frames {
             Some(n) => self.rendered < n || (options.resize.is_some() && self.resized_at.is_none()),
             None => !self.paused || self.swapchain_dirty,
-        }
-    }
-
-    fn handle(&mut self, event: WindowEvent, options: &ViewOptions) -> Result<Flow> {
-        match event {
-            WindowEvent::CloseRequested => return Ok(Flow::Exit),
-            WindowEvent::Resized(_) => {
-                self.swapchain_dirty = true;
-                self.window.request_redraw();
-            }
-            WindowEvent::RedrawRequested if !self.hidden() => return self.redraw(options),
-            WindowEvent::Occluded(hidden) => {
-                self.occluded = hidden;
-                self.window.request_redraw();
-            }
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
-                if let PhysicalKey::Code(code) = event.physical_key {
-                    return self.key(code);
-                }
-            }
-            WindowEvent::MouseInput { button: MouseButton::Left, state, .. } => {
-                self.drag_from = (state == ElementState::Pressed).then_some(self.cursor).flatten();
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                let now = (position.x, position.y);
-                if let Some(from) = self.drag_from {
-                    self.camera.orbit((now.0 - from.0) as f32, (now.1 - from.1) as f32);
-                    self.drag_from = Some(now);
-                    self.camera_changed();
-                }
-                self.cursor = Some(now);
-            }
-            WindowEvent::CursorLeft { .. } => self.cursor = None,
-            WindowEvent::MouseWheel { delta, .. } => {
-                let lines = match delta {
-                    MouseScrollDelta::LineDelta(_, y) => y,
-                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
-                };
-                if lines != 0.0 {
-                    self.camera.zoom(lines);
-                    self.camera_changed();
-                }
-            }
-            _ => {}
-        }
-        Ok(Flow::Continue)
-    }
-
-    fn key(&mut self, code: KeyCode) -> Result<Flow> {
-        let step = self.camera.step();
-        match code {
-            KeyCode::Escape => return Ok(Flow::Exit),
-            KeyCode::KeyW => self.camera.translate(step, 0.0, 0.0),
-            KeyCode::KeyS => self.camera.translate(-step, 0.0, 0.0),
-            KeyCode::KeyD => self.camera.translate(0.0, step, 0.0),
-            KeyCode::KeyA => self.camera.translate(0.0, -step, 0.0),
-            KeyCode::KeyE => self.camera.translate(0.0, 0.0, step),
-            KeyCode::KeyQ => self.camera.translate(0.0, 0.0, -step),
-            KeyCode::KeyR => {
-                self.restart()?;
-                return Ok(Flow::Continue);
-            }
-            KeyCode::KeyG => {
-                self.cycle_guiding()?;
-                return Ok(Flow::Continue);
-            }
-            KeyCode::KeyN => {
-                self.nee = !self.nee;
-                println!("next-event estimation {}", if self.nee { "on" } else { "off" });
-                self.apply_params()?;
-                return Ok(Flow::Continue);
-            }
-            KeyCode::KeyV => {
-                self.inset_on = !self.inset_on;
-                if self.inset_on && self.renderer().mode == GuidingMode::Off {
-                    println!("V: guiding is off, so nothing is learned; press G to turn it on");
-                }
-                self.update_inset(true)?;
-                self.window.request_redraw();
-                return Ok(Flow::Continue);
-            }
-            KeyCode::Space => {
-                self.paused = !self.paused;
-                self.update_title();
-                self.window.request_redraw();
-                return Ok(Flow::Continue);
-            }
-            KeyCode::KeyP => {
-                let spp = self.renderer().renderer.frames() * shared::SAMPLES_PER_FRAME;
-                let stem = Path::new(&self.scene_name).file_stem().map(|s| s.to_string_lossy().into_owned());
-                let png = PathBuf::from(format!("rlpt-{}-{spp}spp.png", stem.unwrap_or_else(|| "view".into())));
-                self.save(&png)?;
-                return Ok(Flow::Continue);
-            }
-            KeyCode::KeyH => {
-                println!("{CONTROLS}");
-                return Ok(Flow::Continue);
-            }
-            _ => return Ok(Flow::Continue),
-        }
-        // A movement key.
-        self.camera_changed();
-        Ok(Flow::Continue)
-    }
-
-    fn camera_changed(&mut self) {
-        if let Err(e) = self.apply_params() {
-            log::error!("{e:#}");
         }
     }
 
@@ -461,33 +303,6 @@ impl Viewer {
         self.inset_shown = None;
         self.window.request_redraw();
         Ok(())
-    }
-
-    fn cycle_guiding(&mut self) -> Result<()> {
-        let next = match self.renderer().mode {
-            GuidingMode::Off => GuidingMode::Octant,
-            GuidingMode::Octant => GuidingMode::Sphere,
-            GuidingMode::Sphere => GuidingMode::Off,
-        };
-        let index = match self.renderers.iter().position(|r| r.mode == next) {
-            Some(i) => i,
-            None => match make_renderer(&self.ctx, &self.scene, &self.base, next, self.guide_in.as_ref()) {
-                Ok(r) => {
-                    self.renderers.push(r);
-                    self.renderers.len() - 1
-                }
-                Err(e) => {
-                    // A device without float atomics cannot guide: say so and stay.
-                    println!("guiding {}: {e:#}", next.name());
-                    return Ok(());
-                }
-            },
-        };
-        self.current = index;
-        self.display.bind(self.renderers[index].renderer.accumulation());
-        println!("guiding {}", next.name());
-        self.apply_params()?;
-        self.update_inset(true)
     }
 
     /// Shows or hides the inset of the voxel under the cursor; re-reads the table at
@@ -684,71 +499,5 @@ impl Viewer {
             bail!("the Vulkan validation layer reported {n} problem(s) (printed above)");
         }
         Ok(())
-    }
-}
-
-fn make_renderer(
-    ctx: &Arc<Context>,
-    scene: &Scene,
-    base: &RenderOptions,
-    mode: GuidingMode,
-    field: Option<&(PathBuf, GuideField)>,
-) -> Result<ModeRenderer> {
-    let mut opts = base.clone();
-    opts.guiding = mode;
-    let mut prepared = PreparedScene::new(scene, &opts)?;
-    if let (Some((path, field)), Some(cfg)) = (field, prepared.guide) {
-        if cfg.bins == field.bins {
-            prepared.start_from(field.clone(), path, &opts)?;
-            println!("guiding {}: starts from the learned field {}", mode.name(), path.display());
-        } else {
-            println!(
-                "guiding {}: {} holds {}x{} bins and this mode has {}x{}: it starts from a blank table",
-                mode.name(),
-                path.display(),
-                field.bins.rows,
-                field.bins.cols,
-                cfg.bins.rows,
-                cfg.bins.cols
-            );
-        }
-    }
-    let renderer = GpuRenderer::new(ctx, &prepared)?;
-    Ok(ModeRenderer { mode, prepared, renderer })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn frame(pathtrace_ms: f64, learn_ms: f64) -> FrameTime {
-        FrameTime { pathtrace_ms, learn_ms, gpu: true }
-    }
-
-    /// The title's timings: a mean over the last RECENT_FRAMES frames, which holds
-    /// still while one frame in 32 learns.
-    #[test]
-    fn title_timings_average_the_recent_frames() {
-        let mut r = RecentFrames::default();
-        assert_eq!(r.mean(), FrameTime::default());
-        r.push(frame(2.0, 0.5));
-        assert_eq!(r.mean(), frame(2.0, 0.5));
-        // Frames as guided rendering makes them after its first ones: the rows'
-        // rebuild (0.4 in this test) after one frame in the largest stride.
-        let stride = crate::shared::RECORD_MAX_STRIDE as usize;
-        let mut means = Vec::new();
-        for i in 0..5 * RECENT_FRAMES {
-            r.push(frame(1.0, if i % stride == stride - 1 { 0.4 } else { 0.0 }));
-            means.push(r.mean());
-        }
-        // Once the window holds only such frames, every frame shows the same figure.
-        for m in &means[RECENT_FRAMES..] {
-            assert_eq!(m.pathtrace_ms, 1.0);
-            assert!((m.learn_ms - 0.4 / stride as f64).abs() < 1e-12, "{m:?}");
-        }
-        r.clear();
-        assert_eq!(r.mean(), FrameTime::default());
-        r.push(FrameTime { gpu: false, ..frame(3.0, 0.0) });
-        assert!(!r.mean().gpu);
     }
 }

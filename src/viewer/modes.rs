@@ -1,0 +1,82 @@
+//! The renderers of the guiding modes the viewer switches between (`G`).
+
+use super::Viewer;
+use crate::gpu::Context;
+use crate::guide::{GuideField, GuidingMode};
+use crate::options::RenderOptions;
+use crate::prepared::PreparedScene;
+use crate::render::GpuRenderer;
+use crate::scene::Scene;
+use anyhow::Result;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// One guiding mode's renderer (made when first shown; each keeps its own table).
+pub(super) struct ModeRenderer {
+    pub(super) mode: GuidingMode,
+    pub(super) prepared: PreparedScene,
+    pub(super) renderer: GpuRenderer,
+}
+
+impl Viewer {
+    pub(super) fn renderer(&self) -> &ModeRenderer {
+        &self.renderers[self.current]
+    }
+
+    pub(super) fn cycle_guiding(&mut self) -> Result<()> {
+        let next = match self.renderer().mode {
+            GuidingMode::Off => GuidingMode::Octant,
+            GuidingMode::Octant => GuidingMode::Sphere,
+            GuidingMode::Sphere => GuidingMode::Off,
+        };
+        let index = match self.renderers.iter().position(|r| r.mode == next) {
+            Some(i) => i,
+            None => match make_renderer(&self.ctx, &self.scene, &self.base, next, self.guide_in.as_ref()) {
+                Ok(r) => {
+                    self.renderers.push(r);
+                    self.renderers.len() - 1
+                }
+                Err(e) => {
+                    // A device without float atomics cannot guide: say so and stay.
+                    println!("guiding {}: {e:#}", next.name());
+                    return Ok(());
+                }
+            },
+        };
+        self.current = index;
+        self.display.bind(self.renderers[index].renderer.accumulation());
+        println!("guiding {}", next.name());
+        self.apply_params()?;
+        self.update_inset(true)
+    }
+}
+
+pub(super) fn make_renderer(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    base: &RenderOptions,
+    mode: GuidingMode,
+    field: Option<&(PathBuf, GuideField)>,
+) -> Result<ModeRenderer> {
+    let mut opts = base.clone();
+    opts.guiding = mode;
+    let mut prepared = PreparedScene::new(scene, &opts)?;
+    if let (Some((path, field)), Some(cfg)) = (field, prepared.guide) {
+        if cfg.bins == field.bins {
+            prepared.start_from(field.clone(), path, &opts)?;
+            println!("guiding {}: starts from the learned field {}", mode.name(), path.display());
+        } else {
+            println!(
+                "guiding {}: {} holds {}x{} bins and this mode has {}x{}: it starts from a blank table",
+                mode.name(),
+                path.display(),
+                field.bins.rows,
+                field.bins.cols,
+                cfg.bins.rows,
+                cfg.bins.cols
+            );
+        }
+    }
+    let renderer = GpuRenderer::new(ctx, &prepared)?;
+    Ok(ModeRenderer { mode, prepared, renderer })
+}
