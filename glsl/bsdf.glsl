@@ -67,6 +67,30 @@ vec3 ggx_sample_vndf(vec3 wo, float alpha, vec2 u) {
     return normalize(vec3(alpha * nh.x, alpha * nh.y, max(1e-6, nh.z)));
 }
 
+// src/math/bsdf.rs `ggx_terms`: the GGX reflection lobe's half vector, D, and
+// G1(wo) and G2(wo, wi) sharing Lambda(wo) (glossy, conductor and the coat).
+void ggx_terms(vec3 wo, vec3 wi, float alpha, out vec3 h, out float d, out float g1, out float g2) {
+    h = normalize(wo + wi);
+    d = ggx_d(h, alpha);
+    float lambda_o = ggx_lambda(wo.z, alpha);
+    g1 = 1.0 / (1.0 + lambda_o);
+    g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, alpha));
+}
+
+// src/math/bsdf.rs `ggx_reflection_sample`: a GGX reflection sampled from the
+// visible normals, its half vector, density and G2 / G1(wo); false below the
+// surface (the caller checks the density).
+bool ggx_reflection_sample(vec3 wo, float alpha, vec2 u, out vec3 wi, out vec3 h, out float pdf, out float masking) {
+    h = ggx_sample_vndf(wo, alpha, u);
+    wi = 2.0 * dot(wo, h) * h - wo;
+    pdf = 0.0;
+    masking = 0.0;
+    if (wi.z <= 0.0) return false;
+    pdf = ggx_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
+    masking = ggx_g2(wo.z, wi.z, alpha) / ggx_g1(wo.z, alpha);
+    return true;
+}
+
 float fresnel_dielectric(float cos_i, float eta) {
     cos_i = clamp(cos_i, -1.0, 1.0);
     if (cos_i < 0.0) { eta = 1.0 / eta; cos_i = -cos_i; }
@@ -148,11 +172,9 @@ float coated_coat_chance(Bsdf b, float cos_o) {
 // src/math/bsdf.rs `coated_eval_pdf`: a GGX dielectric coat's reflection plus a
 // Lambertian base seen through it (an approximation; docs/SCENE_FORMAT.md).
 vec3 coated_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
-    vec3 h = normalize(wo + wi);
-    float d = ggx_d(h, b.alpha);
-    float lambda_o = ggx_lambda(wo.z, b.alpha);
-    float g1 = 1.0 / (1.0 + lambda_o);
-    float g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+    vec3 h;
+    float d, g1, g2;
+    ggx_terms(wo, wi, b.alpha, h, d, g1, g2);
     float coat = fresnel_dielectric(dot(wo, h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
     float through = (1.0 - fresnel_dielectric(wo.z, b.ior)) * (1.0 - fresnel_dielectric(wi.z, b.ior));
     float p = coated_coat_chance(b, wo.z);
@@ -172,20 +194,16 @@ vec3 bsdf_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
         return b.albedo / PI;
     }
     if (is_kind(b, MAT_GLOSSY)) {
-        vec3 h = normalize(wo + wi);
-        float d = ggx_d(h, b.alpha);
-        float lambda_o = ggx_lambda(wo.z, b.alpha);
-        float g1 = 1.0 / (1.0 + lambda_o);
-        float g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+        vec3 h;
+        float d, g1, g2;
+        ggx_terms(wo, wi, b.alpha, h, d, g1, g2);
         pdf = g1 * d / (4.0 * wo.z);
         return b.albedo * (d * g2 / (4.0 * wo.z * wi.z));
     }
     if (is_kind(b, MAT_CONDUCTOR) && b.alpha > 0.0) {
-        vec3 h = normalize(wo + wi);
-        float d = ggx_d(h, b.alpha);
-        float lambda_o = ggx_lambda(wo.z, b.alpha);
-        float g1 = 1.0 / (1.0 + lambda_o);
-        float g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+        vec3 h;
+        float d, g1, g2;
+        ggx_terms(wo, wi, b.alpha, h, d, g1, g2);
         pdf = g1 * d / (4.0 * wo.z);
         return b.albedo * fresnel_complex3(dot(wo, h), b.eta, b.k) * (d * g2 / (4.0 * wo.z * wi.z));
     }
@@ -226,11 +244,10 @@ BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
         s.ok = true;
     } else if (is_kind(b, MAT_GLOSSY)) {
         if (wo.z <= 0.0) return s;
-        vec3 h = ggx_sample_vndf(wo, b.alpha, u);
-        s.wi = 2.0 * dot(wo, h) * h - wo;
-        if (s.wi.z <= 0.0) return s;
-        s.pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
-        s.weight = b.albedo * (ggx_g2(wo.z, s.wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
+        vec3 h;
+        float masking;
+        if (!ggx_reflection_sample(wo, b.alpha, u, s.wi, h, s.pdf, masking)) return s;
+        s.weight = b.albedo * masking;
         s.ok = s.pdf > 0.0;
     } else if (is_kind(b, MAT_DIELECTRIC)) {
         float f = fresnel_dielectric(wo.z, b.ior);
@@ -262,12 +279,10 @@ BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
             s.ok = true;
             return s;
         }
-        vec3 h = ggx_sample_vndf(wo, b.alpha, u);
-        s.wi = 2.0 * dot(wo, h) * h - wo;
-        if (s.wi.z <= 0.0) return s;
-        s.pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
-        s.weight = b.albedo * fresnel_complex3(dot(wo, h), b.eta, b.k)
-            * (ggx_g2(wo.z, s.wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
+        vec3 h;
+        float masking;
+        if (!ggx_reflection_sample(wo, b.alpha, u, s.wi, h, s.pdf, masking)) return s;
+        s.weight = b.albedo * fresnel_complex3(dot(wo, h), b.eta, b.k) * masking;
         s.ok = s.pdf > 0.0;
     } else if (is_kind(b, MAT_ROUGH_DIELECTRIC)) {
         if (wo.z == 0.0) return s;

@@ -74,20 +74,11 @@ pub fn bsdf_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
     match b.kind {
         MaterialKind::Diffuse if wo.z > 0.0 && wi.z > 0.0 => (b.albedo / PI, cosine_hemisphere_pdf(wi.z)),
         MaterialKind::Glossy if wo.z > 0.0 && wi.z > 0.0 => {
-            let h = (wo + wi).normalize();
-            let d = ggx_d(h, b.alpha);
-            let lambda_o = ggx_lambda(wo.z, b.alpha);
-            // ggx_g1(wo) and ggx_g2(wo, wi), sharing Lambda(wo).
-            let g1 = 1.0 / (1.0 + lambda_o);
-            let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+            let GgxTerms { d, g1, g2, .. } = ggx_terms(wo, wi, b.alpha);
             (b.albedo * (d * g2 / (4.0 * wo.z * wi.z)), g1 * d / (4.0 * wo.z))
         }
         MaterialKind::Conductor if wo.z > 0.0 && wi.z > 0.0 && b.alpha > 0.0 => {
-            let h = (wo + wi).normalize();
-            let d = ggx_d(h, b.alpha);
-            let lambda_o = ggx_lambda(wo.z, b.alpha);
-            let g1 = 1.0 / (1.0 + lambda_o);
-            let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+            let GgxTerms { h, d, g1, g2 } = ggx_terms(wo, wi, b.alpha);
             let f = fresnel_complex3(wo.dot(h), b.eta, b.k);
             (b.albedo * f * (d * g2 / (4.0 * wo.z * wi.z)), g1 * d / (4.0 * wo.z))
         }
@@ -160,11 +151,7 @@ fn coated_coat_chance(b: &Bsdf, cos_o: f32) -> f32 {
 /// of the base's light by the coat, reflections between coat and base, and
 /// absorption; docs/SCENE_FORMAT.md says so. `glsl/bsdf.glsl` has the twin.
 pub fn coated_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-    let h = (wo + wi).normalize();
-    let d = ggx_d(h, b.alpha);
-    let lambda_o = ggx_lambda(wo.z, b.alpha);
-    let g1 = 1.0 / (1.0 + lambda_o);
-    let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, b.alpha));
+    let GgxTerms { h, d, g1, g2 } = ggx_terms(wo, wi, b.alpha);
     let coat = fresnel_dielectric(wo.dot(h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
     let through = (1.0 - fresnel_dielectric(wo.z, b.ior)) * (1.0 - fresnel_dielectric(wi.z, b.ior));
     let p = coated_coat_chance(b, wo.z);
@@ -207,18 +194,8 @@ pub fn bsdf_sample(b: &Bsdf, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSampl
             if wo.z <= 0.0 {
                 return None;
             }
-            let h = ggx_sample_vndf(wo, b.alpha, u);
-            let wi = reflect(wo, h);
-            if wi.z <= 0.0 {
-                return None;
-            }
-            let pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
-            if !(pdf > 0.0) {
-                return None;
-            }
-            // f cos / pdf = albedo G2 / G1(wo) for VNDF sampling.
-            let weight = b.albedo * (ggx_g2(wo.z, wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
-            Some(BsdfSample { wi, weight, pdf, delta: false })
+            let (wi, _, pdf, masking) = ggx_reflection_sample(wo, b.alpha, u)?;
+            Some(BsdfSample { wi, weight: b.albedo * masking, pdf, delta: false })
         }
         MaterialKind::Dielectric => {
             let f = fresnel_dielectric(wo.z, b.ior);
@@ -244,18 +221,9 @@ pub fn bsdf_sample(b: &Bsdf, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSampl
                     delta: true,
                 });
             }
-            let h = ggx_sample_vndf(wo, b.alpha, u);
-            let wi = reflect(wo, h);
-            if wi.z <= 0.0 {
-                return None;
-            }
-            let pdf = ggx_g1(wo.z, b.alpha) * ggx_d(h, b.alpha) / (4.0 * wo.z);
-            if !(pdf > 0.0) {
-                return None;
-            }
+            let (wi, h, pdf, masking) = ggx_reflection_sample(wo, b.alpha, u)?;
             let f = fresnel_complex3(wo.dot(h), b.eta, b.k);
-            let weight = b.albedo * f * (ggx_g2(wo.z, wi.z, b.alpha) / ggx_g1(wo.z, b.alpha));
-            Some(BsdfSample { wi, weight, pdf, delta: false })
+            Some(BsdfSample { wi, weight: b.albedo * f * masking, pdf, delta: false })
         }
         MaterialKind::RoughDielectric => {
             if wo.z == 0.0 {
@@ -425,6 +393,42 @@ pub fn ggx_g2(cos_o: f32, cos_i: f32, alpha: f32) -> f32 {
 
 /// Samples a microfacet normal from the distribution of normals visible from
 /// `wo` (Heitz 2018, "Sampling the GGX Distribution of Visible Normals").
+/// The GGX reflection lobe's terms for `wo` and `wi` (glossy, conductor and the
+/// coat share them): the half vector, D, and G1(wo) and G2(wo, wi) sharing
+/// Lambda(wo). `glsl/bsdf.glsl` `ggx_terms` is its twin.
+pub struct GgxTerms {
+    pub h: Vec3,
+    pub d: f32,
+    pub g1: f32,
+    pub g2: f32,
+}
+
+pub fn ggx_terms(wo: Vec3, wi: Vec3, alpha: f32) -> GgxTerms {
+    let h = (wo + wi).normalize();
+    let d = ggx_d(h, alpha);
+    let lambda_o = ggx_lambda(wo.z, alpha);
+    let g1 = 1.0 / (1.0 + lambda_o);
+    let g2 = 1.0 / (1.0 + lambda_o + ggx_lambda(wi.z, alpha));
+    GgxTerms { h, d, g1, g2 }
+}
+
+/// A GGX reflection sampled from the visible normals (glossy and conductor lobes):
+/// (wi, the half vector, the density, and G2 / G1(wo), which f cos / pdf is times
+/// the lobe's colour and Fresnel); None below the surface or at density 0.
+/// `glsl/bsdf.glsl` `ggx_reflection_sample` is its twin.
+pub fn ggx_reflection_sample(wo: Vec3, alpha: f32, u: [f32; 2]) -> Option<(Vec3, Vec3, f32, f32)> {
+    let h = ggx_sample_vndf(wo, alpha, u);
+    let wi = reflect(wo, h);
+    if wi.z <= 0.0 {
+        return None;
+    }
+    let pdf = ggx_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    Some((wi, h, pdf, ggx_g2(wo.z, wi.z, alpha) / ggx_g1(wo.z, alpha)))
+}
+
 pub fn ggx_sample_vndf(wo: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
     let vh = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
     let lensq = vh.x * vh.x + vh.y * vh.y;
