@@ -458,18 +458,18 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
 }
 
 impl Importer {
+    /// A reader of the parameters `p` of the directive at `loc`, its notes
+    /// naming `what`.
+    pub(super) fn reader<'a>(&'a mut self, p: &'a Params, loc: &'a Loc, what: String) -> Reader<'a> {
+        Reader { params: p, textures: &self.textures, notes: &mut self.notes, loc, what }
+    }
+
     /// Maps a material, notes what it leaves out, and returns its index.
     pub(super) fn material(&mut self, ty: &str, p: &Params, loc: &Loc, label: &str) -> Result<usize, SceneError> {
         let mut mapped = if ty == "mix" {
             self.mix(p, loc, label)?
         } else {
-            let mut r = Reader {
-                params: p,
-                textures: &self.textures,
-                notes: &mut self.notes,
-                loc,
-                what: format!("material \"{label}\""),
-            };
+            let mut r = self.reader(p, loc, format!("material \"{label}\""));
             map(ty, &mut r)?
         };
         let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
@@ -492,13 +492,7 @@ impl Importer {
             );
         };
         let amount = {
-            let mut r = Reader {
-                params: p,
-                textures: &self.textures,
-                notes: &mut self.notes,
-                loc,
-                what: format!("material \"{label}\""),
-            };
+            let mut r = self.reader(p, loc, format!("material \"{label}\""));
             r.scalar("amount", 0.5)?
         };
         let mut pair = Vec::new();

@@ -8,7 +8,7 @@ use glam::{DMat3, DMat4, DVec3, Vec3};
 
 use super::images;
 use super::lexer::Loc;
-use super::material::{Reader, Texture};
+use super::material::Texture;
 use super::params::Params;
 use super::{AreaLight, Importer, Pending};
 use crate::scene::mesh::{self, Builder, MeshFile, PlaceError};
@@ -196,13 +196,7 @@ impl Importer {
         if ty != "diffuse" {
             return Err(loc.error(format!("unknown area light \"{ty}\"; pbrt's only area light is \"diffuse\"")));
         }
-        let mut r = Reader {
-            params: p,
-            textures: &self.textures,
-            notes: &mut self.notes,
-            loc,
-            what: "AreaLightSource \"diffuse\"".into(),
-        };
+        let mut r = self.reader(p, loc, "AreaLightSource \"diffuse\"".into());
         let l = r.colour("L", Vec3::ONE)?;
         let scale = r.colour("scale", Vec3::ONE)?;
         let two_sided = p.bool("twosided")?.unwrap_or(false);
@@ -273,13 +267,7 @@ impl Importer {
     pub(super) fn light(&mut self, ty: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
         match ty {
             "infinite" => {
-                let mut r = Reader {
-                    params: p,
-                    textures: &self.textures,
-                    notes: &mut self.notes,
-                    loc,
-                    what: "LightSource \"infinite\"".into(),
-                };
+                let mut r = self.reader(p, loc, "LightSource \"infinite\"".into());
                 let l = r.colour("L", Vec3::ONE)?;
                 let scale = r.colour("scale", Vec3::ONE)?;
                 let file = match p.string("filename")? {
@@ -454,13 +442,7 @@ impl Importer {
                 }
             }
             "constant" => {
-                let mut r = Reader {
-                    params: p,
-                    textures: &self.textures,
-                    notes: &mut self.notes,
-                    loc,
-                    what: "Texture \"constant\"".into(),
-                };
+                let mut r = self.reader(p, loc, "Texture \"constant\"".into());
                 let v = r.colour("value", Vec3::ONE)?;
                 Texture { image: None, scale: 1.0, mean: Some(v), loc: loc.clone(), detail: "a constant".into() }
             }
