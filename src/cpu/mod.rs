@@ -559,10 +559,7 @@ impl CpuRenderer {
             (self.learning.as_mut().and_then(|l| l.race.as_mut()), kind, variance)
         {
             if guide::race_weighs(kind, self.frames_traced, guided_before, learning_frames) {
-                match kind {
-                    guide::FrameKind::Guided => race.report_guided(v, trace_ms, learn_ms, period),
-                    guide::FrameKind::Unguided => race.report(kind, v, trace_ms),
-                }
+                race.report_frame(kind, v, trace_ms, learn_ms, period);
             }
         }
         self.film.frames += 1;

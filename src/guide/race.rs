@@ -217,6 +217,16 @@ impl FrameRace {
         self.report(FrameKind::Guided, variance, trace_ms + self.learn_ms / period.max(1) as f64);
     }
 
+    /// Takes in a traced frame of either kind: a guided one as [`Self::report_guided`]
+    /// does (`learn_ms` and `period` are its), an unguided one by its path
+    /// tracing's time.
+    pub fn report_frame(&mut self, kind: FrameKind, variance: f64, trace_ms: f64, learn_ms: Option<f64>, period: u32) {
+        match kind {
+            FrameKind::Guided => self.report_guided(variance, trace_ms, learn_ms, period),
+            FrameKind::Unguided => self.report(kind, variance, trace_ms),
+        }
+    }
+
     /// Takes in a traced image frame: its kind, its relative variance and its time.
     pub fn report(&mut self, kind: FrameKind, variance: f64, ms: f64) {
         let leader = self.leader();

@@ -168,13 +168,8 @@ impl GpuRenderer {
                 if !crate::guide::race_weighs(kind, first + i as u32, guided_before, learning_frames) {
                     continue;
                 }
-                match kind {
-                    FrameKind::Guided => {
-                        let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
-                        race.report_guided(v, trace_ms, learned, l.schedule.learning_period(push.frame));
-                    }
-                    FrameKind::Unguided => race.report(kind, v, trace_ms),
-                }
+                let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
+                race.report_frame(kind, v, trace_ms, learned, l.schedule.learning_period(push.frame));
             }
         }
         Ok(t)
