@@ -81,6 +81,32 @@ pub trait Renderer {
     fn table(&self) -> Result<Option<QTable>, GpuError>;
 }
 
+/// A borrowed renderer renders as its owner: the owner keeps it for what the
+/// session does not ask (a [`crate::render::MultiGpuRenderer`]'s device stats).
+impl<R: Renderer + ?Sized> Renderer for &mut R {
+    fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
+        (**self).render_frame()
+    }
+    fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
+        (**self).render_round(max, time_left_ms)
+    }
+    fn image_frames(&self) -> u32 {
+        (**self).image_frames()
+    }
+    fn film(&self) -> Result<Film, GpuError> {
+        (**self).film()
+    }
+    fn device_name(&self) -> String {
+        (**self).device_name()
+    }
+    fn timestamps(&self) -> bool {
+        (**self).timestamps()
+    }
+    fn table(&self) -> Result<Option<QTable>, GpuError> {
+        (**self).table()
+    }
+}
+
 impl Renderer for CpuRenderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
         CpuRenderer::render_frame(self);
@@ -137,7 +163,8 @@ impl Renderer for GpuRenderer {
 
 /// How much a session may render: at most `frames` frames (the learning frames
 /// counted), and where `time_ms` is set, no frame that would end past it, each
-/// taken to last as long as the frame before (the first frame always runs).
+/// taken to last as long as the frame before (the first frame always runs; a
+/// frame slower than the one before ends past the limit by the difference).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
     pub frames: u32,

@@ -39,7 +39,8 @@ pub(crate) struct RenderArgs {
     guide_out: Option<PathBuf>,
     /// Stop by this much render time (GPU time from timestamps on the GPU, wall clock on
     /// the CPU): no frame starts that would end past it, each judged to last as long as
-    /// the frame before (the first always runs). --spp is then the upper bound.
+    /// the frame before (the first always runs; a slower frame ends past it by the
+    /// difference). --spp is then the upper bound.
     #[arg(long, value_parser = parse_seconds)]
     time: Option<f64>,
     /// Render part K (from 0) of N of the render that --spp asks for: its K-th of N

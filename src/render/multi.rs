@@ -37,6 +37,9 @@ struct Device {
     /// Time of its last frame (timestamps, else wall clock), ms: the time budget
     /// takes its next frame to last as long.
     last_ms: Option<f64>,
+    /// Its slowest frame so far, ms: how far past a time limit a frame slower
+    /// than predicted can end at most.
+    slowest_ms: f64,
     /// Frames it traced and the time they took, ms (`rlpt bench`).
     traced: u32,
     busy_ms: f64,
@@ -64,6 +67,8 @@ pub struct DeviceStats {
     pub frames: u32,
     /// Their time, ms: timestamps where the device has them, else wall clock.
     pub gpu_ms: f64,
+    /// Its slowest frame, ms.
+    pub slowest_frame_ms: f64,
     /// Whether it was lost and dropped from the render.
     pub lost: bool,
 }
@@ -95,7 +100,15 @@ impl MultiGpuRenderer {
         });
         let mut devices = Vec::with_capacity(built.len());
         for (slot, r) in built.into_iter().enumerate() {
-            devices.push(Device { r: r?, slot, image: Vec::new(), last_ms: None, traced: 0, busy_ms: 0.0 });
+            devices.push(Device {
+                r: r?,
+                slot,
+                image: Vec::new(),
+                last_ms: None,
+                slowest_ms: 0.0,
+                traced: 0,
+                busy_ms: 0.0,
+            });
         }
         let learning_frames = devices[0].r.learning_frames();
         let timestamps = devices.iter().all(|d| d.r.context().info.timestamps);
@@ -141,6 +154,7 @@ impl MultiGpuRenderer {
             name: info.name.clone(),
             frames: d.traced,
             gpu_ms: d.busy_ms,
+            slowest_frame_ms: d.slowest_ms,
             lost,
         }
     }
@@ -230,6 +244,7 @@ impl MultiGpuRenderer {
                                     share.frames += 1;
                                     share.zero_paths = t.zero_paths.map(|z| z + share.zero_paths.unwrap_or(0));
                                     d.last_ms = Some(ms);
+                                    d.slowest_ms = d.slowest_ms.max(ms);
                                     d.traced += 1;
                                     d.busy_ms += ms;
                                     if k >= learning_frames {
