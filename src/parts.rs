@@ -60,7 +60,16 @@ impl fmt::Display for Part {
 pub fn settings_hash(params: &RenderParams) -> u64 {
     let mut p = *params;
     p.seed = 0;
-    bytemuck::bytes_of(&p).iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+    fnv1a(bytemuck::bytes_of(&p))
+}
+
+/// FNV-1a of a saved field's file (`--guide-in`): which field a part started from.
+pub fn field_hash(file: &[u8]) -> u64 {
+    fnv1a(file)
+}
+
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
 }
 
 /// What a part's EXR header records (docs/cluster.md, "The part file").
@@ -81,6 +90,9 @@ pub struct PartInfo {
     pub frames: u32,
     /// The guiding mode, in words (`off`, `octant`, `sphere`).
     pub guiding: String,
+    /// [`field_hash`] of the saved field it started from (`--guide-in`); None
+    /// where it learned from nothing.
+    pub guide_in: Option<u64>,
 }
 
 impl PartInfo {
@@ -110,6 +122,7 @@ const ATTR_TOTAL: &str = "rlpt_total_frames";
 const ATTR_FIRST: &str = "rlpt_first_frame";
 const ATTR_FRAMES: &str = "rlpt_frames";
 const ATTR_GUIDING: &str = "rlpt_guiding";
+const ATTR_GUIDE_IN: &str = "rlpt_guide_in";
 /// The variance channels' layer prefix: `variance.R`, `variance.G`, `variance.B`.
 const VARIANCE: &str = "variance";
 
@@ -128,6 +141,7 @@ impl PartImage {
             (ATTR_FIRST, i.first_frame.to_string()),
             (ATTR_FRAMES, i.frames.to_string()),
             (ATTR_GUIDING, i.guiding.clone()),
+            (ATTR_GUIDE_IN, i.guide_in.map_or("none".into(), |h| format!("{h:016x}"))),
         ]
     }
 
@@ -198,6 +212,10 @@ impl PartImage {
             first_frame: dec(ATTR_FIRST)?,
             frames: dec(ATTR_FRAMES)?,
             guiding: get(ATTR_GUIDING)?.clone(),
+            guide_in: match get(ATTR_GUIDE_IN)?.as_str() {
+                "none" => None,
+                v => Some(number(&name, ATTR_GUIDE_IN, v, true)?),
+            },
         };
         let spp: u64 = number(&name, ATTR_SPP, get(ATTR_SPP)?, false)?;
         if spp != info.spp() {
@@ -313,6 +331,17 @@ pub fn merge(parts: &[(PathBuf, PartImage)], allow_missing: bool) -> Result<Merg
         }
         if b.guiding != a.guiding {
             problems.push(format!("{n} was rendered with guiding {} but {f} with guiding {}", b.guiding, a.guiding));
+        }
+        if b.guide_in != a.guide_in {
+            // Each part is unbiased whatever its table started from: merged, but said.
+            let field =
+                |h: Option<u64>| h.map_or("learned from nothing".into(), |h| format!("started from field {h:016x}"));
+            notes.push(format!(
+                "{n} {} but {f} {}: the merged image is unbiased, but the parts of one render \
+                 usually start from one saved field (--guide-in)",
+                field(b.guide_in),
+                field(a.guide_in)
+            ));
         }
         if b.seed != a.seed {
             problems

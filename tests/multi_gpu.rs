@@ -321,3 +321,39 @@ fn render_and_bench_on_two_gpus_from_the_command_line() {
     assert!(report["frames_per_second"].as_f64().unwrap() > 0.0, "{report}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--part` on two GPUs: each part's frames are handed out over the GPUs from its
+/// own range, so the merged parts are the one-GPU unsplit render to rounding.
+#[test]
+fn parts_rendered_on_two_gpus_merge_to_the_one_gpu_render() {
+    let _serial = one_at_a_time();
+    let dir = scratch("parts");
+    let door_toml = door_path();
+    let hook = [("RLPT_TEST_DUPLICATE_GPUS", "1")];
+    let base = ["render", &door_toml, "--width", "20", "--height", "12", "--spp", "640"];
+    let mut parts = Vec::new();
+    for k in 0..2 {
+        let path = dir.join(format!("part-{k}.exr"));
+        let spec = format!("{k}/2");
+        let args = [&base[..], &["--gpus", "0,0", "--part", &spec, "-o", path.to_str().unwrap()]].concat();
+        let o = rlpt(&args, &hook);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("on 2 GPUs"));
+        parts.push(path);
+    }
+    let merged = dir.join("merged.exr");
+    let o =
+        rlpt(&["merge", parts[0].to_str().unwrap(), parts[1].to_str().unwrap(), "-o", merged.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let merged = rlpt::image::Image::load(&merged).unwrap();
+    let (scene, opts) = door(20, 12, 640);
+    let single = render_gpu(&gpu(), &scene, &opts).mean();
+    let worst = merged
+        .pixels
+        .iter()
+        .zip(&single.pixels)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1e-6)))
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 1e-5, "merged two-GPU parts differ from the one-GPU render by {worst} (relative)");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -49,6 +49,7 @@ fn part(p: &PreparedScene, part: Part, total: u32, shift: bool) -> PartImage {
             first_frame: range.start,
             frames: film.frames,
             guiding: "off".into(),
+            guide_in: None,
         },
         mean: film.mean(),
         variance: film.variance_of_mean(),
@@ -177,6 +178,14 @@ fn merge_refuses_parts_that_do_not_belong_together() {
     parts[2].1.info.part = Part { index: 2, count: 3 };
     parts[2].1.info.first_frame = 3;
     one(parts, &["part-1.exr (frames 2..4) and part-2.exr (frames 3..5) overlap"]);
+
+    // Parts that started from different fields are each unbiased: merged, with a note.
+    let mut parts = good();
+    parts[1].1.info.guide_in = Some(0xfe1d);
+    let merged = merge(&parts, false).expect("parts from different fields merge");
+    let said = "part-1.exr started from field 000000000000fe1d but part-0.exr learned from nothing";
+    assert!(merged.notes.iter().any(|n| n.contains(said)), "{:?}", merged.notes);
+    assert!(merge(&good(), false).unwrap().notes.is_empty());
 
     let mut parts = good();
     parts.remove(1);
@@ -342,7 +351,9 @@ fn guided_parts_from_one_field_merge_to_the_image() {
         let spec = format!("{k}/2");
         let part = ["render", "--guiding", "sphere", "--guide-in", s(&field), "--spp", "512", "--part", &spec];
         run(&[&part[..], &base[..], &["-o", s(&path)]].concat()).unwrap();
-        assert_eq!(PartImage::load(&path).unwrap().info.guiding, "sphere");
+        let info = PartImage::load(&path).unwrap().info;
+        assert_eq!(info.guiding, "sphere");
+        assert_eq!(info.guide_in, Some(rlpt::parts::field_hash(&std::fs::read(&field).unwrap())));
         parts.push(path);
     }
     let (merged, merged_var) = (tmp("guided-merged.exr"), tmp("guided-merged-var.exr"));

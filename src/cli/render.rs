@@ -165,8 +165,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         );
     }
     let mut prepared = PreparedScene::new(&scene, &opts)?;
+    let mut guide_in = None;
     if let Some(path) = &args.guide_in {
         prepared.start_from(GuideField::load(path)?, path, &opts)?;
+        let file = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        guide_in = Some(rlpt::parts::field_hash(&file));
     }
     if prepared.guide.is_none() {
         if let Some(path) = &args.guide_out {
@@ -256,6 +259,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
                 // Cut short within the learning frames, the film holds no image frame.
                 frames: if traced > learning_frames { film.frames } else { 0 },
                 guiding: opts.guiding.name().into(),
+                guide_in,
             };
             let variance = film.variance_of_mean();
             if variance.is_none() {
