@@ -101,6 +101,9 @@
 // slots (pathtrace.comp `add_frame_variance`), for the guided renders' choice
 // between guided and unguided frames (src/guide/race.rs).
 #define FLAG_FRAME_VARIANCE 512
+// The guiding grid's cells subdivide where paths record many targets
+// (src/guide/tree.rs, guide.glsl `cell_index`, learn.comp `refine`).
+#define FLAG_ADAPTIVE_GRID 1024
 
 // The samplers' dimension layout (sampler.glsl, docs/sampling.md): the camera's
 // jitter takes dimensions 0 and 1; the vertex of depth d takes SAMPLER_BOUNCE_DIMS
@@ -283,6 +286,16 @@
 // learned one times n / (n + FRACTION_EVIDENCE_PER_BIN * bins), n the targets
 // its entries have taken (src/guide/fraction.rs `evidence_weight`).
 #define FRACTION_EVIDENCE_PER_BIN 16
+// The adaptive grid (src/guide/tree.rs): per cell a CellNode (first child, 0 for
+// a leaf; depth; the targets its entries had taken at the last rebuild of its
+// rows, as float bits; unused), then one word: the cells in use. A leaf splits
+// into 8 children when those targets reach SPLIT_TARGETS_PER_BIN * bins and its
+// depth is below GUIDE_TREE_DEPTH, while the table has room for them.
+#define BINDING_GUIDE_TREE 25
+#define GUIDE_TREE_DEPTH 3
+#define SPLIT_TARGETS_PER_BIN 128
+// learn.comp's refine phase: one workgroup of this many invocations.
+#define REFINE_GROUP 64
 // Which paths hand their Q-learning targets to the table (src/guide/mod.rs
 // `RecordSchedule`): all of them in the first RECORD_ALL_FRAMES frames, then those
 // of one pixel row in a stride, a different row each frame. The stride starts at

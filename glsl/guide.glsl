@@ -21,6 +21,9 @@ layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uve
 // it is unlearned; src/guide/table.rs `QTable::fractions`.
 layout(std430, set = 0, binding = BINDING_FRACTIONS) readonly buffer Fractions { float row_fractions[]; };
 layout(std430, set = 0, binding = BINDING_ROWS_READ) buffer RowsRead { uint rows_read[]; };
+// Per cell (first child, depth, targets, unused), then the cells in use;
+// src/guide/tree.rs `CellNode`.
+layout(std430, set = 0, binding = BINDING_GUIDE_TREE) readonly buffer GuideTree { uvec4 cell_tree[]; };
 
 #ifdef RLPT_SPECIALIZED
 // The table's shape as specialization constants: bin and cell arithmetic by
@@ -31,8 +34,12 @@ layout(constant_id = SPEC_GUIDE_RES_X) const uint GUIDE_RES_X = 1u;
 layout(constant_id = SPEC_GUIDE_RES_Y) const uint GUIDE_RES_Y = 1u;
 layout(constant_id = SPEC_GUIDE_RES_Z) const uint GUIDE_RES_Z = 1u;
 const uint GUIDE_BINS = GUIDE_ROWS * GUIDE_COLS;
-const uint GUIDE_ENTRIES = GUIDE_RES_X * GUIDE_RES_Y * GUIDE_RES_Z * GUIDE_BINS;
+// The includer declares FLAGS, the specialized params.flags.
+const bool GUIDE_ADAPTIVE = (FLAGS & FLAG_ADAPTIVE_GRID) != 0u;
+// An adaptive grid's table holds more cells than the grid: params.guide_cells.
+#define GUIDE_ENTRIES (GUIDE_ADAPTIVE ? params.guide_cells * GUIDE_BINS : GUIDE_RES_X * GUIDE_RES_Y * GUIDE_RES_Z * GUIDE_BINS)
 #else
+#define GUIDE_ADAPTIVE ((params.flags & FLAG_ADAPTIVE_GRID) != 0u)
 #define GUIDE_ROWS params.guide_rows
 #define GUIDE_COLS params.guide_cols
 #define GUIDE_RES_X params.guide_res_x
@@ -102,12 +109,25 @@ uint normal_class(vec3 n) {
 // The first bin of the sampling row for a cell and a normal class.
 uint sampler_row(uint cell, uint class_) { return (cell * NORMAL_CLASSES + class_) * GUIDE_BINS; }
 
+// src/guide/tree.rs `cell_in_tree`: the grid's cell holding p, then, where the
+// grid is adaptive, down the cell tree by octant, p taken in the cell's unit cube.
 uint cell_index(vec3 p) {
     vec3 g = (p - params.guide_min.xyz) * params.guide_inv_cell.xyz;
     uint x = min(uint(max(g.x, 0.0)), GUIDE_RES_X - 1u);
     uint y = min(uint(max(g.y, 0.0)), GUIDE_RES_Y - 1u);
     uint z = min(uint(max(g.z, 0.0)), GUIDE_RES_Z - 1u);
-    return (z * GUIDE_RES_Y + y) * GUIDE_RES_X + x;
+    uint cell = (z * GUIDE_RES_Y + y) * GUIDE_RES_X + x;
+    if (GUIDE_ADAPTIVE) {
+        vec3 f = clamp(g - vec3(x, y, z), vec3(0.0), vec3(1.0));
+        for (uint d = 0u; d < GUIDE_TREE_DEPTH; ++d) {
+            uint first = cell_tree[cell].x;
+            if (first == 0u) break;
+            uvec3 o = uvec3(greaterThanEqual(f, vec3(0.5)));
+            cell = first + o.x + 2u * o.y + 4u * o.z;
+            f = f * 2.0 - vec3(o);
+        }
+    }
+    return cell;
 }
 
 // src/guide/mod.rs `guided_direction`: the column of the row's alias table

@@ -13,6 +13,8 @@
 // first `cells` invocations also take one Adam step on their cell's fraction
 // from the gradients summed after the table's entries (`FractionState::step`),
 // and phase 1 writes each row's fraction (`QTable::learn`).
+// Phase 2, where the grid is adaptive, between the two (one group): the leaves
+// that have learned enough split (`refine`, src/guide/tree.rs `QTable::refine`).
 #include "common.glsl"
 #include "sampling.glsl"
 
@@ -34,7 +36,10 @@ layout(std430, set = 0, binding = 5) buffer Fractions { float row_fractions[]; }
 // Per cell: theta, Adam's m and v, steps (`FractionState`).
 layout(std430, set = 0, binding = 6) buffer FractionStates { vec4 fraction_states[]; };
 // Per sampling row: 1 once a recording path read it (`QTable::rows_read`).
-layout(std430, set = 0, binding = 7) readonly buffer RowsRead { uint rows_read[]; };
+layout(std430, set = 0, binding = 7) buffer RowsRead { uint rows_read[]; };
+// Per cell (first child, depth, targets bits, unused), then the cells in use
+// (src/guide/tree.rs `CellNode`).
+layout(std430, set = 0, binding = 8) buffer CellTree { uvec4 cell_tree[]; };
 layout(push_constant) uniform Push {
     uint phase;
     uint entries;
@@ -46,6 +51,7 @@ layout(push_constant) uniform Push {
     float start_fraction;  // fixed, or each cell's start where learn_fraction
     uint learn_fraction;
     float rate_exponent;  // omega of Q's learning rate 1 / i^omega
+    uint adaptive;        // the grid's cells split (FLAG_ADAPTIVE_GRID)
 } push;
 
 // src/guide/mod.rs `batch_rate`: the weight with which c targets move an entry
@@ -215,6 +221,8 @@ void build_row(uint i) {
         qc += q * w;
         c += w;
     }
+    // Each of the cell's rows read writes the same sum (QTable::learn's order).
+    if (push.adaptive != 0u) cell_tree[cell].z = floatBitsToUint(targets);
     float q_floor = c > 0.0 ? push.floor_factor * qc / c : 0.0;
     float total = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
@@ -236,6 +244,60 @@ void build_row(uint i) {
     }
 }
 
+// src/guide/tree.rs `QTable::split_cell`: the 8 children of `cell` from `first` on
+// start from its Q, an eighth of its visits and targets, its fraction's state and
+// its rows read; its own rows are no longer read.
+void split_cell(uint cell, uint first) {
+    uvec4 parent = cell_tree[cell];
+    cell_tree[cell].x = first;
+    uint n = push.bins;
+    for (uint child = first; child < first + 8u; ++child) {
+        cell_tree[child] = uvec4(0u, parent.y + 1u, floatBitsToUint(uintBitsToFloat(parent.z) * 0.125), 0u);
+        for (uint b = 0u; b < n; ++b) {
+            q_table[child * n + b] = q_table[cell * n + b];
+            visits[child * n + b] = visits[cell * n + b] / 8u;
+        }
+        fraction_states[child] = fraction_states[cell];
+        for (uint c = 0u; c < NORMAL_CLASSES; ++c) rows_read[child * NORMAL_CLASSES + c] = rows_read[cell * NORMAL_CLASSES + c];
+    }
+    for (uint c = 0u; c < NORMAL_CLASSES; ++c) rows_read[cell * NORMAL_CLASSES + c] = 0u;
+}
+
+// Phase 2, one group of REFINE_GROUP: src/guide/tree.rs `QTable::refine`. The
+// cells in use at the start are taken REFINE_GROUP at a time; those that split
+// take 8 cells each in cell order (an exclusive scan of the group), as many as
+// fit the table.
+shared uint refine_scan[REFINE_GROUP];
+void refine() {
+    uint lid = gl_LocalInvocationID.x;
+    uint capacity = push.cells;
+    uint used = cell_tree[capacity].x;
+    uint end = used;
+    float threshold = float(SPLIT_TARGETS_PER_BIN * push.bins);
+    for (uint start = 0u; start < end; start += REFINE_GROUP) {
+        uint cell = start + lid;
+        bool splits = false;
+        if (cell < end) {
+            uvec4 node = cell_tree[cell];
+            splits = node.x == 0u && node.y < GUIDE_TREE_DEPTH && uintBitsToFloat(node.z) >= threshold;
+        }
+        refine_scan[lid] = splits ? 1u : 0u;
+        barrier();
+        for (uint offset = 1u; offset < REFINE_GROUP; offset *= 2u) {
+            uint v = lid >= offset ? refine_scan[lid - offset] : 0u;
+            barrier();
+            refine_scan[lid] += v;
+            barrier();
+        }
+        uint total = refine_scan[REFINE_GROUP - 1u];
+        uint first = used + 8u * (refine_scan[lid] - (splits ? 1u : 0u));
+        if (splits && first + 8u <= capacity) split_cell(cell, first);
+        used += 8u * min(total, (capacity - used) / 8u);
+        barrier();
+    }
+    if (lid == 0u) cell_tree[capacity].x = used;
+}
+
 // Dispatches are capped at LEARN_MAX_GROUPS, which every device takes, so an
 // invocation steps through the work a whole dispatch apart.
 void main() {
@@ -244,6 +306,8 @@ void main() {
     if (push.phase == 0u) {
         // Every cell is an entry's index too (cells <= entries).
         for (uint i = gl_GlobalInvocationID.x; i < push.entries; i += stride) fold(i);
+    } else if (push.phase == 2u) {
+        refine();
     } else {
         uint n = push.cells * NORMAL_CLASSES;
         for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) build_row(i);

@@ -12,13 +12,13 @@
 #include "geometry.glsl"
 #include "camera.glsl"
 #include "reduce.glsl"
+// params.flags and params.max_bounces, fixed for the pipeline (the renderer
+// builds a new one when they change). FLAGS before guide.glsl, which reads it.
+layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 #ifdef RLPT_GUIDING
 #include "guide.glsl"
 #endif
 
-// params.flags and params.max_bounces, fixed for the pipeline (the renderer
-// builds a new one when they change).
-layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
 layout(constant_id = SPEC_RECORDING) const bool RECORDING = false;
 // src/guide/mod.rs `guided_vertices`: guided sampling at vertices of depth below it.

@@ -203,6 +203,12 @@ struct Settings {
     /// frame [default: never].
     #[arg(long, value_enum)]
     unguided_frames: Option<rlpt::guide::UnguidedFrames>,
+    /// The guiding grid's cells: `uniform`, or `adaptive`, half as many along each
+    /// axis, each splitting into 8 (three times at most) where paths record many
+    /// targets, within the uniform grid's memory (docs/guiding.md, "Adaptive cells")
+    /// [default: the scene's `[guiding] grid`, else uniform].
+    #[arg(long, value_enum)]
+    guide_grid: Option<rlpt::guide::GridKind>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
     /// counts the emission met with the MIS weight the image gives it and adds the light
     /// sample at the vertex met, so that guided directions seek what light sampling
@@ -247,6 +253,7 @@ impl Settings {
         opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
         opts.learning_frames = self.learning_frames;
         opts.unguided_frames = self.unguided_frames.unwrap_or_default();
+        opts.guide_grid = self.guide_grid;
         opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
         opts.sampler = self.sampler;
         opts
@@ -272,6 +279,7 @@ impl Settings {
                 ("--exploration-floor", self.exploration_floor.is_some()),
                 ("--learning-frames", self.learning_frames.is_some()),
                 ("--unguided-frames", self.unguided_frames.is_some()),
+                ("--guide-grid", self.guide_grid.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
             ];
             for (flag, _) in given.iter().filter(|(_, g)| *g) {

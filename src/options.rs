@@ -68,6 +68,9 @@ pub struct RenderOptions {
     /// Whether a guided render's image frames may be traced unguided, frame by
     /// frame, where that gives the image more for its time ([`guide::FrameRace`]).
     pub unguided_frames: guide::UnguidedFrames,
+    /// Uniform or adaptive guiding cells, over the scene's `[guiding] grid`
+    /// (None: the scene's, else uniform; [`guide::GridKind`]).
+    pub guide_grid: Option<guide::GridKind>,
     /// What Q-learning targets count of the light their rays meet where NEE is on
     /// ([`guide::QTargets`]; `FLAG_MIS_TARGETS`).
     pub q_targets: guide::QTargets,
@@ -123,6 +126,7 @@ impl RenderOptions {
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             learning_frames: None,
             unguided_frames: guide::UnguidedFrames::Never,
+            guide_grid: None,
             q_targets: guide::QTargets::Mis,
             guided_vertices: None,
             counters: Counters::Off,

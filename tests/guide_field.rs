@@ -147,9 +147,17 @@ fn fields_that_do_not_fit_are_refused_with_the_reason() {
     long.extend_from_slice(&[0, 0, 0]);
     damaged("long", long, "3 bytes after the table");
     let mut nan = bytes.clone();
-    let q0 = 8 + 4 + 8 + 24 + 20;
+    let q0 = 8 + 4 + 8 + 24 + 28;
     nan[q0..q0 + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     damaged("nan", nan, "Q entry 0 is NaN");
+    // The cells in use beyond the table's; a tree node whose children lie outside those in use.
+    let mut used = bytes.clone();
+    used[q0 - 4..q0].copy_from_slice(&(field.grid.capacity + 1).to_le_bytes());
+    damaged("used", used, "table shape");
+    let mut node = bytes.clone();
+    let last_node = bytes.len() - 16;
+    node[last_node..last_node + 4].copy_from_slice(&field.grid.capacity.to_le_bytes());
+    damaged("node", node, "points outside the");
     let e = GuideField::load(&tmp("missing.qtab")).unwrap_err().to_string();
     assert!(e.contains("cannot read the learned field") && e.contains("missing.qtab"), "{e}");
     drop(prepared);

@@ -363,6 +363,8 @@ fn guiding_pieces_are_valid() {
         "[guiding]\nresolution = [8, 8, 8]\n",
         "[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\n",
         "[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\nresolution = [64, 64, 64]\n",
+        "[guiding]\ngrid = \"uniform\"\n",
+        "[guiding]\ngrid = \"adaptive\"\nresolution = [8, 8, 8]\n",
     ] {
         Scene::parse(&with_render(guiding), "good.toml").unwrap();
     }
@@ -371,7 +373,19 @@ fn guiding_pieces_are_valid() {
 #[test]
 fn unknown_key_in_guiding() {
     let text = with_render("[guiding]\nresolution = [8, 8, 8]\ncells = 512\n");
-    expect(&text, "3:1", &["[guiding]: unknown key `cells`", "expected one of bounds_min, bounds_max, resolution"]);
+    expect(
+        &text,
+        "3:1",
+        &["[guiding]: unknown key `cells`", "expected one of bounds_min, bounds_max, resolution, grid"],
+    );
+}
+
+#[test]
+fn guiding_grid_kind_is_uniform_or_adaptive() {
+    let text = with_render("[guiding]\ngrid = \"octree\"\n");
+    expect(&text, "2:8", &["[guiding]: key `grid` must be \"uniform\" or \"adaptive\", found \"octree\""]);
+    let text = with_render("[guiding]\ngrid = 2\n");
+    expect(&text, "2:8", &["[guiding]: key `grid` must be \"uniform\" or \"adaptive\", found"]);
 }
 
 #[test]

@@ -390,7 +390,7 @@ fn up_is_kept_as_written() {
 #[test]
 fn guiding_table_is_read() {
     let text = format!(
-        "{MINIMAL}\n[guiding]\nbounds_min = [-1, -2.5, 0]\nbounds_max = [1e2, 3, 0.25]\nresolution = [8, 16, 0x20]\n"
+        "{MINIMAL}\n[guiding]\nbounds_min = [-1, -2.5, 0]\nbounds_max = [1e2, 3, 0.25]\nresolution = [8, 16, 0x20]\ngrid = \"adaptive\"\n"
     );
     let scene = Scene::parse(&text, "t").unwrap();
     assert_eq!(
@@ -399,6 +399,7 @@ fn guiding_table_is_read() {
             bounds_min: Some(Vec3::new(-1.0, -2.5, 0.0)),
             bounds_max: Some(Vec3::new(100.0, 3.0, 0.25)),
             resolution: Some([8, 16, 32]),
+            grid: Some(rlpt::guide::GridKind::Adaptive),
         }
     );
     // The rest of the scene is what it was without the table.
@@ -410,7 +411,7 @@ fn guiding_table_is_read() {
 fn no_guiding_table_means_all_automatic() {
     let scene = Scene::parse(MINIMAL, "t").unwrap();
     assert_eq!(scene.guiding, GuidingSettings::default());
-    assert_eq!(scene.guiding, GuidingSettings { bounds_min: None, bounds_max: None, resolution: None });
+    assert_eq!(scene.guiding, GuidingSettings { bounds_min: None, bounds_max: None, resolution: None, grid: None });
     let empty = Scene::parse(&format!("[guiding]\n{MINIMAL}"), "t").unwrap();
     assert_eq!(empty.guiding, GuidingSettings::default());
 }
@@ -436,7 +437,7 @@ fn guiding_keys_are_independent() {
         Scene::parse(&format!("[guiding]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\n{MINIMAL}"), "t").unwrap();
     assert_eq!(
         only_bounds.guiding,
-        GuidingSettings { bounds_min: Some(Vec3::ZERO), bounds_max: Some(Vec3::ONE), resolution: None }
+        GuidingSettings { bounds_min: Some(Vec3::ZERO), bounds_max: Some(Vec3::ONE), resolution: None, grid: None }
     );
 }
 
@@ -476,6 +477,7 @@ fn guiding_example_of_the_format_document_loads() {
             bounds_min: Some(Vec3::new(1.0, 0.0, 0.0)),
             bounds_max: Some(Vec3::new(99.0, 81.6, 170.0)),
             resolution: Some([16, 13, 28]),
+            grid: None,
         }
     );
 }

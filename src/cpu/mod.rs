@@ -41,12 +41,20 @@ pub struct Guide<'a> {
     pub rows: &'a [guide::AliasBin],
     /// The guided fraction of each sampling row, 0 where it is unlearned ([`QTable::fractions`]).
     pub fractions: &'a [f32],
+    /// The adaptive grid's tree ([`QTable::nodes`]), empty for a uniform grid.
+    pub nodes: &'a [guide::CellNode],
 }
 
 impl<'a> Guide<'a> {
     /// The guiding state of a learned table.
     pub fn new(cfg: &'a GuideConfig, table: &'a QTable) -> Guide<'a> {
-        Guide { cfg, q: &table.q, rows: &table.rows, fractions: &table.fractions }
+        let nodes = if cfg.grid.adaptive() { &table.nodes[..] } else { &[] };
+        Guide { cfg, q: &table.q, rows: &table.rows, fractions: &table.fractions, nodes }
+    }
+
+    /// The table's cell holding `p` (`glsl/guide.glsl` `cell_index`).
+    pub fn cell(&self, p: Vec3) -> u32 {
+        guide::cell_in_tree(&self.cfg.grid, self.nodes, p)
     }
 }
 
@@ -146,7 +154,7 @@ pub fn trace_path(
         let mut sampler: &[guide::AliasBin] = &[];
         let mut row_fraction = 0.0f32;
         if let Some(g) = guide {
-            let (cell, bins) = (g.cfg.grid.cell(hit.p), g.cfg.bins.count());
+            let (cell, bins) = (g.cell(hit.p), g.cfg.bins.count());
             cell_key = cell * bins;
             let row = guide::sampler_row(cell, guide::normal_class(n), bins);
             sampler = &g.rows[row..row + bins as usize];

@@ -3,8 +3,9 @@
 //! render, an animation's frames, a split render's parts).
 //!
 //! The file: the magic `RLPTQTAB`, the format version, the hash of the scene's
-//! geometry, materials and lights ([`scene_hash`]), the grid and the bins, then
-//! Q, visits, the cells' fraction states and the rows read, all little-endian.
+//! geometry, materials and lights ([`scene_hash`]), the grid, the bins, the
+//! table's cells and those in use, then Q, visits, the cells' fraction states,
+//! the rows read and the cells' tree nodes, all little-endian.
 //! The sampling rows are not stored: they are rebuilt from Q on load, as the
 //! table's learning pass builds them.
 
@@ -13,7 +14,7 @@ use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"RLPTQTAB";
 /// The format's version; a file of another is refused.
-pub const FIELD_VERSION: u32 = 1;
+pub const FIELD_VERSION: u32 = 2;
 
 /// A learned table with the shape it was learned in.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,6 +27,9 @@ pub struct GuideField {
     pub visits: Vec<u32>,
     pub fraction_states: Vec<FractionState>,
     pub rows_read: Vec<bool>,
+    /// The adaptive grid's tree ([`QTable::nodes`], [`QTable::used_cells`]).
+    pub nodes: Vec<CellNode>,
+    pub used_cells: u32,
 }
 
 /// Why a field could not be saved, loaded or used: one sentence naming the file.
@@ -63,6 +67,8 @@ impl GuideField {
             visits: table.visits.clone(),
             fraction_states: table.fraction_states.clone(),
             rows_read: table.rows_read.clone(),
+            nodes: table.nodes.clone(),
+            used_cells: table.used_cells,
         }
     }
 
@@ -81,6 +87,8 @@ impl GuideField {
         t.visits.clone_from(&self.visits);
         t.fraction_states.clone_from(&self.fraction_states);
         t.rows_read.clone_from(&self.rows_read);
+        t.nodes.clone_from(&self.nodes);
+        t.used_cells = self.used_cells;
         t.learn(cfg, &FrameSums::for_config(cfg));
         t
     }
@@ -94,7 +102,8 @@ impl GuideField {
         for v in self.grid.min.to_array().into_iter().chain(self.grid.max.to_array()) {
             out.extend_from_slice(&v.to_le_bytes());
         }
-        for v in self.grid.res.into_iter().chain([self.bins.rows, self.bins.cols]) {
+        let shape = [self.bins.rows, self.bins.cols, self.grid.capacity, self.used_cells];
+        for v in self.grid.res.into_iter().chain(shape) {
             out.extend_from_slice(&v.to_le_bytes());
         }
         self.q.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
@@ -105,6 +114,7 @@ impl GuideField {
             }
         }
         out.extend(self.rows_read.iter().map(|&r| r as u8));
+        out.extend_from_slice(bytemuck::cast_slice(&self.nodes));
         std::fs::write(path, out)
             .map_err(|e| FieldError(format!("cannot write the learned field {}: {e}", path.display())))
     }
@@ -131,25 +141,30 @@ impl GuideField {
         for v in &mut f {
             *v = r.f32().ok_or_else(short)?;
         }
-        let mut u = [0u32; 5];
+        let mut u = [0u32; 7];
         for v in &mut u {
             *v = r.u32().ok_or_else(short)?;
         }
-        let grid = Grid { min: Vec3::new(f[0], f[1], f[2]), max: Vec3::new(f[3], f[4], f[5]), res: [u[0], u[1], u[2]] };
+        let (min, max) = (Vec3::new(f[0], f[1], f[2]), Vec3::new(f[3], f[4], f[5]));
+        let grid = Grid { min, max, res: [u[0], u[1], u[2]], capacity: u[5] };
         let bins = Bins { rows: u[3], cols: u[4] };
+        let used_cells = u[6];
+        let roots = grid.res.iter().try_fold(1u64, |a, &n| a.checked_mul(n as u64));
         let bad_shape = !(f.iter().all(|v| v.is_finite()) && grid.min.cmplt(grid.max).all())
             || grid.res.contains(&0)
             || bins.rows == 0
             || bins.cols == 0
-            || bins.rows as u64 * bins.cols as u64 > Bins::MAX_COUNT;
-        let cells = grid.res.iter().try_fold(1u64, |a, &n| a.checked_mul(n as u64));
+            || bins.rows as u64 * bins.cols as u64 > Bins::MAX_COUNT
+            || roots.is_none_or(|n| n > grid.capacity as u64 || n > used_cells as u64)
+            || used_cells > grid.capacity;
+        let cells = Some(grid.capacity as u64);
         let fits =
             |c: u64| c.checked_mul(bins.rows as u64 * bins.cols as u64 * 8).is_some_and(|n| n <= bytes.len() as u64);
         let Some(cells) = cells.filter(|&c| !bad_shape && fits(c)) else {
             return Err(FieldError(format!(
-                "{name}: its header's table shape (grid {:?} over {} to {}, {}x{} bins) is not one rlpt writes, or \
-                 larger than the file",
-                grid.res, grid.min, grid.max, bins.rows, bins.cols
+                "{name}: its header's table shape (grid {:?} over {} to {}, {}x{} bins, {} cells of which {used_cells} \
+                 in use) is not one rlpt writes, or larger than the file",
+                grid.res, grid.min, grid.max, bins.rows, bins.cols, grid.capacity
             )));
         };
         let (cells, entries) = (cells as usize, cells as usize * bins.count() as usize);
@@ -160,6 +175,8 @@ impl GuideField {
             .collect::<Option<Vec<_>>>()
             .ok_or_else(short)?;
         let rows_read = r.take(cells * NORMAL_CLASSES as usize).ok_or_else(short)?.iter().map(|&b| b != 0).collect();
+        let node_bytes = r.take(cells * std::mem::size_of::<CellNode>()).ok_or_else(short)?;
+        let nodes: Vec<CellNode> = bytemuck::pod_collect_to_vec(node_bytes);
         if r.at != bytes.len() {
             return Err(FieldError(format!(
                 "{name} has {} bytes after the table its header describes",
@@ -169,7 +186,19 @@ impl GuideField {
         if let Some(i) = q.iter().position(|v| !v.is_finite() || *v < 0.0) {
             return Err(FieldError(format!("{name}: Q entry {i} is {}, not a finite radiance", q[i])));
         }
-        Ok(GuideField { scene_hash, grid, bins, q, visits, fraction_states, rows_read })
+        // A child outside the cells in use would send the lookup out of the table.
+        let roots = grid.cells();
+        let bad_node = nodes.iter().position(|n| {
+            n.depth > shared::GUIDE_TREE_DEPTH
+                || (n.first_child != 0 && (n.first_child < roots || n.first_child as u64 + 8 > used_cells as u64))
+        });
+        if let Some(i) = bad_node {
+            return Err(FieldError(format!(
+                "{name}: cell {i}'s tree node ({:?}) points outside the {used_cells} cells in use",
+                nodes[i]
+            )));
+        }
+        Ok(GuideField { scene_hash, grid, bins, q, visits, fraction_states, rows_read, nodes, used_cells })
     }
 
     /// Refuses the field where it was learned on another scene than the one of

@@ -3,17 +3,57 @@
 
 use super::*;
 
+/// Whether the grid's cells split where paths teach them (`--guide-grid`,
+/// `[guiding] grid`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum GridKind {
+    /// Cells of one size.
+    #[default]
+    #[value(help = "cells of one size")]
+    Uniform,
+    /// Half the cells along each axis, each splitting into 8 (three times at most)
+    /// where paths record many targets, in the table of the uniform grid.
+    #[value(help = "coarser cells that split where paths record many targets, in the same memory")]
+    Adaptive,
+}
+
+impl GridKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            GridKind::Uniform => "uniform",
+            GridKind::Adaptive => "adaptive",
+        }
+    }
+}
+
 /// The voxel grid whose cells are the states.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grid {
     pub min: Vec3,
     pub max: Vec3,
     pub res: [u32; 3],
+    /// Cells the table holds: [`cells`](Self::cells) for a uniform grid; where
+    /// more, the grid is adaptive and its cells split into 8 as paths teach them,
+    /// until the table is full (`tree.rs`).
+    pub capacity: u32,
 }
 
 impl Grid {
+    /// The grid's own cells (the tree's roots where it is adaptive).
     pub fn cells(&self) -> u32 {
         self.res[0] * self.res[1] * self.res[2]
+    }
+
+    /// Whether cells split ([`QTable::refine`]).
+    pub fn adaptive(&self) -> bool {
+        self.capacity > self.cells()
+    }
+
+    /// The adaptive grid that takes the memory of this uniform one: half its
+    /// cells along each axis (rounded up), the same cells in the table.
+    pub fn adaptive_of(self) -> Grid {
+        let res = self.res.map(|n| n.div_ceil(2));
+        Grid { res, ..self }
     }
 
     /// Cells per unit length along each axis.
@@ -21,13 +61,10 @@ impl Grid {
         Vec3::new(self.res[0] as f32, self.res[1] as f32, self.res[2] as f32) / (self.max - self.min)
     }
 
-    /// The cell containing `p`; points outside the box use the nearest cell.
-    /// `glsl/guide.glsl` `cell_index`.
+    /// The grid's cell containing `p`; points outside the box use the nearest
+    /// cell. Where the grid is adaptive, [`cell_in_tree`] goes on down the tree.
     pub fn cell(&self, p: Vec3) -> u32 {
-        let g = (p - self.min) * self.inv_cell_size();
-        let clampi = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
-        let (x, y, z) = (clampi(g.x, self.res[0]), clampi(g.y, self.res[1]), clampi(g.z, self.res[2]));
-        (z * self.res[1] + y) * self.res[0] + x
+        cell_in_tree(self, &[], p)
     }
 
     /// The grid of a scene: the `[guiding]` table where it says so; otherwise the
@@ -44,7 +81,11 @@ impl Grid {
             let n = |x: f32| ((16.0 * x / longest).round() as u32).clamp(1, 16);
             [n(e.x), n(e.y), n(e.z)]
         });
-        Grid { min, max, res }
+        let grid = Grid { min, max, res, capacity: res[0] * res[1] * res[2] };
+        match settings.grid.unwrap_or_default() {
+            GridKind::Uniform => grid,
+            GridKind::Adaptive => grid.adaptive_of(),
+        }
     }
 }
 

@@ -77,6 +77,7 @@ mod record;
 mod roulette;
 mod sampler;
 mod table;
+mod tree;
 
 pub use bins::*;
 pub use field::*;
@@ -87,6 +88,7 @@ pub use record::*;
 pub use roulette::*;
 pub use sampler::*;
 pub use table::*;
+pub use tree::*;
 
 /// Which guiding, if any (`--guiding`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -184,13 +186,18 @@ pub struct GuideConfig {
 }
 
 impl GuideConfig {
+    /// Cells of the table: the grid's, or where it is adaptive, all it may split into.
+    pub fn cells(&self) -> u32 {
+        self.grid.capacity
+    }
+
     pub fn entries(&self) -> usize {
-        (self.grid.cells() * self.bins.count()) as usize
+        (self.cells() * self.bins.count()) as usize
     }
 
     /// Sampling rows of the table: [`NORMAL_CLASSES`] per cell.
     pub fn sampling_rows(&self) -> usize {
-        self.grid.cells() as usize * NORMAL_CLASSES as usize
+        self.cells() as usize * NORMAL_CLASSES as usize
     }
 }
 

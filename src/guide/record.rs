@@ -151,7 +151,7 @@ impl FrameSums {
     }
     /// Empty sums for a table of `cfg`'s shape.
     pub fn for_config(cfg: &GuideConfig) -> FrameSums {
-        FrameSums::new(cfg.entries(), cfg.grid.cells() as usize)
+        FrameSums::new(cfg.entries(), cfg.cells() as usize)
     }
     /// Adds `other`'s sums and counts to these.
     pub fn add_all(&mut self, other: &FrameSums) {

@@ -29,6 +29,11 @@ pub struct QTable {
     /// ([`RecordSchedule`]). `glsl/pathtrace.comp` marks them, `glsl/learn.comp`
     /// reads the marks.
     pub rows_read: Vec<bool>,
+    /// Per cell of the table, its place in the adaptive grid's tree (all leaves
+    /// of depth 0 in a uniform grid): `tree.rs`.
+    pub nodes: Vec<CellNode>,
+    /// Cells in use: the grid's, and the children split off so far.
+    pub used_cells: u32,
 }
 
 /// The weight with which `k` targets, folded in at once, move an entry that has
@@ -73,8 +78,10 @@ impl QTable {
             visits: vec![0; entries],
             rows: vec![AliasBin { column: UNLEARNED, pdf: 0.0 }; entries * NORMAL_CLASSES as usize],
             fractions: vec![0.0; rows],
-            fraction_states: vec![FractionState::default(); cfg.grid.cells() as usize],
+            fraction_states: vec![FractionState::default(); cfg.cells() as usize],
             rows_read: vec![false; rows],
+            nodes: vec![CellNode::default(); cfg.cells() as usize],
+            used_cells: cfg.grid.cells(),
         }
     }
 
@@ -104,6 +111,8 @@ impl QTable {
         for (read, &now) in self.rows_read.iter_mut().zip(&targets.rows_read) {
             *read |= now;
         }
+        self.refine(cfg);
+        let adaptive = cfg.grid.adaptive();
         let n = cfg.bins.count() as usize;
         let cosines = class_cosines(&cfg.bins);
         let classes = NORMAL_CLASSES as usize;
@@ -116,6 +125,9 @@ impl QTable {
             build_sampling_rows(&cosines, q, cfg.floor, &mut built);
             let g = if cfg.learn_fraction { self.fraction_states[cell].fraction(cfg.fraction) } else { cfg.fraction };
             let targets: f32 = self.visits[cell * n..(cell + 1) * n].iter().map(|&v| v as f32).sum();
+            if adaptive {
+                self.nodes[cell].targets = targets;
+            }
             let g = g * evidence_weight(targets, n as u32);
             for (class, (row, new)) in rows.chunks_mut(n).zip(built.chunks(n)).enumerate() {
                 if read[class] {

@@ -369,7 +369,9 @@ impl PreparedScene {
             GuidingMode::Sphere => Some(opts.bins.unwrap_or(guide::default_bins(roulette))),
         };
         if let Some(bins) = bins {
-            let grid = Grid::for_scene(&prepared, &scene.guiding);
+            let settings =
+                crate::scene::GuidingSettings { grid: opts.guide_grid.or(scene.guiding.grid), ..scene.guiding.clone() };
+            let grid = Grid::for_scene(&prepared, &settings);
             let cfg = GuideConfig {
                 mode: opts.guiding,
                 bins,
@@ -437,7 +439,12 @@ fn set_grid(p: &mut RenderParams, cfg: &GuideConfig) {
     p.guide_min = v4(cfg.grid.min, cfg.fraction);
     p.guide_inv_cell = v4(cfg.grid.inv_cell_size(), cfg.bins.solid_angle());
     [p.guide_res_x, p.guide_res_y, p.guide_res_z] = cfg.grid.res;
-    p.guide_cells = cfg.grid.cells();
+    p.guide_cells = cfg.cells();
+    if cfg.grid.adaptive() {
+        p.flags |= shared::FLAG_ADAPTIVE_GRID;
+    } else {
+        p.flags &= !shared::FLAG_ADAPTIVE_GRID;
+    }
 }
 
 #[cfg(test)]

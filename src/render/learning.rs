@@ -3,6 +3,7 @@
 //! `crate::guide::QTable::learn` is the CPU twin.
 
 use super::*;
+use crate::guide::CellNode;
 
 /// The guiding buffers and the pass that learns from them.
 pub(super) struct Learning {
@@ -12,6 +13,9 @@ pub(super) struct Learning {
     /// invocations per group, each building one row ([`rebuild_layout`]).
     pub(super) build: Pipeline,
     pub(super) rows_per_group: u32,
+    /// `learn.comp` as phase 2 runs it (the adaptive grid's splits), one group of
+    /// REFINE_GROUP invocations.
+    pub(super) refine: Pipeline,
     pub(super) q: Buffer,
     pub(super) visits: Buffer,
     /// Targets summed per entry since the table last learned, then the fraction
@@ -25,6 +29,8 @@ pub(super) struct Learning {
     pub(super) fraction_states: Buffer,
     /// Per sampling row, 1 once a recording path read it (`QTable::rows_read`).
     pub(super) rows_read: Buffer,
+    /// Per cell its `CellNode`, then the cells in use ([`tree_bytes`]).
+    pub(super) tree: Buffer,
     /// The table's shape and learning settings.
     pub(super) cfg: GuideConfig,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
@@ -32,7 +38,27 @@ pub(super) struct Learning {
 }
 
 /// Words in learn.comp's push constants (`Learning::push`).
-pub(super) const LEARN_PUSH_WORDS: usize = 10;
+pub(super) const LEARN_PUSH_WORDS: usize = 11;
+
+/// Bytes of the cell tree's buffer: a `CellNode` per cell of the table, then one
+/// node's room whose first word is the cells in use.
+pub(super) fn tree_bytes(cfg: &crate::guide::GuideConfig) -> u64 {
+    (cfg.cells() as u64 + 1) * std::mem::size_of::<CellNode>() as u64
+}
+
+/// The cell tree's buffer contents for `nodes` and `used` cells in use.
+fn tree_words(nodes: &[CellNode], used: u32) -> Vec<CellNode> {
+    let mut words = nodes.to_vec();
+    words.push(CellNode { first_child: used, ..Default::default() });
+    words
+}
+
+/// The nodes and the cells in use of the cell tree's buffer contents.
+pub(super) fn tree_of_words(bytes: &[u8]) -> (Vec<CellNode>, u32) {
+    let mut nodes: Vec<CellNode> = bytemuck::pod_collect_to_vec(bytes);
+    let used = nodes.pop().map_or(0, |n| n.first_child);
+    (nodes, used)
+}
 
 /// Shared memory the rows' rebuild gives a workgroup at most, in bytes, where the
 /// device allows it: more per group would leave fewer groups resident.
@@ -50,7 +76,7 @@ pub(super) fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) 
         ctx,
         &format!(
             "the guiding table's sampling rows ({} cells x {} bins x {} orientations)",
-            cfg.grid.cells(),
+            cfg.cells(),
             cfg.bins.count(),
             shared::NORMAL_CLASSES
         ),
@@ -107,16 +133,33 @@ impl Learning {
         self.build.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
-    /// The table learns: the fold, then the rows' rebuild, each after a barrier;
-    /// `after(phase)` runs after each pass's dispatch (0 the fold, 1 the rebuild),
-    /// where a profiled frame stamps the time.
+    /// Phase 2 of learn.comp: the adaptive grid's leaves that have learned enough split.
+    pub(super) fn cmd_refine(&self, cmd: crate::gpu::vk::CommandBuffer) {
+        let push = self.push(2);
+        self.refine.cmd_dispatch(cmd, [1, 1, 1], bytemuck::bytes_of(&push));
+    }
+
+    /// The table learns: the fold, the adaptive grid's splits where it is one, then
+    /// the rows' rebuild, each after a barrier (`QTable::learn`'s order);
+    /// `after(phase)` runs after the fold (0) and the rebuild (1), where a
+    /// profiled frame stamps the time.
     pub(super) fn cmd_learn(&self, ctx: &Context, cmd: crate::gpu::vk::CommandBuffer, mut after: impl FnMut(u32)) {
         ctx.barrier(cmd);
         self.cmd_fold(cmd);
         after(0);
+        if self.cfg.grid.adaptive() {
+            ctx.barrier(cmd);
+            self.cmd_refine(cmd);
+        }
         ctx.barrier(cmd);
         self.cmd_build_rows(cmd);
         after(1);
+    }
+
+    /// Writes the cell tree: `nodes` and the cells in use.
+    pub(super) fn upload_tree(&self, ctx: &Arc<Context>, nodes: &[CellNode], used: u32) -> Result<(), GpuError> {
+        let staged = Buffer::with_data(ctx, "cell tree upload", bytes(&tree_words(nodes, used)), false)?;
+        ctx.run_commands("upload cell tree", |cmd| staged.cmd_copy_to(cmd, &self.tree))
     }
 
     /// Starts the table from a learned field (`--guide-in`): Q, visits, the
@@ -134,10 +177,13 @@ impl Learning {
             ),
             (Buffer::with_data(ctx, "rows read upload", bytes(&rows_read), false)?, &self.rows_read),
         ];
+        let tree =
+            Buffer::with_data(ctx, "cell tree upload", bytes(&tree_words(&field.nodes, field.used_cells)), false)?;
         ctx.run_commands("load learned field", |cmd| {
             for (from, to) in &staged {
                 from.cmd_copy_to(cmd, to);
             }
+            tree.cmd_copy_to(cmd, &self.tree);
             self.cmd_learn(ctx, cmd, |_| {});
         })
     }
@@ -151,10 +197,11 @@ impl Learning {
             self.cfg.floor.to_bits(),
             self.cfg.bins.rows,
             self.cfg.bins.cols,
-            self.cfg.grid.cells(),
+            self.cfg.cells(),
             self.cfg.fraction.to_bits(),
             self.cfg.learn_fraction as u32,
             self.cfg.rate_exponent.to_bits(),
+            self.cfg.grid.adaptive() as u32,
         ]
     }
 }

@@ -43,13 +43,14 @@ pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result
     let accum = p.width as u64 * p.height as u64 * std::mem::size_of::<AccumPixel>() as u64;
     let table = scene.guide.as_ref().map_or(0, |cfg| {
         let entries = cfg.entries() as u64;
-        let cells = cfg.grid.cells() as u64;
+        let cells = cfg.cells() as u64;
         let rows = cfg.sampling_rows() as u64;
         2 * 4 * entries
             + 2 * 4 * (entries + cells)
             + 2 * 4 * rows
             + cells * std::mem::size_of::<crate::guide::FractionState>() as u64
             + sampling_rows_bytes(cfg)
+            + super::learning::tree_bytes(cfg)
     });
     let uploads = [
         std::mem::size_of_val(&scene.params),

@@ -262,14 +262,14 @@ impl GpuRenderer {
             None => None,
             Some(cfg) => {
                 let entries = cfg.entries() as u32;
-                let cells = cfg.grid.cells();
+                let cells = cfg.cells();
                 let size = 4 * entries as u64;
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
                 let sampler_size = sampling_rows_bytes(cfg);
                 let (rows_per_group, stage_words, staged) =
                     rebuild_layout(cfg.bins.count(), ctx.info.max_compute_shared_memory);
-                let bindings: Vec<(u32, Binding)> = (0..8).map(|i| (i, Binding::Storage)).collect();
+                let bindings: Vec<(u32, Binding)> = (0..9).map(|i| (i, Binding::Storage)).collect();
                 let learn = |name: &str, group: u32, stage_words: u32, staged: bool| {
                     Pipeline::new_specialized(
                         ctx,
@@ -283,6 +283,7 @@ impl GpuRenderer {
                 let l = Learning {
                     fold: learn("learn_fold", shared::LEARN_FOLD_GROUP, 1, false)?,
                     build: learn("learn_rows", rows_per_group, stage_words, staged)?,
+                    refine: learn("learn_refine", shared::REFINE_GROUP, 1, false)?,
                     rows_per_group,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
@@ -297,13 +298,24 @@ impl GpuRenderer {
                     )?,
                     sampler: Buffer::new(ctx, "sampling rows", sampler_size, BufferUsage::Storage)?,
                     rows_read: Buffer::new(ctx, "rows read", 4 * rows, BufferUsage::Storage)?,
+                    tree: Buffer::new(ctx, "cell tree", tree_bytes(cfg), BufferUsage::Storage)?,
                     cfg: *cfg,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                 };
-                let buffers =
-                    [&l.q, &l.visits, &l.sums, &l.counts, &l.sampler, &l.fractions, &l.fraction_states, &l.rows_read];
+                let buffers = [
+                    &l.q,
+                    &l.visits,
+                    &l.sums,
+                    &l.counts,
+                    &l.sampler,
+                    &l.fractions,
+                    &l.fraction_states,
+                    &l.rows_read,
+                    &l.tree,
+                ];
                 l.fold.bind(&buffers);
                 l.build.bind(&buffers);
+                l.refine.bind(&buffers);
                 Some(l)
             }
         };
@@ -319,6 +331,11 @@ impl GpuRenderer {
                 l.sampler.cmd_fill(cmd, crate::guide::UNLEARNED);
             }
         })?;
+        if let Some(l) = &learning {
+            // Every cell a leaf of depth 0, the grid's own cells in use.
+            let fresh = crate::guide::QTable::new(&l.cfg);
+            l.upload_tree(ctx, &fresh.nodes, fresh.used_cells)?;
+        }
         if let (Some(l), Some(field)) = (&learning, &scene.guide_start) {
             l.load_field(ctx, field)?;
         }
@@ -372,6 +389,9 @@ impl GpuRenderer {
             all.extend([&l.fractions, &l.rows_read]);
         }
         all.extend(self.geometry_buffers.iter());
+        if let Some(l) = &self.learning {
+            all.push(&l.tree);
+        }
         self.pipeline.bind(&all);
         if let Some(r) = &self.recording {
             r.bind(&all);
@@ -443,10 +463,26 @@ impl GpuRenderer {
         &self.accum
     }
 
+    /// The table's cell holding `p`, down the adaptive grid's tree as the GPU has
+    /// it (read back); None without guiding.
+    pub fn cell_at(&self, p: crate::math::Vec3) -> Result<Option<u32>, GpuError> {
+        let Some(l) = &self.learning else { return Ok(None) };
+        if !l.cfg.grid.adaptive() {
+            return Ok(Some(l.cfg.grid.cell(p)));
+        }
+        let rt = Buffer::new(&self.ctx, "cell tree readback", l.tree.size, BufferUsage::Readback)?;
+        self.ctx.run_commands("read cell tree", |cmd| {
+            self.ctx.barrier(cmd);
+            l.tree.cmd_copy_to(cmd, &rt);
+        })?;
+        let (nodes, _) = learning::tree_of_words(&rt.read()[..l.tree.size as usize]);
+        Ok(Some(crate::guide::cell_in_tree(&l.cfg.grid, &nodes, p)))
+    }
+
     /// The learned values Q of every direction bin of voxel `cell` (None without guiding).
     pub fn cell_values(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
-        assert!(cell < l.cfg.grid.cells(), "voxel {cell} is outside the grid");
+        assert!(cell < l.cfg.cells(), "voxel {cell} is outside the grid");
         let n = l.cfg.bins.count();
         self.read_floats(&l.q, cell * n, n, "read Q row").map(Some)
     }
@@ -456,7 +492,7 @@ impl GpuRenderer {
     /// guiding.
     pub fn cell_fractions(&self, cell: u32) -> Result<Option<Vec<f32>>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };
-        assert!(cell < l.cfg.grid.cells(), "voxel {cell} is outside the grid");
+        assert!(cell < l.cfg.cells(), "voxel {cell} is outside the grid");
         let classes = crate::guide::NORMAL_CLASSES;
         self.read_floats(&l.fractions, cell * classes, classes, "read a voxel's fractions").map(Some)
     }
@@ -517,6 +553,7 @@ impl GpuRenderer {
         let rf = Buffer::new(&self.ctx, "fractions readback", l.fractions.size, BufferUsage::Readback)?;
         let rs = Buffer::new(&self.ctx, "fraction states readback", l.fraction_states.size, BufferUsage::Readback)?;
         let rr = Buffer::new(&self.ctx, "rows read readback", l.rows_read.size, BufferUsage::Readback)?;
+        let rt = Buffer::new(&self.ctx, "cell tree readback", l.tree.size, BufferUsage::Readback)?;
         self.ctx.run_commands("read Q table", |cmd| {
             self.ctx.barrier(cmd);
             l.q.cmd_copy_to(cmd, &rq);
@@ -525,8 +562,10 @@ impl GpuRenderer {
             l.fractions.cmd_copy_to(cmd, &rf);
             l.fraction_states.cmd_copy_to(cmd, &rs);
             l.rows_read.cmd_copy_to(cmd, &rr);
+            l.tree.cmd_copy_to(cmd, &rt);
         })?;
         let rows_read: Vec<u32> = bytemuck::pod_collect_to_vec(&rr.read()[..l.rows_read.size as usize]);
+        let (nodes, used_cells) = learning::tree_of_words(&rt.read()[..l.tree.size as usize]);
         let n = l.entries() as usize * 4;
         Ok(Some(QTable {
             q: bytemuck::pod_collect_to_vec(&rq.read()[..n]),
@@ -535,6 +574,8 @@ impl GpuRenderer {
             fractions: bytemuck::pod_collect_to_vec(&rf.read()[..l.fractions.size as usize]),
             fraction_states: bytemuck::pod_collect_to_vec(&rs.read()[..l.fraction_states.size as usize]),
             rows_read: rows_read.into_iter().map(|r| r != 0).collect(),
+            nodes,
+            used_cells,
         }))
     }
 }

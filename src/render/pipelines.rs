@@ -56,6 +56,9 @@ fn path_pipeline(
         bindings.push((shared::BINDING_ROWS_READ, Binding::Storage));
     }
     bindings.extend(GEOMETRY_BINDINGS.map(|b| (b, Binding::Storage)));
+    if guided {
+        bindings.push((shared::BINDING_GUIDE_TREE, Binding::Storage));
+    }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
     constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(guided, p.scene_kinds);

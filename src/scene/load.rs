@@ -117,7 +117,7 @@ const TOP_LEVEL: &[&str] = &["camera", "render", "environment", "guiding", "mate
 const CAMERA_KEYS: &[&str] = &["position", "look_at", "direction", "up", "vfov", "near"];
 const RENDER_KEYS: &[&str] = &["width", "height", "spp", "max_bounces", "russian_roulette_depth"];
 const ENVIRONMENT_KEYS: &[&str] = &["radiance", "file", "scale", "rotate"];
-const GUIDING_KEYS: &[&str] = &["bounds_min", "bounds_max", "resolution"];
+const GUIDING_KEYS: &[&str] = &["bounds_min", "bounds_max", "resolution", "grid"];
 const SPHERE_KEYS: &[&str] = &["center", "radius", "material"];
 const QUAD_KEYS: &[&str] = &["origin", "edge_u", "edge_v", "material"];
 // ---------------------------------------------------------------------------
@@ -524,6 +524,16 @@ fn parse_guiding(t: &Table<'_, '_, '_>) -> Result<GuidingSettings, SceneError> {
             ));
         }
         g.resolution = Some(cells);
+    }
+    if let Some(v) = t.get("grid") {
+        let expected = "\"uniform\" or \"adaptive\"";
+        g.grid = Some(match t.string("grid", v, expected)? {
+            "uniform" => crate::guide::GridKind::Uniform,
+            "adaptive" => crate::guide::GridKind::Adaptive,
+            other => {
+                return Err(t.error_at(v.span(), format!("key `grid` must be {expected}, found \"{other}\"")));
+            }
+        });
     }
     Ok(g)
 }

@@ -170,8 +170,11 @@ pub struct Mesh {
 pub struct GuidingSettings {
     pub bounds_min: Option<Vec3>,
     pub bounds_max: Option<Vec3>,
-    /// Cells along x, y, z.
+    /// Cells along x, y, z (of the uniform grid whose memory an adaptive one takes).
     pub resolution: Option<[u32; 3]>,
+    /// Uniform or adaptive cells (`grid = "adaptive"`); the command line's
+    /// `--guide-grid` overrides it.
+    pub grid: Option<crate::guide::GridKind>,
 }
 
 #[derive(Clone, Debug, PartialEq)]

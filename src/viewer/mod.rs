@@ -361,7 +361,7 @@ impl Viewer {
         let (px, py) = window_to_pixel(rect, (w, h), (cx, cy))?;
         let (o, d) = crate::camera::camera_ray(mr.renderer.params(), px, py, [0.5, 0.5]);
         let hit = intersect(&mr.prepared, o, d, f32::INFINITY)?;
-        Some((cfg.grid.cell(hit.p), cfg.bins))
+        Some((mr.renderer.cell_at(hit.p).ok()??, cfg.bins))
     }
 
     fn recreate_swapchain(&mut self) -> Result<()> {
