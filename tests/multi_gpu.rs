@@ -6,7 +6,7 @@
 mod common;
 use common::*;
 use rlpt::film::Film;
-use rlpt::guide::GuidingMode;
+use rlpt::guide::{GridKind, GuidingMode};
 use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
 use rlpt::render::{GpuRenderer, MultiGpuRenderer, ROUND_FRAMES_PER_DEVICE};
@@ -122,8 +122,19 @@ fn a_guided_render_on_two_contexts_agrees_with_one_and_the_cpu() {
 #[test]
 fn every_device_holds_the_same_table_after_a_learning_pass() {
     let _serial = one_at_a_time();
+    for grid in [GridKind::Uniform, GridKind::Adaptive] {
+        same_tables_on_two_devices(grid);
+    }
+}
+
+fn same_tables_on_two_devices(grid: GridKind) {
     let (scene, mut opts) = door(24, 16, 64);
     opts.guiding = GuidingMode::Sphere;
+    opts.guide_grid = Some(grid);
+    if grid == GridKind::Adaptive {
+        // Fewer bins: cells learn enough to split within the rounds.
+        opts.bins = Some(rlpt::guide::Bins { rows: 8, cols: 16 });
+    }
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
     let (a, b) = (gpu(), gpu());
     let mut multi = MultiGpuRenderer::new(&[a.clone(), b.clone()], &prepared).unwrap();
@@ -148,8 +159,13 @@ fn every_device_holds_the_same_table_after_a_learning_pass() {
             "round {round}: fraction states"
         );
         assert_eq!(t0.rows_read, t1.rows_read, "round {round}: rows read");
+        assert_eq!((&t0.nodes, t0.used_cells), (&t1.nodes, t1.used_cells), "round {round}: the cell tree");
     }
     assert!(traced > 10, "rounds of several frames after the first ({traced} frames in 10 rounds)");
+    if grid == GridKind::Adaptive {
+        let t = multi.device_tables().unwrap().remove(0).unwrap();
+        assert!(t.used_cells > prepared.guide.unwrap().grid.cells(), "cells split within the rounds");
+    }
     drop(multi);
     assert_no_validation_messages(&a);
     assert_no_validation_messages(&b);

@@ -168,6 +168,18 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let mut guide_in = None;
     if let Some(path) = &args.guide_in {
         prepared.start_from(GuideField::load(path)?, path, &opts)?;
+        use rlpt::guide::GridKind;
+        let grid = prepared.guide.map(|g| if g.grid.adaptive() { GridKind::Adaptive } else { GridKind::Uniform });
+        if let (Some(asked), Some(has)) = (opts.guide_grid, grid) {
+            if asked != has {
+                eprintln!(
+                    "note: {} was learned on a {} grid, which it keeps: --guide-grid {} ignored",
+                    path.display(),
+                    has.name(),
+                    asked.name()
+                );
+            }
+        }
         let file = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
         guide_in = Some(rlpt::parts::field_hash(&file));
     }
@@ -301,10 +313,23 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     if let Some(path) = &args.stats {
         stats.save(path)?;
     }
-    if let (Some(path), Some(cfg)) = (&args.guide_out, &prepared.guide) {
-        let table = renderer.table()?.expect("a guided renderer has a table");
-        GuideField::of_table(&table, cfg, scene_hash(&prepared)).save(path)?;
+    // The learned table, where it is saved or its adaptive grid's cells are told.
+    let adaptive = prepared.guide.is_some_and(|g| g.grid.adaptive());
+    let table = match &prepared.guide {
+        Some(_) if args.guide_out.is_some() => renderer.table()?,
+        // For the summary alone: a failed read leaves the count out.
+        Some(_) if adaptive => renderer.table().ok().flatten(),
+        _ => None,
+    };
+    if let (Some(path), Some(cfg), Some(table)) = (&args.guide_out, &prepared.guide, &table) {
+        GuideField::of_table(table, cfg, scene_hash(&prepared)).save(path)?;
     }
+    let grid = match (&prepared.guide, &table) {
+        (Some(cfg), Some(t)) if adaptive => {
+            format!(" (adaptive grid: {} of {} cells in use)", t.used_cells, cfg.cells())
+        }
+        _ => String::new(),
+    };
     // Samples traced, the learning frames' included.
     let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME) as f64;
     let gpu = match renderer.timestamps() {
@@ -336,7 +361,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         Stop::Finished => String::new(),
     };
     println!(
-        "{}: {}x{}, {} spp{part}{cut}{learned}, guiding {}, NEE {}, {} sampler in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
+        "{}: {}x{}, {} spp{part}{cut}{learned}, guiding {}{grid}, NEE {}, {} sampler in {:.2} s on {} ({:.1} Msamples/s{gpu}{rel}) -> {}",
         args.scene.display(),
         opts.width,
         opts.height,
