@@ -156,8 +156,13 @@ fn ctrl_c_writes_what_was_rendered_with_its_spp() {
         let img = rlpt::image::Image::load(&out).unwrap();
         assert_eq!((img.width, img.height), (32, 24), "{device}");
         assert!(img.pixels.iter().any(|p| p[0] > 0.0), "{device}: the image is not black");
-        let v = rlpt::image::Image::load(&var).unwrap();
-        assert_eq!((v.width, v.height), (32, 24), "{device}");
+        if spp == 64 {
+            // A loaded machine may finish one frame only: no variance from one, said so.
+            assert!(stderr.contains("the render stopped after 1 frame(s)") && !var.exists(), "{device}: {stderr}");
+        } else {
+            let v = rlpt::image::Image::load(&var).unwrap();
+            assert_eq!((v.width, v.height), (32, 24), "{device}");
+        }
         let s = rlpt::stats::RenderStats::load(&stats).unwrap();
         assert_eq!(s.frames.last().map(|f| f.spp), Some(spp), "{device}: the statistics end where the image does");
     }

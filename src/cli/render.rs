@@ -286,6 +286,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         }
         None => image.save(&args.output).with_context(|| format!("writing {}", args.output.display()))?,
     }
+    // A variance that cannot be measured fails the render, but only once the
+    // statistics, the field and the summary are written too.
+    let mut variance_error = None;
     if let Some(path) = &args.variance {
         let v = film.variance_of_mean().ok_or_else(|| {
             let why = match stop {
@@ -300,8 +303,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
                 film.frames,
                 args.output.display()
             )
-        })?;
-        v.save(path).with_context(|| format!("writing {}", path.display()))?;
+        });
+        match v {
+            Ok(v) => v.save(path).with_context(|| format!("writing {}", path.display()))?,
+            Err(e) => variance_error = Some(e),
+        }
     }
     if image.pixels.iter().all(|p| *p == [0.0; 3]) && scene.emits_light() {
         eprintln!(
@@ -374,6 +380,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         samples / elapsed / 1e6,
         args.output.display()
     );
+    if let Some(e) = variance_error {
+        return Err(e);
+    }
     match stop {
         Stop::Finished => Ok(Outcome::Complete),
         Stop::Interrupted => Ok(Outcome::Interrupted),
