@@ -18,6 +18,7 @@ mod memory;
 mod multi;
 mod pipelines;
 pub mod raycast;
+mod set;
 mod sync;
 
 pub use dispatch::*;
@@ -25,6 +26,7 @@ use learning::*;
 pub use memory::scene_geometry_bytes;
 use memory::*;
 pub use multi::*;
+pub use set::*;
 use pipelines::*;
 
 /// What one submission of frames measured.
