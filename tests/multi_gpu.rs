@@ -334,7 +334,7 @@ fn a_restart_resets_every_gpu() {
     let prepared = PreparedScene::new(&scene, &opts).unwrap();
     let (a, b) = (gpu(), gpu());
     let mut camera = scene.camera.clone();
-    camera.position = camera.position + camera.forward * 0.3;
+    camera.position += camera.forward * 0.3;
     let mut moved = prepared.params;
     moved.set_camera(&camera);
     moved.set_nee(false);

@@ -26,8 +26,8 @@ use learning::*;
 pub use memory::scene_geometry_bytes;
 use memory::*;
 pub use multi::*;
-pub use set::*;
 use pipelines::*;
+pub use set::*;
 
 /// What one submission of frames measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -8,7 +8,8 @@ use crate::session::{FrameReport, Renderer, RoundReport};
 
 /// A renderer on one GPU or on several; see the module's description.
 pub enum GpuSet {
-    One(GpuRenderer),
+    /// Boxed: a `GpuRenderer` is large beside a `MultiGpuRenderer`, which holds its devices on the heap.
+    One(Box<GpuRenderer>),
     Several(MultiGpuRenderer),
 }
 
@@ -42,7 +43,7 @@ impl GpuSet {
             [ctx] => {
                 let mut r = GpuRenderer::new(ctx, scene)?;
                 r.set_frame_offset(frame_offset);
-                GpuSet::One(r)
+                GpuSet::One(Box::new(r))
             }
             _ => {
                 if let Some(why) = several_gpus_refusal(scene) {
@@ -58,14 +59,14 @@ impl GpuSet {
     /// The renderer as a session's (`session::Session` takes it boxed).
     fn renderer(&self) -> &dyn Renderer {
         match self {
-            GpuSet::One(r) => r,
+            GpuSet::One(r) => &**r,
             GpuSet::Several(r) => r,
         }
     }
 
     fn renderer_mut(&mut self) -> &mut dyn Renderer {
         match self {
-            GpuSet::One(r) => r,
+            GpuSet::One(r) => &mut **r,
             GpuSet::Several(r) => r,
         }
     }
@@ -92,7 +93,7 @@ impl GpuSet {
     /// learning pass). None where every device was lost.
     pub fn first(&self) -> Option<&GpuRenderer> {
         match self {
-            GpuSet::One(r) => Some(r),
+            GpuSet::One(r) => Some(&**r),
             GpuSet::Several(r) => r.first(),
         }
     }
