@@ -145,10 +145,10 @@ struct Settings {
     /// GPU. For several, --gpus; not both.
     #[arg(long)]
     gpu: Option<usize>,
-    /// Several GPUs in one render or bench: `all` (every usable device) or indices from
-    /// `rlpt devices`, e.g. 0,2. Each renders frames as it finishes the last, into one
-    /// image; with guiding, all learn one table (docs/cluster.md). --gpus N is --gpu N
-    /// (`rlpt view` takes one GPU).
+    /// Several GPUs in one render, bench or view: `all` (every usable device) or indices
+    /// from `rlpt devices`, e.g. 0,2. Each renders frames as it finishes the last, into one
+    /// image; with guiding, all learn one table (docs/cluster.md). --gpus N is --gpu N.
+    /// In `rlpt view` the first listed presents.
     #[arg(long, value_name = "all|I,J,...", value_parser = parse_gpus)]
     gpus: Option<GpuList>,
     /// Next-event estimation: sample lights and combine with BSDF sampling by MIS.

@@ -4,7 +4,7 @@
 //! an interrupt is raised (Ctrl-C) or the device is lost; it shows a progress bar
 //! once a render passes a second, keeps each frame's statistics, and measures
 //! relMSE against a reference at the frames [`measure_at`] and [`time_mark`] name.
-//! `rlpt render` runs one.
+//! `rlpt render` runs one for the whole render; `rlpt view` one per redraw.
 
 use crate::cpu::CpuRenderer;
 use crate::film::Film;
@@ -22,6 +22,8 @@ use std::time::{Duration, Instant};
 pub struct FrameReport {
     /// GPU time of the frame, from timestamps; None where there are none (the CPU).
     pub gpu_ms: Option<f64>,
+    /// The learning pass's share of `gpu_ms`, where it is timed.
+    pub learn_ms: Option<f64>,
     /// Paths that carried zero radiance, where the renderer counts them.
     pub zero_paths: Option<u64>,
     /// The kernel that traced the frame, with guiding (`guide::FrameRace`).
@@ -38,6 +40,8 @@ pub struct RoundReport {
     /// Time of the round, from timestamps: with several devices, as long as the
     /// busiest device took (they run in parallel); None where there are none.
     pub gpu_ms: Option<f64>,
+    /// The learning passes' share of `gpu_ms`, where they are timed.
+    pub learn_ms: Option<f64>,
     /// Paths that carried zero radiance, where the renderer counts them.
     pub zero_paths: Option<u64>,
     /// Where the renderer keeps the time budget itself: whether no further frame
@@ -63,6 +67,7 @@ pub trait Renderer {
         Ok(RoundReport {
             frames: 1,
             gpu_ms: r.gpu_ms,
+            learn_ms: r.learn_ms,
             zero_paths: r.zero_paths,
             time_up: None,
             kind: r.kind,
@@ -112,6 +117,7 @@ impl Renderer for CpuRenderer {
         CpuRenderer::render_frame(self);
         Ok(FrameReport {
             gpu_ms: None,
+            learn_ms: None,
             zero_paths: Some(self.last_counters.zero_paths),
             kind: self.last_kind,
             variance: self.last_variance,
@@ -139,6 +145,7 @@ impl Renderer for GpuRenderer {
         let t = self.render_frames(1)?;
         Ok(FrameReport {
             gpu_ms: self.context().info.timestamps.then_some(t.total_ms()),
+            learn_ms: self.context().info.timestamps.then_some(t.learn_ms),
             zero_paths: t.zero_paths,
             kind: t.kind,
             variance: t.variance,
@@ -204,11 +211,13 @@ pub struct Session<'a> {
     pub frames: Vec<FrameStats>,
     /// Render time so far: GPU time where the renderer has timestamps, else wall clock.
     pub elapsed_ms: f64,
+    /// The learning passes' share of `elapsed_ms`, where the renderer times them.
+    pub learn_ms: f64,
 }
 
 impl<'a> Session<'a> {
     pub fn new(renderer: Box<dyn Renderer + 'a>, reference: Option<&'a Reference>, paths_per_frame: f64) -> Self {
-        Session { renderer, reference, paths_per_frame, frames: Vec::new(), elapsed_ms: 0.0 }
+        Session { renderer, reference, paths_per_frame, frames: Vec::new(), elapsed_ms: 0.0, learn_ms: 0.0 }
     }
 
     /// Frames traced so far, the learning frames included.
@@ -250,6 +259,7 @@ impl<'a> Session<'a> {
             let frame_ms = report.gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
             let mark = time_mark(self.elapsed_ms, self.elapsed_ms + frame_ms);
             self.elapsed_ms += frame_ms;
+            self.learn_ms += report.learn_ms.unwrap_or(0.0);
             // The next frame is taken to last as long as this one: the session
             // stops where it would end past the limit, so that --time T ends by T.
             // A renderer of rounds judges its devices' next frames itself.

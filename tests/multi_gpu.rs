@@ -9,7 +9,7 @@ use rlpt::film::Film;
 use rlpt::guide::{GridKind, GuidingMode};
 use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
-use rlpt::render::{GpuRenderer, MultiGpuRenderer, ROUND_FRAMES_PER_DEVICE};
+use rlpt::render::{GpuRenderer, GpuSet, MultiGpuRenderer, ROUND_FRAMES_PER_DEVICE};
 use rlpt::scene::Scene;
 use rlpt::session::{Budget, Renderer, Session, Stop};
 use std::sync::atomic::AtomicBool;
@@ -372,4 +372,49 @@ fn parts_rendered_on_two_gpus_merge_to_the_one_gpu_render() {
         .fold(0.0f32, f32::max);
     assert!(worst <= 1e-5, "merged two-GPU parts differ from the one-GPU render by {worst} (relative)");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The viewer's restart on several GPUs (`GpuSet::set_params` and
+/// `reset_accumulation`, a camera move and NEE off): every device drops what it
+/// accumulated, and the frames after it are those one context traces after the
+/// same restart (the frame indices go on on both), to the rounding of the
+/// order their sums are added in.
+#[test]
+fn a_restart_resets_every_gpu() {
+    let _serial = one_at_a_time();
+    let (scene, opts) = door(24, 16, 64);
+    let prepared = PreparedScene::new(&scene, &opts).unwrap();
+    let (a, b) = (gpu(), gpu());
+    let mut camera = scene.camera.clone();
+    camera.position += camera.forward * 0.3;
+    let mut moved = prepared.params;
+    moved.set_camera(&camera);
+    moved.set_nee(false);
+    let restart = |r: &mut GpuSet| {
+        r.set_params(&moved).unwrap();
+        r.reset_accumulation().unwrap();
+    };
+    let mut one = GpuSet::new(std::slice::from_ref(&a), &prepared, 0).unwrap();
+    let mut two = GpuSet::new(&[a.clone(), b.clone()], &prepared, 0).unwrap();
+    let mut films = Vec::new();
+    for r in [&mut one, &mut two] {
+        for _ in 0..5 {
+            r.render_frame().unwrap();
+        }
+        restart(r);
+        assert_eq!(Renderer::film(r).unwrap().frames, 0, "the restart emptied every device");
+        let mut traced = 0;
+        while traced < 6 {
+            traced += r.render_round(6 - traced, None).unwrap().frames;
+        }
+        films.push(Renderer::film(r).unwrap());
+    }
+    if let GpuSet::Several(m) = &two {
+        assert!(m.device_stats().iter().all(|d| d.frames > 0), "both contexts traced frames");
+    }
+    drop((one, two));
+    assert_eq!(films[0].frames, 6, "the frames after the restart only");
+    assert_same_sums(&films[0], &films[1], "restarted: two contexts against one");
+    assert_no_validation_messages(&a);
+    assert_no_validation_messages(&b);
 }

@@ -42,11 +42,17 @@ impl Drop for Xvfb {
 
 /// Runs `rlpt view ARGS` on the virtual display with validation on.
 fn view(args: &[&str]) -> Output {
+    view_with(args, &[])
+}
+
+/// `view` with environment variables `env` set (test hooks).
+fn view_with(args: &[&str], env: &[(&str, &str)]) -> Output {
     let x = Xvfb::start();
     let out = Command::new(env!("CARGO_BIN_EXE_rlpt"))
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .arg("view")
         .args(args)
+        .envs(env.iter().copied())
         .env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")
         .env("RLPT_VALIDATION", "1")
@@ -193,6 +199,10 @@ fn bad_view_arguments_are_sentences() {
         (vec!["--device", "cpu"], "renders on the GPU"),
         (vec!["--resize", "0x10"], "not a size"),
         (vec!["--frames", "1", "--screenshot", "/nonexistent-dir/x.png"], "does not exist"),
+        (vec!["--gpus", "0,0"], "device 0 is named twice"),
+        (vec!["--gpus", "4096"], "there is no device 4096"),
+        (vec!["--gpus", "0,x"], "`x` is not a device index"),
+        (vec!["--gpu", "0", "--gpus", "0"], "both pick GPUs"),
     ] {
         let o = rlpt().arg("view").arg("scenes/smallpt.toml").args(&args).output().unwrap();
         let stderr = String::from_utf8_lossy(&o.stderr);
@@ -200,6 +210,15 @@ fn bad_view_arguments_are_sentences() {
         assert!(stderr.contains(expect), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
+    // Several GPUs trace every frame guided: the race of kernels is refused, before the window opens.
+    let o = rlpt()
+        .args(["view", "scenes/door.toml", "--gpus", "0,0", "--guiding", "sphere", "--unguided-frames", "auto"])
+        .env("RLPT_TEST_DUPLICATE_GPUS", "1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && stderr.contains("chooses each frame's kernel on one GPU"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
     // No display at all: a sentence, not a crash.
     let o = rlpt()
         .args(["view", "scenes/smallpt.toml"])
@@ -245,4 +264,85 @@ fn the_viewer_starts_from_a_saved_field() {
     let o = view(&["scenes/smallpt.toml", "--frames", "1", "--guide-in", f]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && stderr.contains("another scene") && stderr.contains(f), "{stderr}");
+}
+
+/// `view --gpus 0,0` (two contexts on the test machine's one device, which stand
+/// for two GPUs: the first presents, both render): frame k draws the same random
+/// numbers on either context, so the window shows what the one-GPU viewer shows
+/// for the same seed, to the rounding of the order the frames' sums are added in;
+/// the bytes shown to one step of the PNG's encoding.
+#[test]
+fn two_gpus_show_what_one_shows() {
+    let (w, h, frames) = (48u32, 36u32, 8u32);
+    let args = |shot: &PathBuf| -> Vec<String> {
+        ["scenes/seed-exp1.toml", "--width", "48", "--height", "36", "--seed", "7", "--frames", "8", "--screenshot"]
+            .iter()
+            .map(|a| a.to_string())
+            .chain([shot.to_str().unwrap().to_string()])
+            .collect()
+    };
+    let (one, two) = (tmp("one-gpu.png"), tmp("two-gpus.png"));
+    let a = args(&one);
+    let out = view(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(out.status.success(), "one GPU:\n{}", String::from_utf8_lossy(&out.stderr));
+    let mut b = args(&two);
+    b.extend(["--gpus".to_string(), "0,0".to_string()]);
+    let out = view_with(&b.iter().map(String::as_str).collect::<Vec<_>>(), &[("RLPT_TEST_DUPLICATE_GPUS", "1")]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "two GPUs:\n{stderr}");
+    assert!(stderr.contains("rendering on 2 GPUs"), "both contexts render: {stderr}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains(&format!("({} spp,", frames * 64)), "the screenshot holds every frame: {stdout}");
+
+    let (ea, eb) = (Image::load(&one.with_extension("exr")).unwrap(), Image::load(&two.with_extension("exr")).unwrap());
+    assert_eq!((ea.width, ea.height, eb.width, eb.height), (w, h, w, h));
+    // Sums of 8 nonnegative frame sums added in another order, each divided once.
+    let u = f32::EPSILON as f64 / 2.0;
+    let bound = (2.0 * frames as f64 + 2.0) * u;
+    for (i, (p, q)) in ea.pixels.iter().zip(&eb.pixels).enumerate() {
+        for c in 0..3 {
+            let (x, y) = (p[c] as f64, q[c] as f64);
+            assert!((x - y).abs() <= bound * x.abs().max(y.abs()), "pixel {i} channel {c}: {x} vs {y}");
+        }
+    }
+    let (pa, pb) = (image::open(&one).unwrap().into_rgb8(), image::open(&two).unwrap().into_rgb8());
+    let worst = pa.pixels().zip(pb.pixels()).flat_map(|(p, q)| (0..3).map(|c| (p.0[c] as i32 - q.0[c] as i32).abs()));
+    assert!(worst.max().unwrap() <= 1, "the bytes shown differ by more than one step");
+}
+
+/// Guided, on two contexts that learn one table (their sums added at each
+/// learning pass), the viewer's image agrees within noise with the one-GPU
+/// viewer's of another seed; the noise is that of a headless guided render of
+/// the same frames (the Cornell box: the door's fireflies make 12 frames' spread
+/// a poor measure of its noise, for one GPU against one as for two).
+#[test]
+fn a_guided_view_on_two_gpus_agrees_with_one() {
+    let (w, h, frames) = (32u32, 24u32, 12u32);
+    let run = |shot: &PathBuf, seed: &str, extra: &[&str], env: &[(&str, &str)]| {
+        let mut args = vec!["scenes/cornell-box.toml", "--width", "32", "--height", "24", "--guiding", "sphere"];
+        args.extend(["--seed", seed, "--frames", "12", "--screenshot", shot.to_str().unwrap()]);
+        args.extend(extra);
+        let out = view_with(&args, env);
+        assert!(out.status.success(), "{extra:?}:\n{}", String::from_utf8_lossy(&out.stderr));
+        Image::load(&shot.with_extension("exr")).unwrap()
+    };
+    let one = run(&tmp("guided-one.png"), "3", &[], &[]);
+    let two = run(&tmp("guided-two.png"), "7", &["--gpus", "0,0"], &[("RLPT_TEST_DUPLICATE_GPUS", "1")]);
+    let ctx = gpu();
+    let scene = scene("cornell-box.toml");
+    let mut opts = options(&scene, w, h, frames * 64);
+    opts.guiding = rlpt::guide::GuidingMode::Sphere;
+    let headless = render_gpu(&ctx, &scene, &opts);
+    let var = headless.variance_of_mean().unwrap();
+    let mean = headless.mean();
+    let z = assert_means_agree(
+        &two,
+        &one,
+        |i, c| 2.0 * var.pixels[i][c] as f64,
+        |i, c| 2.0 * rounding_bound(&headless, mean.pixels[i][c]),
+        4,
+        K,
+        "guided Cornell box: two GPUs against one",
+    );
+    eprintln!("guided view, two GPUs against one: worst block {z:.2} sigma");
 }

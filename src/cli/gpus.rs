@@ -101,15 +101,21 @@ pub(crate) fn resolve_gpus(list: &GpuList, devices: &[DeviceInfo], duplicates: b
     Ok(indices)
 }
 
+/// The device indices `--gpus` names (checked by [`resolve_gpus`]), or None
+/// where it is not given.
+pub(crate) fn gpu_indices(settings: &Settings) -> Result<Option<Vec<usize>>> {
+    check_gpu_flags(settings)?;
+    let Some(list) = &settings.gpus else { return Ok(None) };
+    let duplicates = std::env::var(DUPLICATE_GPUS_HOOK).is_ok_and(|v| v == "1");
+    Ok(Some(resolve_gpus(list, &rlpt::gpu::list_devices()?, duplicates)?))
+}
+
 /// The contexts a render runs on: `--gpus`' devices, or the one `--gpu` picks
 /// (the first discrete GPU where neither is given).
 pub(crate) fn open_gpus(settings: &Settings) -> Result<Vec<Arc<Context>>> {
-    check_gpu_flags(settings)?;
-    let Some(list) = &settings.gpus else {
+    let Some(indices) = gpu_indices(settings)? else {
         return Ok(vec![Context::new(&ContextOptions::from_env(settings.gpu))?]);
     };
-    let duplicates = std::env::var(DUPLICATE_GPUS_HOOK).is_ok_and(|v| v == "1");
-    let indices = resolve_gpus(list, &rlpt::gpu::list_devices()?, duplicates)?;
     let mut contexts = Vec::with_capacity(indices.len());
     for i in indices {
         contexts.push(Context::new(&ContextOptions::from_env(Some(i)))?);
@@ -117,38 +123,23 @@ pub(crate) fn open_gpus(settings: &Settings) -> Result<Vec<Arc<Context>>> {
     Ok(contexts)
 }
 
-/// The renderer of `prepared` on `contexts`: a `GpuRenderer` on one, else a
-/// `MultiGpuRenderer`; a part's image frames start at `offset`.
+/// The renderer of `prepared` on `contexts` (`rlpt::render::GpuSet`, which the
+/// viewer builds too); a part's image frames start at `offset`.
 pub(crate) fn gpu_renderer(
     contexts: &[Arc<Context>],
     prepared: &PreparedScene,
     offset: u32,
 ) -> Result<Box<dyn Renderer>> {
-    Ok(match contexts {
-        [ctx] => {
-            let mut r = GpuRenderer::new(ctx, prepared)?;
-            r.set_frame_offset(offset);
-            Box::new(r)
-        }
-        _ => {
-            refuse_race_on_several(prepared)?;
-            let mut r = rlpt::render::MultiGpuRenderer::new(contexts, prepared)?;
-            r.set_frame_offset(offset);
-            Box::new(r)
-        }
-    })
+    Ok(Box::new(rlpt::render::GpuSet::new(contexts, prepared, offset)?))
 }
 
 /// Several GPUs trace every frame guided: the race of `--unguided-frames auto`
 /// chooses frame by frame on one device (`guide::FrameRace`).
 pub(crate) fn refuse_race_on_several(prepared: &PreparedScene) -> Result<()> {
-    if prepared.guide.is_some_and(|g| g.unguided_frames) {
-        anyhow::bail!(
-            "--unguided-frames auto chooses each frame's kernel on one GPU; with several (--gpus) every frame is \
-             guided: leave --unguided-frames out, or render on one GPU"
-        );
+    match rlpt::render::several_gpus_refusal(prepared) {
+        Some(why) => anyhow::bail!(why),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 #[cfg(test)]

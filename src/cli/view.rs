@@ -1,4 +1,4 @@
-//! `rlpt view`: the window on the GPU renderer.
+//! `rlpt view`: the window on the GPU renderer, on one GPU or several (`--gpus`).
 
 use crate::*;
 
@@ -38,17 +38,10 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
     if args.settings.device == DeviceKind::Cpu {
         bail!("`rlpt view` renders on the GPU: --device cpu is for `rlpt render` and `rlpt bench`");
     }
-    check_gpu_flags(&args.settings)?;
-    // The viewer presents and renders on one GPU: --gpus of one device is --gpu.
-    let gpu = match &args.settings.gpus {
-        None => args.settings.gpu,
-        Some(list) => match resolve_gpus(list, &rlpt::gpu::list_devices()?, false)?[..] {
-            [one] => Some(one),
-            _ => bail!(
-                "--gpus {list}: `rlpt view` renders on one GPU (several are for `rlpt render` and `rlpt bench`): \
-                 give one, --gpu N"
-            ),
-        },
+    // The first GPU of --gpus presents, and all render; without it, --gpu's one does both.
+    let contexts: Vec<ContextOptions> = match gpu_indices(&args.settings)? {
+        None => vec![ContextOptions::from_env(args.settings.gpu)],
+        Some(indices) => indices.into_iter().map(|i| ContextOptions::from_env(Some(i))).collect(),
     };
     let scene = Scene::load_with(&args.scene, args.settings.strict)?;
     warn_before_render(&args.settings, &scene);
@@ -57,6 +50,9 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
     // for a guided render, whatever mode it starts in.
     let guided = RenderOptions { guiding: GuidingMode::Sphere, ..render.clone() };
     let prepared = PreparedScene::new(&scene, &guided)?;
+    if contexts.len() > 1 {
+        refuse_race_on_several(&prepared)?;
+    }
     warn_grid(&scene, &prepared);
     // A field of another scene is refused before the window opens; its bins are
     // matched mode by mode as the viewer switches.
@@ -72,7 +68,7 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
         scene_path: args.scene,
         scene,
         render,
-        context: ContextOptions::from_env(gpu),
+        contexts,
         frames: args.frames,
         screenshot: args.screenshot,
         resize: args.resize,

@@ -118,3 +118,40 @@ impl Display {
         (self.width, self.height)
     }
 }
+
+/// The presenting GPU's copy of a film traced on several GPUs (their
+/// accumulations read back and added, `MultiGpuRenderer`'s film): the display
+/// pass reads it as it reads one GPU's accumulation.
+pub struct SharedAccumulation {
+    buffer: Buffer,
+    frames: u32,
+    pixels: usize,
+}
+
+impl SharedAccumulation {
+    /// An empty accumulation (no frame) of `width` x `height` pixels on `ctx`.
+    pub fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<SharedAccumulation, GpuError> {
+        let pixels = width as usize * height as usize;
+        let size = (pixels * std::mem::size_of::<crate::layout::AccumPixel>()) as u64;
+        let mut buffer = Buffer::new(ctx, "shared accumulation", size, BufferUsage::Upload { uniform: false })?;
+        buffer.write(&vec![0u8; size as usize]);
+        Ok(SharedAccumulation { buffer, frames: 0, pixels })
+    }
+
+    /// Replaces the accumulation with `film` (call between frames: every
+    /// submission that read it has finished).
+    pub fn upload(&mut self, film: &crate::film::Film) {
+        assert_eq!(film.pixels.len(), self.pixels, "a film of the display's size");
+        self.buffer.write(bytemuck::cast_slice(&film.pixels));
+        self.frames = film.frames;
+    }
+
+    pub fn buffer(&self) -> &Buffer {
+        &self.buffer
+    }
+
+    /// Frames in the accumulation.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+}

@@ -18,6 +18,7 @@ mod memory;
 mod multi;
 mod pipelines;
 pub mod raycast;
+mod set;
 mod sync;
 
 pub use dispatch::*;
@@ -26,6 +27,7 @@ pub use memory::scene_geometry_bytes;
 use memory::*;
 pub use multi::*;
 use pipelines::*;
+pub use set::*;
 
 /// What one submission of frames measured.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

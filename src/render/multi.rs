@@ -159,6 +159,44 @@ impl MultiGpuRenderer {
         }
     }
 
+    /// The first device still rendering: its parameters and its table, which
+    /// every device shares after each learning pass.
+    pub fn first(&self) -> Option<&GpuRenderer> {
+        self.devices.first().map(|d| &d.r)
+    }
+
+    /// Replaces every device's render parameters (`GpuRenderer::set_params`).
+    /// A device lost meanwhile is dropped, as in a round.
+    pub fn set_params(&mut self, params: &crate::layout::RenderParams) -> Result<(), GpuError> {
+        self.on_each(|r| r.set_params(params))
+    }
+
+    /// Starts a new accumulation on every device (the viewer's camera moved);
+    /// what guiding learned is kept, and the frames handed out go on from where
+    /// they were, so that the new image's random numbers are fresh.
+    pub fn reset_accumulation(&mut self) -> Result<(), GpuError> {
+        self.on_each(|r| r.reset_accumulation())?;
+        self.redo.clear();
+        self.devices.iter_mut().for_each(|d| d.image.clear());
+        Ok(())
+    }
+
+    /// Runs `f` on every device in turn, dropping those found lost; fails where
+    /// none is left.
+    fn on_each(&mut self, mut f: impl FnMut(&mut GpuRenderer) -> Result<(), GpuError>) -> Result<(), GpuError> {
+        for i in (0..self.devices.len()).rev() {
+            match f(&mut self.devices[i].r) {
+                Ok(()) => {}
+                Err(GpuError::DeviceLost(detail)) => self.drop_lost(i, &detail, None),
+                Err(e) => return Err(e),
+            }
+        }
+        if self.devices.is_empty() {
+            return Err(Self::all_lost());
+        }
+        Ok(())
+    }
+
     /// Each device's learned table (None without guiding), in device order.
     pub fn device_tables(&self) -> Result<Vec<Option<QTable>>, GpuError> {
         self.devices.iter().map(|d| d.r.table()).collect()
@@ -372,7 +410,7 @@ pub fn add_film(a: &mut Film, b: &Film) {
 impl Renderer for MultiGpuRenderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
         let r = self.render_round(1, None)?;
-        Ok(FrameReport { gpu_ms: r.gpu_ms, zero_paths: r.zero_paths, kind: None, variance: None })
+        Ok(FrameReport { gpu_ms: r.gpu_ms, learn_ms: r.learn_ms, zero_paths: r.zero_paths, kind: None, variance: None })
     }
 
     /// A round: new frames up to the round's end (`round_end`), handed out to
@@ -392,8 +430,10 @@ impl Renderer for MultiGpuRenderer {
         self.next += handed;
         let (t, z) = self.trace_again(time_left_ms.map(|l| l - ms))?;
         (ms, zero) = (ms + t, add_counts(zero, z));
+        let mut learn_ms = 0.0;
         if self.next == end && learns && !self.devices.is_empty() {
             self.last_learn_ms = self.learn_together()?;
+            learn_ms = self.last_learn_ms;
             ms += self.last_learn_ms;
             let (t, z) = self.trace_again(time_left_ms.map(|l| l - ms))?;
             (ms, zero) = (ms + t, add_counts(zero, z));
@@ -407,6 +447,7 @@ impl Renderer for MultiGpuRenderer {
         Ok(RoundReport {
             frames: handed,
             gpu_ms: self.timestamps.then_some(ms),
+            learn_ms: self.timestamps.then_some(learn_ms),
             zero_paths: zero,
             time_up: Some(time_up.unwrap_or(false)),
             kind: None,
@@ -419,9 +460,13 @@ impl Renderer for MultiGpuRenderer {
         self.in_film().map(|d| d.r.frames()).sum()
     }
 
-    /// The devices' films added ([`add_film`]).
+    /// The devices' films, read back in parallel, added in device order ([`add_film`]).
     fn film(&self) -> Result<Film, GpuError> {
-        let mut films = self.in_film().map(|d| d.r.film());
+        let read: Vec<Result<Film, GpuError>> = std::thread::scope(|s| {
+            let handles: Vec<_> = self.in_film().map(|d| s.spawn(|| d.r.film())).collect();
+            handles.into_iter().map(|h| h.join().expect("a GPU's thread panicked")).collect()
+        });
+        let mut films = read.into_iter();
         let mut film = films.next().ok_or_else(Self::all_lost)??;
         for f in films {
             add_film(&mut film, &f?);

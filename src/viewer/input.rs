@@ -94,7 +94,8 @@ impl Viewer {
                 return Ok(Flow::Continue);
             }
             KeyCode::KeyP => {
-                let spp = self.renderer().renderer.frames() * shared::SAMPLES_PER_FRAME;
+                self.merge_if_due(true)?;
+                let spp = self.shown_frames() * shared::SAMPLES_PER_FRAME;
                 let stem = Path::new(&self.scene_name).file_stem().map(|s| s.to_string_lossy().into_owned());
                 let png = PathBuf::from(format!("rlpt-{}-{spp}spp.png", stem.unwrap_or_else(|| "view".into())));
                 self.save(&png)?;

@@ -1,7 +1,8 @@
 //! `rlpt view`: a window that shows the render converge. Each redraw adds one
-//! frame (64 samples per pixel) on the GPU, runs the display pass
-//! (`glsl/tonemap.comp`) and blits the result, letterboxed, into a swapchain
-//! image. The camera can be moved (the accumulation restarts, what guiding
+//! frame (64 samples per pixel) on the GPU, or a round of frames on several
+//! (`--gpus`: the first presents, all render), by a `session::Session` as
+//! `rlpt render` does; runs the display pass (`glsl/tonemap.comp`) and blits
+//! the result, letterboxed, into a swapchain image. The camera can be moved (the accumulation restarts, what guiding
 //! learned stays: it lives in world space), guiding and NEE switched, and the
 //! learned distribution of the voxel under the cursor shown as an inset.
 //!
@@ -9,6 +10,7 @@
 //! scales it to fit. Vulkan stays in `crate::gpu`; this module is winit and state.
 
 mod camera;
+mod frames;
 mod input;
 mod inset;
 mod modes;
@@ -17,15 +19,17 @@ mod timings;
 pub use camera::ViewCamera;
 pub use inset::{inset_texels, letterbox, window_to_pixel};
 
+use frames::{lost, MergeClock};
 use modes::{make_renderer, ModeRenderer};
-use timings::{FrameTime, RecentFrames};
+use timings::RecentFrames;
 
 use crate::gpu::{Acquired, Context, ContextOptions, Swapchain, WindowTarget};
 use crate::guide::{GuideField, GuidingMode};
 use crate::math::geometry::intersect;
 use crate::options::RenderOptions;
-use crate::render::display::{Display, Inset};
+use crate::render::display::{Display, Inset, SharedAccumulation};
 use crate::scene::Scene;
+use crate::session::Renderer;
 use crate::shared;
 use anyhow::{anyhow, bail, Context as _, Result};
 use std::path::{Path, PathBuf};
@@ -44,7 +48,8 @@ pub struct ViewOptions {
     pub scene: Scene,
     /// Size, bounces, seed, NEE and the initial guiding mode.
     pub render: RenderOptions,
-    pub context: ContextOptions,
+    /// The GPUs, one context each: the first presents, and all render.
+    pub contexts: Vec<ContextOptions>,
     /// Scripted mode: render this many frames, save `screenshot`, exit.
     pub frames: Option<u32>,
     /// Where the scripted mode saves what the window shows (.png; the linear
@@ -171,10 +176,14 @@ struct Viewer {
     // Fields drop in order: GPU objects first, then the context, the window last
     // (the context's surface refers to it).
     display: Display,
+    /// With several GPUs, their film merged on the presenting one, which the display shows.
+    shared: Option<SharedAccumulation>,
     swapchain: Option<Swapchain>,
     swapchain_dirty: bool,
     renderers: Vec<ModeRenderer>,
     current: usize,
+    /// The rendering contexts: `ctx` (which presents) first.
+    contexts: Vec<Arc<Context>>,
     ctx: Arc<Context>,
     window: Arc<Window>,
 
@@ -191,6 +200,7 @@ struct Viewer {
     cursor: Option<(f64, f64)>,
     drag_from: Option<(f64, f64)>,
     recent: RecentFrames,
+    merge: MergeClock,
     /// Frames rendered in this window (all modes), for the scripted mode.
     rendered: u32,
     resize_requested: bool,
@@ -218,15 +228,33 @@ impl Viewer {
         // drop in declaration order, GPU objects and context before `window`; `fail`
         // and exit drop the Viewer before the event loop ends.
         let target = unsafe { WindowTarget::new(display, handle) };
-        let mut ctx_options = options.context.clone();
+        let (presenting, others) = options.contexts.split_first().expect("at least one GPU");
+        let mut ctx_options = presenting.clone();
         ctx_options.window = Some(target);
         let ctx = Context::new(&ctx_options)?;
-        let first =
-            make_renderer(&ctx, &options.scene, &options.render, options.render.guiding, options.guide_in.as_ref())?;
+        let mut contexts = vec![ctx.clone()];
+        for o in others {
+            contexts.push(Context::new(o)?);
+        }
+        let first = make_renderer(
+            &contexts,
+            &options.scene,
+            &options.render,
+            options.render.guiding,
+            options.guide_in.as_ref(),
+        )?;
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, (size.width, size.height), None)?;
         let srgb = swapchain.as_ref().is_some_and(|s| s.is_srgb());
-        let display = Display::new(&ctx, first.renderer.accumulation(), w, h, srgb)?;
+        let shared = match contexts.len() {
+            1 => None,
+            _ => Some(SharedAccumulation::new(&ctx, w, h)?),
+        };
+        let shown = match &shared {
+            Some(s) => s.buffer(),
+            None => first.renderer.first().ok_or_else(lost)?.accumulation(),
+        };
+        let display = Display::new(&ctx, shown, w, h, srgb)?;
         let camera = ViewCamera::new(&options.scene.camera, &first.prepared);
         if let Some(s) = &swapchain {
             eprintln!(
@@ -234,15 +262,20 @@ impl Viewer {
                 ctx.info.name, ctx.info.driver, w, h, s.extent.width, s.extent.height, s.present_mode
             );
         }
+        if shared.is_some() {
+            eprintln!("rlpt view: rendering on {}; the first presents", first.renderer.device_name());
+        }
         if options.frames.is_none() {
             println!("{CONTROLS}");
         }
         Ok(Viewer {
             display,
+            shared,
             swapchain,
             swapchain_dirty: false,
             renderers: vec![first],
             current: 0,
+            contexts,
             ctx,
             window,
             scene: options.scene.clone(),
@@ -258,6 +291,7 @@ impl Viewer {
             cursor: None,
             drag_from: None,
             recent: RecentFrames::default(),
+            merge: MergeClock::default(),
             rendered: 0,
             resize_requested: false,
             resized_at: None,
@@ -285,20 +319,23 @@ impl Viewer {
         }
     }
 
-    /// Writes the camera and NEE into the current renderer and restarts its accumulation.
+    /// Writes the camera and NEE into the current renderer (every GPU's) and
+    /// restarts its accumulation.
     fn apply_params(&mut self) -> Result<()> {
         let cam = self.camera.to_scene_camera();
         let nee = self.nee;
         let r = &mut self.renderers[self.current].renderer;
-        let mut p = *r.params();
+        let mut p = *r.first().ok_or_else(lost)?.params();
         p.set_camera(&cam);
         p.set_nee(nee);
         r.set_params(&p)?;
         self.restart()
     }
 
+    /// Starts a new accumulation on every GPU; guiding keeps what it learned.
     fn restart(&mut self) -> Result<()> {
         self.renderers[self.current].renderer.reset_accumulation()?;
+        self.merge.restarted();
         self.recent.clear();
         self.inset_shown = None;
         self.window.request_redraw();
@@ -318,7 +355,8 @@ impl Viewer {
             self.inset_shown = None;
             return self.display.set_inset(None).map_err(|e| anyhow!(e));
         };
-        let Some(values) = mr.renderer.cell_values(cell)? else { return Ok(()) };
+        let first = mr.renderer.first().ok_or_else(lost)?;
+        let Some(values) = first.cell_values(cell)? else { return Ok(()) };
         let (w, h) = self.display.size();
         let iw = (w / 2).min(256).max(bins.cols);
         let ih = (iw / 2).min(h / 2).max(bins.rows);
@@ -335,7 +373,7 @@ impl Viewer {
                 let best = values.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(i, _)| i as u32);
                 let dir = best.map(|b| bins.center(b)).unwrap_or_default();
                 // Every learned row of a cell has the cell's fraction.
-                let fraction = mr.renderer.cell_fractions(cell)?.unwrap_or_default().into_iter().fold(0.0f32, f32::max);
+                let fraction = first.cell_fractions(cell)?.unwrap_or_default().into_iter().fold(0.0f32, f32::max);
                 let fraction =
                     if fraction > 0.0 { format!("guided fraction {fraction:.2}") } else { "nothing learned".into() };
                 println!(
@@ -359,9 +397,9 @@ impl Viewer {
         let (w, h) = self.display.size();
         let rect = letterbox((w, h), (sc.extent.width, sc.extent.height));
         let (px, py) = window_to_pixel(rect, (w, h), (cx, cy))?;
-        let (o, d) = crate::camera::camera_ray(mr.renderer.params(), px, py, [0.5, 0.5]);
+        let (o, d) = crate::camera::camera_ray(mr.renderer.first()?.params(), px, py, [0.5, 0.5]);
         let hit = intersect(&mr.prepared, o, d, f32::INFINITY)?;
-        Some((mr.renderer.cell_at(hit.p).ok()??, cfg.bins))
+        Some((mr.renderer.first()?.cell_at(hit.p).ok()??, cfg.bins))
     }
 
     fn recreate_swapchain(&mut self) -> Result<()> {
@@ -373,7 +411,7 @@ impl Viewer {
         if let Some(s) = &new {
             if s.is_srgb() != self.display_is_srgb() {
                 let (w, h) = self.display.size();
-                self.display = Display::new(&self.ctx, self.renderer().renderer.accumulation(), w, h, s.is_srgb())?;
+                self.display = Display::new(&self.ctx, self.shown_accumulation()?, w, h, s.is_srgb())?;
             }
             eprintln!("rlpt view: swapchain recreated at {}x{}", s.extent.width, s.extent.height);
             self.resized_at = Some((s.extent.width, s.extent.height));
@@ -398,15 +436,14 @@ impl Viewer {
             None => !self.paused,
         };
         if render_more {
-            let start = Instant::now();
-            let t = self.renderers[self.current].renderer.render_frames(1)?;
-            let gpu = self.ctx.info.timestamps;
-            self.recent.push(FrameTime {
-                pathtrace_ms: if gpu { t.pathtrace_ms } else { start.elapsed().as_secs_f64() * 1e3 },
-                learn_ms: if gpu { t.learn_ms } else { 0.0 },
-                gpu,
-            });
-            self.rendered += 1;
+            let left = options.frames.map_or(u32::MAX, |n| n - self.rendered);
+            self.trace(left)?;
+        }
+        // With several GPUs, the window is drawn where their film was merged, or
+        // where nothing more comes this redraw (paused, exposed, or scripted frames done).
+        let done = options.frames.is_some_and(|n| self.rendered >= n);
+        if !self.merge_if_due(!render_more || done)? {
+            return Ok(Flow::Continue);
         }
         if self.inset_on {
             self.update_inset(false)?;
@@ -421,7 +458,7 @@ impl Viewer {
         };
         let (w, h) = self.display.size();
         let rect = letterbox((w, h), (sc.extent.width, sc.extent.height));
-        let frames = self.renderer().renderer.frames();
+        let frames = self.shown_frames();
         let display = &self.display;
         let recreate = sc.draw_and_present(index, &display.image, rect, |cmd| display.cmd_draw(cmd, frames))?;
         if recreate {
@@ -455,15 +492,19 @@ impl Viewer {
 
     fn update_title(&self) {
         let mr = self.renderer();
-        let spp = mr.renderer.frames() * shared::SAMPLES_PER_FRAME;
+        let spp = self.shown_frames() * shared::SAMPLES_PER_FRAME;
         let (w, h) = self.display.size();
         let mean = self.recent.mean();
         let ms = mean.pathtrace_ms + mean.learn_ms;
         let msps = if ms > 0.0 { (w as f64 * h as f64 * shared::SAMPLES_PER_FRAME as f64) / (ms * 1e3) } else { 0.0 };
         let clock = if mean.gpu { "GPU" } else { "wall" };
         let learn = if mr.mode == GuidingMode::Off { String::new() } else { format!(" (learn {:.2})", mean.learn_ms) };
+        let gpus = match mr.renderer.device_count() {
+            1 => String::new(),
+            n => format!(" on {n} GPUs"),
+        };
         self.window.set_title(&format!(
-            "rlpt: {} | {spp} spp | {ms:.2} ms/frame {clock}{learn} | {msps:.1} Msamples/s | guiding {} | NEE {}{}",
+            "rlpt: {} | {spp} spp | {ms:.2} ms/frame {clock}{learn} | {msps:.1} Msamples/s{gpus} | guiding {} | NEE {}{}",
             self.scene_name,
             mr.mode.name(),
             if self.nee { "on" } else { "off" },
@@ -475,11 +516,17 @@ impl Viewer {
     /// and the linear mean radiance beside it as .exr.
     fn save(&self, png: &Path) -> Result<()> {
         let (w, h) = self.display.size();
+        if self.shared.is_some() {
+            // The merged film may be newer than the window's last draw (`merge_if_due`).
+            let frames = self.shown_frames();
+            self.ctx.run_commands("display for a screenshot", |cmd| self.display.cmd_draw(cmd, frames))?;
+        }
         let rgb = self.display.read_rgb8()?;
         image::save_buffer(png, &rgb, w, h, image::ExtendedColorType::Rgb8)
             .with_context(|| format!("writing {}", png.display()))?;
         let exr = png.with_extension("exr");
         let film = self.renderer().renderer.film()?;
+        debug_assert!(self.shared.is_none() || film.frames == self.shown_frames(), "the shown image is merged");
         film.mean().save(&exr).with_context(|| format!("writing {}", exr.display()))?;
         println!(
             "saved {} and {} ({} spp, guiding {}, NEE {})",

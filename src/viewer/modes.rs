@@ -1,11 +1,12 @@
-//! The renderers of the guiding modes the viewer switches between (`G`).
+//! The renderers of the guiding modes the viewer switches between (`G`), each
+//! built as `rlpt render` builds its own (`render::GpuSet`) on the viewer's GPUs.
 
 use super::Viewer;
 use crate::gpu::Context;
 use crate::guide::{GuideField, GuidingMode};
 use crate::options::RenderOptions;
 use crate::prepared::PreparedScene;
-use crate::render::GpuRenderer;
+use crate::render::GpuSet;
 use crate::scene::Scene;
 use anyhow::Result;
 use std::path::PathBuf;
@@ -15,7 +16,7 @@ use std::sync::Arc;
 pub(super) struct ModeRenderer {
     pub(super) mode: GuidingMode,
     pub(super) prepared: PreparedScene,
-    pub(super) renderer: GpuRenderer,
+    pub(super) renderer: GpuSet,
 }
 
 impl Viewer {
@@ -31,7 +32,7 @@ impl Viewer {
         };
         let index = match self.renderers.iter().position(|r| r.mode == next) {
             Some(i) => i,
-            None => match make_renderer(&self.ctx, &self.scene, &self.base, next, self.guide_in.as_ref()) {
+            None => match make_renderer(&self.contexts, &self.scene, &self.base, next, self.guide_in.as_ref()) {
                 Ok(r) => {
                     self.renderers.push(r);
                     self.renderers.len() - 1
@@ -44,15 +45,17 @@ impl Viewer {
             },
         };
         self.current = index;
-        self.display.bind(self.renderers[index].renderer.accumulation());
+        self.display.bind(self.shown_accumulation()?);
         println!("guiding {}", next.name());
         self.apply_params()?;
         self.update_inset(true)
     }
 }
 
+/// The renderer of guiding `mode` on `contexts` (the first presents), started
+/// from `field` where its bins are the mode's.
 pub(super) fn make_renderer(
-    ctx: &Arc<Context>,
+    contexts: &[Arc<Context>],
     scene: &Scene,
     base: &RenderOptions,
     mode: GuidingMode,
@@ -77,6 +80,6 @@ pub(super) fn make_renderer(
             );
         }
     }
-    let renderer = GpuRenderer::new(ctx, &prepared)?;
+    let renderer = GpuSet::new(contexts, &prepared, 0)?;
     Ok(ModeRenderer { mode, prepared, renderer })
 }
