@@ -5,8 +5,7 @@ use super::*;
 use crate::scene::texture::{Channel, Remap, TextureRef, TextureUse};
 
 /// A TOML scene's roughness texture: the mean of its RGB, read as the roughness.
-const ROUGHNESS_TEXELS: TextureUse =
-    TextureUse::Roughness { channel: Channel::Average, invert: false, remap: Remap::Identity };
+const ROUGHNESS_TEXELS: TextureUse = TextureUse::roughness(Channel::Average, Remap::Identity);
 
 pub(super) const MATERIAL_TYPES: &[&str] =
     &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive"];
