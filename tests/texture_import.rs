@@ -327,3 +327,38 @@ fn gltf_images_embedded_in_a_glb_or_a_data_uri_are_read_as_textures_alike_on_gpu
     let e = Scene::load(d.join("scene.toml")).unwrap_err().to_string();
     assert!(e.contains("images[0]") && e.contains("q.glb") && e.contains("cannot be read"), "{e}");
 }
+
+#[test]
+fn a_conductor_albedo_texture_tints_its_fresnel_alike_on_gpu_and_cpu() {
+    let d = dir("conductor");
+    let (a, b) = ([255u8, 200, 64, 255], [32u8, 128, 255, 255]);
+    std::fs::write(d.join("tint.png"), png_bytes(8, 8, |x, y| if (x + y) % 2 == 0 { a } else { b })).unwrap();
+    // A mirror conductor facing the camera under a uniform sky of 1: each pixel
+    // is the Fresnel reflectance (about 0.96 for eta 1, k 10) times the tint.
+    let scene = |texture: &str| {
+        let text = format!(
+            "[camera]\nposition = [0.0, 0.0, 1.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 90.0\n\
+             [render]\nwidth = 16\nheight = 16\nspp = 64\nmax_bounces = 4\n\
+             [environment]\nradiance = [1.0, 1.0, 1.0]\n\
+             [[material]]\nname = \"metal\"\ntype = \"conductor\"\neta = [1, 1, 1]\nk = [10, 10, 10]\n{texture}\n\
+             [[quad]]\norigin = [-1.0, -1.0, 0.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 2.0, 0.0]\nmaterial = \"metal\"\n"
+        );
+        std::fs::write(d.join("scene.toml"), text).unwrap();
+        Scene::load(d.join("scene.toml")).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let (tinted, plain) = (scene("albedo_texture = \"tint.png\""), scene(""));
+    let opts = options(&tinted, 16, 16, 256);
+    let ctx = gpu();
+    let g = render_gpu(&ctx, &tinted, &opts);
+    let c = render_cpu(&tinted, &opts);
+    assert_films_agree(&g, &c, 4, K, "tinted conductor, GPU vs CPU");
+    // The checker's mean over the quad, which the image covers exactly.
+    let p = render_cpu(&plain, &opts).mean();
+    let (gm, pm) = (g.mean(), p);
+    for k in 0..3 {
+        let tint = (srgb(a[k]) + srgb(b[k])) / 2.0;
+        let mean = |f: &rlpt::image::Image| f.pixels.iter().map(|px| px[k] as f64).sum::<f64>() / f.pixels.len() as f64;
+        let (t, u) = (mean(&gm), mean(&pm));
+        assert!((t / u - tint as f64).abs() < 0.02, "channel {k}: tinted/plain {} vs the mean tint {tint}", t / u);
+    }
+}

@@ -43,7 +43,7 @@ pub(super) fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
             "roughness_texture",
         ],
         MaterialKind::Conductor => {
-            &["name", "type", "eta", "k", "roughness", "emission", "two_sided", "roughness_texture"]
+            &["name", "type", "eta", "k", "roughness", "emission", "two_sided", "albedo_texture", "roughness_texture"]
         }
         MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
     }
