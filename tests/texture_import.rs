@@ -250,7 +250,7 @@ fn glb(colour: &[u8], roughness: &[u8]) -> Vec<u8> {
     }
     let image_at = bin.len();
     bin.extend_from_slice(colour);
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let json = format!(
@@ -271,7 +271,7 @@ fn glb(colour: &[u8], roughness: &[u8]) -> Vec<u8> {
         colour.len()
     );
     let mut json = json.into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut out = Vec::new();
