@@ -350,8 +350,15 @@ pub fn describe(textures: &[TextureImage]) -> Vec<String> {
         .iter()
         .map(|t| {
             let what = match t.usage {
-                TextureUse::Colour => "colour",
-                TextureUse::Roughness { .. } => "roughness",
+                TextureUse::Colour => "colour".to_string(),
+                TextureUse::Roughness { srgb, scale, invert, remap, .. } => {
+                    let mut w = format!("roughness, {remap:?} remap");
+                    w += if srgb { ", sRGB-decoded" } else { "" };
+                    if scale.0 != 1.0 {
+                        w += &format!(", scale {}", scale.0);
+                    }
+                    w + if invert { ", inverted" } else { "" }
+                }
             };
             let format = match t.format {
                 shared::TEXEL_RGBA8_SRGB => "RGBA8 sRGB",

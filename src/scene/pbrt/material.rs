@@ -260,6 +260,10 @@ impl Reader<'_> {
             let other = if u_image.is_some() { v_name } else { u_name };
             if u_image.as_ref().zip(v_image.as_ref()).is_none_or(|(a, b)| a.0 != b.0) {
                 let read = if u_image.is_some() { u_name } else { v_name };
+                let other = match self.params.get(other, &["float", "texture"]) {
+                    Some(p) => p.label(),
+                    None => format!("\"{other}\" (not given: its default)"),
+                };
                 self.note(format!(
                     "{other} dropped: rlpt's roughness is isotropic, and the texture \"{tex}\" of {read} is read for \
                      both directions"
