@@ -325,11 +325,13 @@
 #define BINDING_ENV_CDF 21
 // Image textures (texture.glsl; src/math/texture.rs; docs/ARCHITECTURE.md,
 // "Textures"): per texture a TextureHeader; every texture's texels in one array
-// of words; per triangle its vertices' UVs (TriangleUvs). Empty in a scene
-// without textures, whose kernel has no texture code (SPEC_TEXTURES).
+// of words; per triangle its vertices' UVs (TriangleUvs); per sphere its UV
+// frame (SphereUv). Empty in a scene without textures, whose kernel has no
+// texture code (SPEC_TEXTURES).
 #define BINDING_TEXTURES 22
 #define BINDING_TEXELS 23
 #define BINDING_TRIANGLE_UVS 24
+#define BINDING_SPHERE_UVS 25
 // TextureHeader.format: one word per texel, RGBA 8 bits each (red the low
 // byte), linear or sRGB-encoded (decoded on lookup); or two words per texel,
 // RGBA as four halves (packHalf2x16 of rg, then of ba), linear.
@@ -425,6 +427,14 @@ struct TextureHeader {
     uint height;
     uint format;             // TEXEL_*
     vec4 transform;
+};
+
+// A sphere's UV frame (texture.glsl `sphere_uv`; src/scene/mod.rs `SphereUv`):
+// xyz the rows of its world-to-object matrix; w phi_max, theta_min, theta_max.
+struct SphereUv {
+    vec4 x;
+    vec4 y;
+    vec4 z;
 };
 
 // The UVs of a triangle's three vertices (texture.glsl `triangle_uv`).

@@ -54,7 +54,7 @@ Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
         hit.eps = hit_epsilon(hit.p, sphere_hit_scale(s));
         hit.material = s.material;
         hit.light = s.light;
-        if (SCENE_TEXTURES) hit.uv = sphere_uv(hit.n);
+        if (SCENE_TEXTURES) hit.uv = sphere_uv(i, hit.n);
     } else if (!SCENE_BVH || kind == PRIM_QUAD) {
         // Triangles come with the BVH alone: without it their code is left out.
         Quad q = quads[i];

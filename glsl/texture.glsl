@@ -10,6 +10,7 @@
 layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer Textures { TextureHeader textures[]; };
 layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = BINDING_TRIANGLE_UVS) readonly buffer TriangleUvsBuf { TriangleUvs triangle_uvs[]; };
+layout(std430, set = 0, binding = BINDING_SPHERE_UVS) readonly buffer SphereUvsBuf { SphereUv sphere_uvs[]; };
 
 // src/scene/texture.rs `srgb_to_linear`.
 float srgb_to_linear(float c) { return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4); }
@@ -67,9 +68,14 @@ vec3 triangle_barycentrics(vec3 v0, vec3 v1, vec3 v2, vec3 p) {
     return vec3(1.0 - b1 - b2, b1, b2);
 }
 
-// src/math/texture.rs `sphere_uv`, from the outward unit normal n.
-vec2 sphere_uv(vec3 n) {
-    return vec2(atan(n.x, -n.z) / (2.0 * PI) + 0.5, 1.0 - acos(clamp(n.y, -1.0, 1.0)) / PI);
+// src/math/texture.rs `sphere_uv`: sphere i's UV at the outward unit normal n.
+vec2 sphere_uv(uint i, vec3 n) {
+    SphereUv f = sphere_uvs[i];
+    vec3 o = normalize(vec3(dot(f.x.xyz, n), dot(f.y.xyz, n), dot(f.z.xyz, n)));
+    float phi = atan(o.y, o.x);
+    if (phi < 0.0) phi += 2.0 * PI;
+    float theta = acos(clamp(o.z, -1.0, 1.0));
+    return vec2(phi / f.x.w, (theta - f.y.w) / (f.z.w - f.y.w));
 }
 
 // src/math/texture.rs `quad_uv`.

@@ -47,6 +47,16 @@ pub struct GpuTexture {
     pub transform: [f32; 4],
 }
 
+/// A sphere's texture-coordinate frame (`SphereUv`, `crate::scene::SphereUv`):
+/// xyz the rows of its world-to-object matrix; w phi_max, theta_min, theta_max.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuSphereUv {
+    pub x: [f32; 4],
+    pub y: [f32; 4],
+    pub z: [f32; 4],
+}
+
 /// The UVs of a triangle's vertices (`TriangleUvs`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -265,6 +275,7 @@ const _: () = assert!(std::mem::size_of::<RenderParams>() == 256);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangleUvs>() == 24);
+const _: () = assert!(std::mem::size_of::<GpuSphereUv>() == 48);
 // The specialization constants' layout (glsl/common.glsl): the quads' slots
 // follow the scalar constants, the spheres' follow the quads', and nothing after.
 const _: () =
@@ -371,4 +382,6 @@ pub struct SceneArrays {
     pub texels: Vec<u32>,
     /// Per triangle its vertices' UVs, where the scene has textures; else empty.
     pub triangle_uvs: Vec<GpuTriangleUvs>,
+    /// Per sphere its UV frame, where the scene has textures; else empty.
+    pub sphere_uvs: Vec<GpuSphereUv>,
 }

@@ -150,6 +150,7 @@ fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
         textures: vec![],
         texels: vec![],
         triangle_uvs: vec![],
+        sphere_uvs: vec![],
     }
 }
 

@@ -171,11 +171,15 @@ fn suzanne_gltf_is_rough_white_metal_with_its_textures_read() {
 fn box_textured_gltf_and_glb_are_the_same_box_turned_by_its_node() {
     let gltf = load("gltf_box_textured/glTF/BoxTextured.gltf");
     let mut glb = load("gltf_box_textured/glTF-Binary/BoxTextured.glb");
-    // The same but for the texture: the glTF's image is a file, read; the GLB's
-    // is embedded, which rlpt does not read (noted).
-    assert!(gltf.materials[0].material.albedo_texture.is_some() && gltf.notes.is_empty());
-    assert!(glb.notes[0].contains("textures of embedded images"), "{:?}", glb.notes);
-    (glb.materials, glb.notes) = (gltf.materials.clone(), gltf.notes.clone());
+    // The same but for where the texture's image lies: the glTF's in a file, the
+    // GLB's in a bufferView; both read, to the same texels.
+    let (file, embedded) = (&gltf.materials[0].material.albedo_texture, &glb.materials[0].material.albedo_texture);
+    let (file, embedded) = (file.as_ref().unwrap(), embedded.as_ref().unwrap());
+    assert!(gltf.notes.is_empty() && glb.notes.is_empty(), "{:?} {:?}", gltf.notes, glb.notes);
+    assert!(embedded.path.to_string_lossy().ends_with("BoxTextured.glb#images[0]"), "{embedded:?}");
+    let decode = |r| rlpt::scene::texture::decode(r).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(decode(file).texels, decode(embedded).texels);
+    glb.materials = gltf.materials.clone();
     assert_eq!(gltf, glb);
     assert_eq!(gltf.triangles.len(), 12);
     assert_eq!(gltf.positions.len(), 24);

@@ -305,8 +305,10 @@ fn a_missing_or_unreadable_texture_is_refused_with_its_path_as_written_and_resol
     std::fs::write(d.join("bad.png"), b"not a png at all").unwrap();
     let e = Scene::load(write_scene(&d, &quad_scene(&material("bad.png")))).unwrap_err().to_string();
     assert!(e.contains("\"bad.png\"") && e.contains("cannot be read"), "{e}");
-    // A texture on a material that has no albedo (a conductor) is refused by key.
-    let text = quad_scene("[[material]]\nname = \"tex\"\ntype = \"conductor\"\neta = [1, 1, 1]\nk = [1, 1, 1]\nalbedo_texture = \"x.png\"");
+    // A texture on a material that has no albedo (an emissive one) is refused by key.
+    let text = quad_scene(
+        "[[material]]\nname = \"tex\"\ntype = \"emissive\"\nemission = [1, 1, 1]\nalbedo_texture = \"x.png\"",
+    );
     let e = Scene::load(write_scene(&d, &text)).unwrap_err().to_string();
     assert!(e.contains("albedo_texture"), "{e}");
 }

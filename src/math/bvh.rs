@@ -537,6 +537,7 @@ mod tests {
             textures: vec![],
             texels: vec![],
             triangle_uvs: vec![],
+            sphere_uvs: vec![],
         }
     }
 

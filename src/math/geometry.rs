@@ -334,7 +334,16 @@ pub fn prim_hit(scene: &SceneArrays, r: u32, o: Vec3, d: Vec3, t: f32) -> Hit {
             let s = &scene.spheres[i];
             let n = ((p - xyz(s.center_radius)) / s.center_radius[3]).normalize();
             let eps = hit_epsilon(p, sphere_hit_scale(s));
-            Hit { t, p, n, ns: n, eps, material: s.material, light: s.light, uv: uv(&|| texture::sphere_uv(n)) }
+            Hit {
+                t,
+                p,
+                n,
+                ns: n,
+                eps,
+                material: s.material,
+                light: s.light,
+                uv: uv(&|| texture::sphere_uv(scene, i, n)),
+            }
         }
         shared::PRIM_QUAD => {
             let q = &scene.quads[i];

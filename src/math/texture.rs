@@ -82,13 +82,18 @@ pub fn triangle_barycentrics(v: [Vec3; 3], p: Vec3) -> Vec3 {
     Vec3::new(1.0 - b1 - b2, b1, b2)
 }
 
-/// The UV of a sphere's point of outward unit normal `n`, in world axes
-/// (`sphere_uv`): u = 0.5 + atan2(n.x, -n.z) / 2 pi (the environment map's
-/// longitude), v = 1 - acos(n.y) / pi (1 at +y).
-pub fn sphere_uv(n: Vec3) -> Vec2 {
-    let u = n.x.atan2(-n.z) / (2.0 * std::f32::consts::PI) + 0.5;
-    let v = 1.0 - n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
-    Vec2::new(u, v)
+/// The UV of sphere `i`'s point of outward unit normal `n` (`sphere_uv`), by
+/// its frame (`crate::scene::SphereUv`): u = phi / phi_max, v = (theta -
+/// theta_min) / (theta_max - theta_min), the angles in its object space.
+pub fn sphere_uv(scene: &SceneArrays, i: usize, n: Vec3) -> Vec2 {
+    let f = &scene.sphere_uvs[i];
+    let o = Vec3::new(xyz(f.x).dot(n), xyz(f.y).dot(n), xyz(f.z).dot(n)).normalize();
+    let mut phi = o.y.atan2(o.x);
+    if phi < 0.0 {
+        phi += 2.0 * std::f32::consts::PI;
+    }
+    let theta = o.z.clamp(-1.0, 1.0).acos();
+    Vec2::new(phi / f.x[3], (theta - f.y[3]) / (f.z[3] - f.y[3]))
 }
 
 /// The UV of `p` on a quad (`quad_uv`): its (s, t), p = origin + s edge_u + t edge_v.

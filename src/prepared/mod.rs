@@ -156,6 +156,7 @@ impl PreparedScene {
             })
             .collect();
         let (textures, texels) = textures::scene_textures(scene, &mut materials);
+        let sphere_uvs = if textures.is_empty() { Vec::new() } else { textures::sphere_uvs(scene) };
         // Lights are chosen in proportion to emitted power: area x mean emission (x2 if two-sided).
         // In f64: a large lamp's power overflows f32 (1e12 radiance over 1e24 of
         // area), and the probabilities are all that leaves here.
@@ -359,6 +360,7 @@ impl PreparedScene {
                 textures,
                 texels,
                 triangle_uvs,
+                sphere_uvs,
             },
             guide: None,
             guide_start: None,

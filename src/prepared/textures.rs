@@ -3,10 +3,22 @@
 //! texels in one array, and the materials' references to the headers
 //! (docs/ARCHITECTURE.md, "Textures").
 
-use crate::layout::{GpuMaterial, GpuTexture};
+use crate::layout::{GpuMaterial, GpuSphereUv, GpuTexture};
 use crate::scene::texture::{find, TextureRef};
 use crate::scene::Scene;
 use crate::shared;
+
+/// Each sphere's UV frame, as the renderers read it.
+pub(super) fn sphere_uvs(scene: &Scene) -> Vec<GpuSphereUv> {
+    let row = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
+    (scene.spheres.iter())
+        .map(|s| GpuSphereUv {
+            x: row(s.uv.to_object[0], s.uv.phi_max),
+            y: row(s.uv.to_object[1], s.uv.theta_min),
+            z: row(s.uv.to_object[2], s.uv.theta_max),
+        })
+        .collect()
+}
 
 /// The headers and texels of the textures `scene`'s materials name; sets each
 /// material's `albedo_texture` and `roughness_texture` (1 + its header). An

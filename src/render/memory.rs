@@ -30,7 +30,8 @@ pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
         + std::mem::size_of_val(scene.env_cdf.as_slice())
         + std::mem::size_of_val(scene.textures.as_slice())
         + std::mem::size_of_val(scene.texels.as_slice())
-        + std::mem::size_of_val(scene.triangle_uvs.as_slice())) as u64
+        + std::mem::size_of_val(scene.triangle_uvs.as_slice())
+        + std::mem::size_of_val(scene.sphere_uvs.as_slice())) as u64
 }
 
 /// The device memory a render of `scene` takes, against what `ctx`'s device has:

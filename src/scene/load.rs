@@ -554,7 +554,7 @@ fn parse_sphere(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<Sphere,
         ));
     }
     let material = material_index(t, materials)?;
-    Ok(Sphere { center: to_vec3(center), radius, material })
+    Ok(Sphere { center: to_vec3(center), radius, material, uv: super::SphereUv::TOML })
 }
 
 fn parse_quad(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<Quad, SceneError> {

@@ -126,6 +126,33 @@ pub struct Sphere {
     pub radius: f32,
     /// Index into `Scene::materials`.
     pub material: u32,
+    /// How its points map to texture coordinates.
+    pub uv: SphereUv,
+}
+
+/// A sphere's texture coordinates, pbrt's: u = phi / phi_max and v = (theta -
+/// theta_min) / (theta_max - theta_min), for the spherical angles (phi from +x
+/// towards +y, theta from +z) of the unit normal in the sphere's object space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SphereUv {
+    /// World directions to object space: the rows of the object-to-world
+    /// matrix's inverse, scaled to about unit length (normalized after use).
+    pub to_object: [Vec3; 3],
+    /// In radians: phi_max, and theta at z_min (pi for a whole sphere) and at z_max (0).
+    pub phi_max: f32,
+    pub theta_min: f32,
+    pub theta_max: f32,
+}
+
+impl SphereUv {
+    /// The TOML sphere's (`docs/SCENE_FORMAT.md`): object z is world +y and
+    /// u = 0.5 at -z, so that u = 0.5 + atan2(x, -z) / 2 pi and v = 1 - acos(y) / pi.
+    pub const TOML: SphereUv = SphereUv {
+        to_object: [Vec3::Z, Vec3::NEG_X, Vec3::Y],
+        phi_max: std::f32::consts::TAU,
+        theta_min: std::f32::consts::PI,
+        theta_max: 0.0,
+    };
 }
 
 /// The parallelogram `origin + s*edge_u + t*edge_v`, s,t in [0, 1];

@@ -18,9 +18,37 @@ pub enum TextureUse {
     /// RGB reflectance that multiplies the albedo: 8-bit images are sRGB-encoded
     /// (decoded on lookup), others linear; clamped to [0, 1].
     Colour,
-    /// GGX roughness (times the material's `roughness`), from one channel, read
-    /// linearly, each texel mapped by `remap` (after `invert`) before filtering.
-    Roughness { channel: Channel, invert: bool, remap: Remap },
+    /// GGX roughness (times the material's `roughness`), from one channel: each
+    /// texel's value sRGB-decoded where `srgb` (integer images only), times
+    /// `scale`, then 1 - v where `invert` (pbrt-v4's order), then mapped by
+    /// `remap`, before filtering.
+    Roughness { channel: Channel, srgb: bool, scale: Factor, invert: bool, remap: Remap },
+}
+
+impl TextureUse {
+    /// A roughness read as it is: linear, unscaled, not inverted, of `channel`
+    /// and `remap`.
+    pub const fn roughness(channel: Channel, remap: Remap) -> TextureUse {
+        TextureUse::Roughness { channel, srgb: false, scale: Factor(1.0), invert: false, remap }
+    }
+}
+
+/// A number in a [`TextureUse`], compared and hashed by its bits.
+#[derive(Clone, Copy, Debug)]
+pub struct Factor(pub f32);
+
+impl PartialEq for Factor {
+    fn eq(&self, other: &Factor) -> bool {
+        self.0.to_bits() == other.0.to_bits()
+    }
+}
+
+impl Eq for Factor {}
+
+impl std::hash::Hash for Factor {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.0.to_bits().hash(state)
+    }
 }
 
 /// The channel a roughness texture is read from.
@@ -76,6 +104,19 @@ pub struct TextureRef {
     pub usage: TextureUse,
     /// st = (u * x + z, v * y + w): pbrt's `uscale`, `vscale`, `udelta`, `vdelta`.
     pub transform: [f32; 4],
+    /// The encoded image itself, where a file embeds it (a glTF bufferView or
+    /// `data:` uri); then `path` names it (`model.glb#images[0]`) and is no file.
+    pub embedded: Option<Embedded>,
+}
+
+/// The bytes of an image embedded in a scene's file (PNG, JPEG, ...).
+#[derive(Clone, PartialEq)]
+pub struct Embedded(pub std::sync::Arc<[u8]>);
+
+impl std::fmt::Debug for Embedded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Embedded({} bytes)", self.0.len())
+    }
 }
 
 impl TextureRef {
@@ -89,12 +130,28 @@ impl TextureRef {
             position,
             usage,
             transform: [1.0, 1.0, 0.0, 0.0],
+            embedded: None,
+        }
+    }
+
+    /// Image `index` embedded in `file` (`bytes`), for `usage`.
+    pub fn embedded(file: &Path, index: usize, bytes: Vec<u8>, usage: TextureUse) -> Self {
+        TextureRef {
+            path: PathBuf::from(format!("{}#images[{index}]", file.display())),
+            written: format!("images[{index}]"),
+            origin: file.display().to_string(),
+            position: None,
+            usage,
+            transform: [1.0, 1.0, 0.0, 0.0],
+            embedded: Some(Embedded(bytes.into())),
         }
     }
 
     /// `"wood.png"`, with `(resolved to dir/wood.png)` where that differs.
     pub fn shown(&self) -> String {
-        if self.path.as_os_str() == self.written.as_str() {
+        if self.embedded.is_some() {
+            format!("\"{}\" (embedded in {})", self.written, self.origin)
+        } else if self.path.as_os_str() == self.written.as_str() {
             format!("\"{}\"", self.written)
         } else {
             format!("\"{}\" (resolved to {})", self.written, self.path.display())
@@ -143,11 +200,14 @@ pub fn pack_half2(a: f32, b: f32) -> u32 {
 /// Decodes the image of `r` for its use; the error names the file as written
 /// and resolved, and where it was named.
 pub fn decode(r: &TextureRef) -> Result<TextureImage, SceneError> {
-    if !r.path.is_file() {
-        return Err(r.error(format!("the texture image {} does not exist", r.shown())));
-    }
-    let image =
-        image::open(&r.path).map_err(|e| r.error(format!("the texture image {} cannot be read: {e}", r.shown())))?;
+    let image = match &r.embedded {
+        Some(Embedded(bytes)) => image::load_from_memory(bytes),
+        None if !r.path.is_file() => {
+            return Err(r.error(format!("the texture image {} does not exist", r.shown())));
+        }
+        None => image::open(&r.path),
+    };
+    let image = image.map_err(|e| r.error(format!("the texture image {} cannot be read: {e}", r.shown())))?;
     let (width, height) = (image.width(), image.height());
     if width == 0 || height == 0 || width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
         return Err(r.error(format!(
@@ -188,16 +248,18 @@ pub fn decode(r: &TextureRef) -> Result<TextureImage, SceneError> {
             }
             (shared::TEXEL_RGBA16F, texels)
         }
-        TextureUse::Roughness { channel, invert, remap } => {
+        TextureUse::Roughness { channel, srgb, scale, invert, remap } => {
             let rgba = image.to_rgba32f();
+            let decode = |c: f32| if srgb && !float { srgb_to_linear(c) } else { c };
             let mut texels = Vec::with_capacity(n);
             for p in rgba.pixels() {
                 let v = match channel {
-                    Channel::Average => (p[0] + p[1] + p[2]) / 3.0,
-                    Channel::Green => p[1],
-                };
+                    Channel::Average => (decode(p[0]) + decode(p[1]) + decode(p[2])) / 3.0,
+                    Channel::Green => decode(p[1]),
+                } * scale.0;
+                let v = if invert { 1.0 - v } else { v };
                 let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
-                let byte = (remap.roughness(if invert { 1.0 - v } else { v }) * 255.0).round() as u8;
+                let byte = (remap.roughness(v) * 255.0).round() as u8;
                 sum += DVec3::splat(byte as f64 / 255.0);
                 texels.push(u32::from_le_bytes([byte; 4]));
             }
@@ -288,8 +350,15 @@ pub fn describe(textures: &[TextureImage]) -> Vec<String> {
         .iter()
         .map(|t| {
             let what = match t.usage {
-                TextureUse::Colour => "colour",
-                TextureUse::Roughness { .. } => "roughness",
+                TextureUse::Colour => "colour".to_string(),
+                TextureUse::Roughness { srgb, scale, invert, remap, .. } => {
+                    let mut w = format!("roughness, {remap:?} remap");
+                    w += if srgb { ", sRGB-decoded" } else { "" };
+                    if scale.0 != 1.0 {
+                        w += &format!(", scale {}", scale.0);
+                    }
+                    w + if invert { ", inverted" } else { "" }
+                }
             };
             let format = match t.format {
                 shared::TEXEL_RGBA8_SRGB => "RGBA8 sRGB",

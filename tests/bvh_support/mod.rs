@@ -185,7 +185,7 @@ pub fn mixed() -> PreparedScene {
             1 => 1e-3 * r() + 1e-4,
             _ => 0.05 + 0.5 * r(),
         };
-        scene.spheres.push(Sphere { center, radius, material: 0 });
+        scene.spheres.push(Sphere { center, radius, material: 0, uv: rlpt::scene::SphereUv::TOML });
     }
     for i in 0..80 {
         let origin = Vec3::new(r(), r(), r()) * 10.0 - 5.0;

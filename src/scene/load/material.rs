@@ -5,8 +5,7 @@ use super::*;
 use crate::scene::texture::{Channel, Remap, TextureRef, TextureUse};
 
 /// A TOML scene's roughness texture: the mean of its RGB, read as the roughness.
-const ROUGHNESS_TEXELS: TextureUse =
-    TextureUse::Roughness { channel: Channel::Average, invert: false, remap: Remap::Identity };
+const ROUGHNESS_TEXELS: TextureUse = TextureUse::roughness(Channel::Average, Remap::Identity);
 
 pub(super) const MATERIAL_TYPES: &[&str] =
     &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive"];
@@ -44,7 +43,7 @@ pub(super) fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
             "roughness_texture",
         ],
         MaterialKind::Conductor => {
-            &["name", "type", "eta", "k", "roughness", "emission", "two_sided", "roughness_texture"]
+            &["name", "type", "eta", "k", "roughness", "emission", "two_sided", "albedo_texture", "roughness_texture"]
         }
         MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
     }

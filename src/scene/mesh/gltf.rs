@@ -21,7 +21,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use gltf::{Accessor, Document, Semantic};
 
-use super::gltf_material::map_material;
+use super::gltf_material::{embedded_images, map_material};
 use super::{number, read_file, vec_text, Builder, Ignored, Location, MeshError, MeshFile, NO_MATERIAL};
 
 /// Deepest node hierarchy followed (a deeper one is a cycle or a mistake).
@@ -347,11 +347,26 @@ impl GltfReader<'_> {
         if let Some(m) = self.material_of[index] {
             return m;
         }
-        let mapped = map_material(&material, index, self.dir, self.path, &mut self.ignored);
+        let embedded = embedded_images(&material, &mut |v| self.view_bytes(v));
+        let mapped = map_material(&material, index, self.dir, self.path, &embedded, &mut self.ignored);
         let m = self.builder.materials.len() as u32;
         self.builder.materials.push(mapped);
         self.material_of[index] = Some(m);
         m
+    }
+
+    /// The bytes of a bufferView (an embedded image's), the view within its buffer.
+    fn view_bytes(&mut self, view: &gltf::buffer::View<'_>) -> Result<Vec<u8>, String> {
+        let (start, end, declared) =
+            (view.offset(), view.offset().saturating_add(view.length()), view.buffer().length());
+        if end > declared {
+            return Err(format!(
+                "bufferViews[{}] spans bytes {start} to {end} of buffers[{}], whose byteLength is {declared}",
+                view.index(),
+                view.buffer().index()
+            ));
+        }
+        Ok(self.buffer(view.buffer().index()).map_err(|e| e.to_string())?[start..end].to_vec())
     }
 
     /// A buffer's bytes: the GLB's BIN chunk, a `data:` URI, or a file beside
@@ -639,7 +654,7 @@ pub(super) fn percent_decode(uri: &str) -> String {
 }
 
 /// The bytes of a `data:[<mediatype>];base64,<data>` URI.
-fn decode_data_uri(uri: &str) -> Option<Vec<u8>> {
+pub(super) fn decode_data_uri(uri: &str) -> Option<Vec<u8>> {
     let (header, data) = uri.strip_prefix("data:")?.split_once(',')?;
     if !header.ends_with(";base64") {
         return None;

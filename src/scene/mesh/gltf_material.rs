@@ -2,8 +2,10 @@
 //! rules in `gltf.rs`'s doc), with their image textures: `baseColorTexture`
 //! (times `baseColorFactor`) and the roughness (green) channel of
 //! `metallicRoughnessTexture` (times `roughnessFactor`), where the image is a
-//! file beside the glTF and the texture reads TEXCOORD_0.
+//! file beside the glTF or embedded in it (a bufferView, as in a `.glb`, or a
+//! base64 `data:` uri) and the texture reads TEXCOORD_0.
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::Vec3;
@@ -12,13 +14,39 @@ use super::{vec_text, FileMaterial, Ignored, SPECULAR_BELOW_ROUGHNESS};
 use crate::scene::texture::{Channel, Remap, TextureRef, TextureUse};
 use crate::scene::{Material, MaterialKind};
 
-/// Maps a glTF material onto rlpt's (this module's doc); what it drops goes
-/// into `ignored`.
+/// The encoded bytes of the embedded images a material's texture slots name
+/// (a bufferView, read by `view_bytes`, or a `data:` uri), by image index;
+/// else why they could not be had.
+pub(super) type Embedded = HashMap<usize, Result<Vec<u8>, String>>;
+
+/// The embedded images of `m`'s `baseColorTexture` and `metallicRoughnessTexture`.
+pub(super) fn embedded_images(
+    m: &gltf::Material<'_>,
+    view_bytes: &mut dyn FnMut(&gltf::buffer::View<'_>) -> Result<Vec<u8>, String>,
+) -> Embedded {
+    let pbr = m.pbr_metallic_roughness();
+    let mut out = Embedded::new();
+    for info in [pbr.base_color_texture(), pbr.metallic_roughness_texture()].into_iter().flatten() {
+        let image = info.texture().source();
+        let bytes = match image.source() {
+            gltf::image::Source::View { view, .. } => view_bytes(&view),
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => super::gltf::decode_data_uri(uri)
+                .ok_or_else(|| "its `data:` uri does not decode; expected `data:...;base64,` and base64 text".into()),
+            gltf::image::Source::Uri { .. } => continue,
+        };
+        out.insert(image.index(), bytes);
+    }
+    out
+}
+
+/// Maps a glTF material onto rlpt's (this module's doc), its embedded images
+/// in `embedded`; what it drops goes into `ignored`.
 pub(super) fn map_material(
     m: &gltf::Material<'_>,
     index: usize,
     dir: &Path,
     file: &Path,
+    embedded: &Embedded,
     ignored: &mut Ignored,
 ) -> FileMaterial {
     let name = m.name().filter(|n| !n.is_empty()).map_or_else(|| format!("material{index}"), str::to_string);
@@ -87,7 +115,7 @@ pub(super) fn map_material(
             mapping += " (two-sided: doubleSided)";
         }
     }
-    // The image of a texture slot, where it is a file and reads TEXCOORD_0; else noted.
+    // The image of a texture slot, where it is a file or embedded and reads TEXCOORD_0; else noted.
     let mut image = |slot: &str, info: Option<gltf::texture::Info<'_>>, usage: TextureUse| -> Option<TextureRef> {
         let info = info?;
         let place = format!("{slot} of {who}");
@@ -102,8 +130,16 @@ pub(super) fn map_material(
         {
             ignored.add("texture wrap modes other than REPEAT (read as REPEAT)", place.clone());
         }
-        match texture.source().source() {
-            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") && !uri.contains("://") => {
+        let image = texture.source();
+        if let Some(bytes) = embedded.get(&image.index()) {
+            match bytes {
+                Ok(bytes) => return Some(TextureRef::embedded(file, image.index(), bytes.clone(), usage)),
+                Err(why) => ignored.add("textures", format!("{place} (images[{}]: {why})", image.index())),
+            }
+            return None;
+        }
+        match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.contains("://") => {
                 let origin = file.display().to_string();
                 let r = TextureRef::new(&super::gltf::percent_decode(uri), dir, &origin, None, usage);
                 if r.path.is_file() {
@@ -111,12 +147,12 @@ pub(super) fn map_material(
                 }
                 ignored.add("textures", format!("{place} ({} does not exist)", r.shown()));
             }
-            _ => ignored.add("textures of embedded images (data: URIs, buffer views)", place),
+            _ => ignored.add("textures of images not beside the file (uris with a scheme)", place),
         }
         None
     };
     let base_texture = image("baseColorTexture", pbr.base_color_texture(), TextureUse::Colour);
-    let roughness_use = TextureUse::Roughness { channel: Channel::Green, invert: false, remap: Remap::Identity };
+    let roughness_use = TextureUse::roughness(Channel::Green, Remap::Identity);
     let roughness_texture = image("metallicRoughnessTexture", pbr.metallic_roughness_texture(), roughness_use);
     // A slot the closure could not read is noted already; one read but not used is noted below.
     let (base_read, roughness_read) = (base_texture.is_some(), roughness_texture.is_some());

@@ -8,20 +8,36 @@ use glam::Vec3;
 use super::lexer::Loc;
 use super::params::{Param, Params};
 use super::{Importer, Notes};
-use crate::scene::{Material, MaterialKind, SceneError, TextureRef};
+use crate::scene::texture::{Channel, Factor, Remap};
+use crate::scene::{Material, MaterialKind, SceneError, TextureRef, TextureUse};
 
 /// A `Texture` as the materials see it: an `imagemap`'s image (a reflectance
-/// reads it as a texture), else its mean colour where it has one.
+/// reads a colour one as a texture, a roughness a float one), else its mean
+/// colour where it has one.
 #[derive(Clone, Debug)]
 pub(crate) struct Texture {
-    /// The image, with its UV transform (`imagemap`).
+    /// The colour image, with its UV transform (a `spectrum` `imagemap`).
     pub image: Option<TextureRef>,
+    /// The float image (a `float` `imagemap`): how its texels are read.
+    pub float_image: Option<FloatImage>,
     /// The texture's `scale`, which multiplies the image.
     pub scale: f32,
     pub mean: Option<Vec3>,
+    /// A `constant` texture: `mean` is its value, exact.
+    pub constant: bool,
     pub loc: Loc,
     /// Why there is no mean, or where it came from (for the note).
     pub detail: String,
+}
+
+/// A float `imagemap` as a roughness reads it: the image (with its UV
+/// transform) and pbrt's per-texel `encoding`, `scale` and `invert`.
+#[derive(Clone, Debug)]
+pub(crate) struct FloatImage {
+    pub image: TextureRef,
+    pub srgb: bool,
+    pub scale: f32,
+    pub invert: bool,
 }
 
 /// A pbrt material mapped onto one of rlpt's, with the line `rlpt info` prints.
@@ -131,7 +147,7 @@ impl Reader<'_> {
             Some(mean) => {
                 self.note(format!(
                     "{} is texture \"{name}\" ({}), taken as its mean colour {} ({}; rlpt reads image textures as \
-                     reflectances alone)",
+                     reflectances and roughnesses alone)",
                     p.label(),
                     t.loc.at(),
                     text(mean),
@@ -189,17 +205,28 @@ impl Reader<'_> {
         Ok(Vec3::splat(mean))
     }
 
-    /// A float parameter that may be a texture (then the default, noted).
+    /// A float parameter: a number, a `constant` texture's value, or another
+    /// texture's mean (noted; a roughness reads a float image itself, [`Reader::rough`]).
     pub fn scalar(&mut self, name: &str, default: f64) -> Result<f64, SceneError> {
         match self.params.get(name, &["float", "texture"]) {
             None => Ok(default),
             Some(p) if p.ty == "texture" => {
-                let label = p.label();
-                self.note(format!("{label} is a float texture, which rlpt does not read; {default} stands in"))?;
-                Ok(default)
+                let p = p.clone();
+                let tex = p.string()?;
+                match self.textures.get(&tex) {
+                    Some(t) if t.constant => Ok(t.mean.map_or(default, |m| m.x as f64)),
+                    _ => Ok(self.texture(&p, Vec3::splat(default as f32))?.x as f64),
+                }
             }
             Some(p) => Ok(p.numbers_n(1)?[0]),
         }
+    }
+
+    /// The float image a parameter names, if it names a float `imagemap`.
+    fn float_image(&self, name: &str) -> Result<Option<(String, FloatImage)>, SceneError> {
+        let Some(p) = self.params.get(name, &["texture"]) else { return Ok(None) };
+        let tex = p.string()?;
+        Ok(self.textures.get(&tex).and_then(|t| t.float_image.clone()).map(|f| (tex, f)))
     }
 
     /// An albedo in [0, 1]: negative components refused, larger ones clamped (noted).
@@ -213,17 +240,61 @@ impl Reader<'_> {
         Ok(v.clamp(Vec3::ZERO, Vec3::ONE))
     }
 
-    /// GGX alpha from roughness parameters (`prefix` "conductor." for
-    /// coatedconductor): u and v roughness (their geometric mean where they
-    /// differ, noted), remapped as pbrt-v4 (`sqrt`) or pbrt-v3 (its polynomial).
-    fn alpha(&mut self, prefix: &str, default: f64, v3: bool, smooth_at_zero: bool) -> Result<f64, SceneError> {
-        let r = self.scalar(&format!("{prefix}roughness"), default)?;
-        let u = self.scalar(&format!("{prefix}uroughness"), r)?;
-        let v = self.scalar(&format!("{prefix}vroughness"), r)?;
+    /// rlpt's roughness from roughness parameters (`prefix` "conductor." for
+    /// coatedconductor), with the alpha it comes from, or a roughness texture
+    /// (a float `imagemap`; then roughness 1, its factor). u and v roughness are
+    /// `roughness` unless given; their geometric mean where they differ (noted);
+    /// a texture of one read for both (noted where the other differs).
+    /// Remapped as pbrt-v4 (`sqrt`) or pbrt-v3 (its polynomial) where
+    /// `remaproughness` (default true).
+    fn rough(&mut self, prefix: &str, default: f64, v3: bool, smooth_at_zero: bool) -> Result<Rough, SceneError> {
+        let [r, u, v] = ["roughness", "uroughness", "vroughness"].map(|n| format!("{prefix}{n}"));
+        let remap = self.params.bool("remaproughness")?.unwrap_or(true);
+        let given = |n: &str| self.params.get(n, &["float", "texture"]).is_some();
+        let (u_name, v_name) = (if given(&u) { &u } else { &r }, if given(&v) { &v } else { &r });
+        let (u_image, v_image) = (self.float_image(u_name)?, self.float_image(v_name)?);
+        if let Some((tex, image)) = u_image.clone().or(v_image.clone()) {
+            for n in [&r, &u, &v] {
+                self.params.touch(n);
+            }
+            let other = if u_image.is_some() { v_name } else { u_name };
+            if u_image.as_ref().zip(v_image.as_ref()).is_none_or(|(a, b)| a.0 != b.0) {
+                let read = if u_image.is_some() { u_name } else { v_name };
+                let other = match self.params.get(other, &["float", "texture"]) {
+                    Some(p) => p.label(),
+                    None => format!("\"{other}\" (not given: its default)"),
+                };
+                self.note(format!(
+                    "{other} dropped: rlpt's roughness is isotropic, and the texture \"{tex}\" of {read} is read for \
+                     both directions"
+                ))?;
+            }
+            let remap = match (remap, v3) {
+                (false, _) => Remap::Alpha,
+                (true, false) => Remap::PbrtV4,
+                (true, true) => Remap::PbrtV3,
+            };
+            let usage = TextureUse::Roughness {
+                channel: Channel::Average,
+                srgb: image.srgb,
+                scale: Factor(image.scale),
+                invert: image.invert,
+                remap,
+            };
+            let how = format!("roughness texture {} ({remap:?} remap)", image.image.path.display());
+            return Ok(Rough {
+                roughness: 1.0,
+                alpha: f64::NAN,
+                texture: Some(TextureRef { usage, ..image.image }),
+                how,
+            });
+        }
+        let r = self.scalar(&r, default)?;
+        let u = self.scalar(&u, r)?;
+        let v = self.scalar(&v, r)?;
         if u < 0.0 || v < 0.0 {
             return Err(self.loc.error(format!("{}: roughness must be >= 0, found {u} and {v}", self.what)));
         }
-        let remap = self.params.bool("remaproughness")?.unwrap_or(true);
         let to_alpha = |r: f64| match (remap, v3) {
             (false, _) => r,
             (true, false) => r.sqrt(),
@@ -233,17 +304,21 @@ impl Reader<'_> {
             }
         };
         // pbrt-v3's glass is smooth at roughness 0 before any remapping.
-        if smooth_at_zero && u == 0.0 && v == 0.0 {
-            return Ok(0.0);
-        }
-        let (au, av) = (to_alpha(u), to_alpha(v));
-        if (au - av).abs() > 1e-6 {
-            self.note(format!(
-                "anisotropic roughness (alpha {au} by {av}) taken as isotropic alpha {}",
-                (au * av).sqrt()
-            ))?;
-        }
-        Ok((au * av).sqrt())
+        let alpha = if smooth_at_zero && u == 0.0 && v == 0.0 {
+            0.0
+        } else {
+            let (au, av) = (to_alpha(u), to_alpha(v));
+            if (au - av).abs() > 1e-6 {
+                self.note(format!(
+                    "anisotropic roughness (alpha {au} by {av}) taken as isotropic alpha {}",
+                    (au * av).sqrt()
+                ))?;
+            }
+            (au * av).sqrt()
+        };
+        let roughness = self.roughness(alpha)?;
+        let how = format!("alpha {} -> roughness {roughness}", alpha as f32);
+        Ok(Rough { roughness, alpha, texture: None, how })
     }
 
     /// rlpt's roughness, sqrt(alpha), from a GGX alpha: 0 below pbrt-v4's
@@ -282,6 +357,18 @@ impl Reader<'_> {
         }
         Ok((eta, k, format!("eta {} k {}", text(eta), text(k))))
     }
+}
+
+/// A material's roughness as [`Reader::rough`] reads it.
+pub(crate) struct Rough {
+    /// rlpt's roughness (sqrt(alpha)); 1 with a texture (its factor).
+    pub roughness: f32,
+    /// The GGX alpha of the parameters; NaN with a texture.
+    pub alpha: f64,
+    /// The float image the roughness is read from, per texel.
+    pub texture: Option<TextureRef>,
+    /// For the mapping line: `alpha 0.1 -> roughness 0.316`, or the texture.
+    pub how: String,
 }
 
 /// GGX alpha below which pbrt-v4 treats a surface as smooth (`EffectivelySmooth`).
@@ -326,11 +413,12 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 }
             }
             let (eta, k, from) = r.conductor(prefix)?;
-            let alpha = r.alpha(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
+            let rough = r.rough(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
             let mut m = plain(MaterialKind::Conductor, Vec3::ONE);
-            (m.eta, m.k, m.roughness) = (eta, k, r.roughness(alpha)?);
-            let rough = if m.roughness == 0.0 { "a mirror".to_string() } else { format!("roughness {}", m.roughness) };
-            (m, format!("{from}, alpha {} -> {rough}", alpha as f32))
+            (m.eta, m.k, m.roughness) = (eta, k, rough.roughness);
+            let how = if m.roughness == 0.0 { format!("alpha {} -> a mirror", rough.alpha as f32) } else { rough.how };
+            m.roughness_texture = rough.texture;
+            (m, format!("{from}, {how}"))
         }
         "mirror" => {
             let (a, image) = r.reflectance("Kr", Vec3::splat(0.9))?;
@@ -353,13 +441,12 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             if eta < 1.0 {
                 return Err(r.loc.error(format!("{}: eta {eta} below 1; rlpt's dielectrics need eta >= 1", r.what)));
             }
-            let alpha = r.alpha("", 0.0, v3, true)?;
-            let mut roughness = r.roughness(alpha)?;
+            let mut rough = r.rough("", 0.0, v3, true)?;
             if ty == "thindielectric" {
                 r.note("thindielectric rendered as a solid dielectric".to_string())?;
-                if roughness > 0.0 {
-                    r.note(format!("thindielectric's roughness (alpha {alpha}) dropped: rendered smooth"))?;
-                    roughness = 0.0;
+                if rough.roughness > 0.0 {
+                    r.note(format!("thindielectric's roughness ({}) dropped: rendered smooth", rough.how))?;
+                    (rough.roughness, rough.texture) = (0.0, None);
                 }
             }
             let mut albedo = Vec3::ONE;
@@ -373,9 +460,10 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             }
             let mut m = plain(MaterialKind::Dielectric, albedo);
             m.ior = eta;
-            if roughness > 0.0 {
-                (m.kind, m.roughness) = (MaterialKind::RoughDielectric, roughness);
-                (m, format!("eta {eta}, alpha {} -> roughness {roughness}", alpha as f32))
+            if rough.roughness > 0.0 {
+                (m.kind, m.roughness, m.roughness_texture) =
+                    (MaterialKind::RoughDielectric, rough.roughness, rough.texture);
+                (m, format!("eta {eta}, {}", rough.how))
             } else {
                 (m, format!("eta {eta}"))
             }
@@ -397,22 +485,18 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 r.note(format!("Ks {} dropped: the coat reflects by its Fresnel at index 1.5", text(ks)))?;
             }
             let default_roughness = if ty == "coateddiffuse" { 0.0 } else { 0.1 };
-            let alpha = r.alpha("", default_roughness, v3, false)?;
-            let mut roughness = r.roughness(alpha)?;
-            if roughness == 0.0 {
+            let mut rough = r.rough("", default_roughness, v3, false)?;
+            if rough.roughness == 0.0 {
                 r.note(format!(
                     "a smooth coat (alpha {}) given roughness {SMOOTH_COAT_ROUGHNESS}: rlpt's coat is GGX",
-                    alpha as f32
+                    rough.alpha as f32
                 ))?;
-                roughness = SMOOTH_COAT_ROUGHNESS;
+                rough.roughness = SMOOTH_COAT_ROUGHNESS;
+                rough.how = format!("alpha {} -> roughness {SMOOTH_COAT_ROUGHNESS}", rough.alpha as f32);
             }
             let mut m = plain(MaterialKind::Coated, albedo);
-            (m.ior, m.roughness) = (ior, roughness);
-            let how = format!(
-                "{}, eta {ior}, alpha {} -> roughness {roughness}",
-                textured(key, albedo, &image),
-                alpha as f32
-            );
+            (m.ior, m.roughness, m.roughness_texture) = (ior, rough.roughness, rough.texture);
+            let how = format!("{}, eta {ior}, {}", textured(key, albedo, &image), rough.how);
             m.albedo_texture = image;
             (m, how)
         }

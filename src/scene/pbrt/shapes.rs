@@ -8,12 +8,12 @@ use glam::{DMat3, DMat4, DVec3, Vec3};
 
 use super::images;
 use super::lexer::Loc;
-use super::material::Texture;
+use super::material::{FloatImage, Texture};
 use super::params::Params;
 use super::{AreaLight, Importer, Pending};
 use crate::scene::mesh::{self, Builder, MeshFile, PlaceError};
-use crate::scene::TextureRef;
 use crate::scene::{Material, Mesh, SceneError, Sphere};
+use crate::scene::{SphereUv, TextureRef};
 
 /// Largest coordinate magnitude (as the TOML loader's).
 const LIMIT: f64 = 1e12;
@@ -161,7 +161,20 @@ impl Importer {
                 loc.error(format!("Shape \"sphere\": centre {center} or radius {radius} out of range in rlpt's space"))
             );
         }
-        self.out.spheres.push(Sphere { center: center.as_vec3(), radius: radius as f32, material });
+        // pbrt's UVs: phi and theta in object space, over phimax and zmin..zmax.
+        let inverse = linear.inverse() * scale;
+        let (zlo, zhi) = (zmin.min(zmax).clamp(-r, r), zmin.max(zmax).clamp(-r, r));
+        let (mut theta_min, mut theta_max) = ((zlo / r).acos() as f32, (zhi / r).acos() as f32);
+        if (theta_max - theta_min).abs() < 1e-6 {
+            (theta_min, theta_max) = (std::f32::consts::PI, 0.0);
+        }
+        let uv = SphereUv {
+            to_object: [0, 1, 2].map(|i| inverse.row(i).as_vec3()),
+            phi_max: (phimax.clamp(1e-3, 360.0) as f32).to_radians(),
+            theta_min,
+            theta_max,
+        };
+        self.out.spheres.push(Sphere { center: center.as_vec3(), radius: radius as f32, material, uv });
         Ok(())
     }
 
@@ -360,8 +373,10 @@ impl Importer {
                         None => {
                             return Ok(Texture {
                                 image: None,
+                                float_image: None,
                                 scale: 1.0,
                                 mean: None,
+                                constant: false,
                                 loc: loc.clone(),
                                 detail: format!("\"{f}\" does not exist (resolved to {})", path.display()),
                             })
@@ -373,6 +388,10 @@ impl Importer {
                     (None, Some(g)) => Some(g),
                     _ => None,
                 };
+                // A float image's integer texels are sRGB-decoded as pbrt does: where
+                // the file says so, else for PNG (pbrt-v3 and v4) and TGA (pbrt-v3).
+                let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
+                let float_srgb = srgb.unwrap_or(ext == "png" || ext == "tga");
                 let scale = p.float_or("scale", 1.0)? as f32;
                 let invert = p.bool("invert")?.unwrap_or(false);
                 let wrap = p.string("wrap")?.unwrap_or_else(|| "repeat".into());
@@ -413,6 +432,22 @@ impl Importer {
                 });
                 // The image read: the stand-in where the file named is missing.
                 let image = image.map(|r| TextureRef { path: path.clone(), ..r });
+                let float_image = (ty == "float").then(|| FloatImage {
+                    image: TextureRef {
+                        path: path.clone(),
+                        transform,
+                        ..TextureRef::new(
+                            &f,
+                            &self.base,
+                            &loc.file,
+                            Some((loc.line, loc.column)),
+                            crate::scene::TextureUse::Colour,
+                        )
+                    },
+                    srgb: float_srgb,
+                    scale,
+                    invert,
+                });
                 if ty != "float" && image.is_none() {
                     let why = if invert {
                         "\"invert\" on a colour image".to_string()
@@ -421,20 +456,32 @@ impl Importer {
                     };
                     self.notes.approximated(loc, format!("Texture \"imagemap\": {why}: taken as its mean colour"))?;
                 }
-                match images::mean(&path, srgb, false) {
+                let float_file = matches!(ext.as_str(), "exr" | "hdr" | "pfm");
+                let mean_srgb = if ty == "float" { Some(float_srgb && !float_file) } else { srgb };
+                match images::mean(&path, mean_srgb, false) {
                     Ok(mean) => {
                         let mean = mean * scale;
                         let mean = if invert { Vec3::ONE - mean } else { mean };
-                        Texture { image, scale, mean: Some(mean), loc: loc.clone(), detail }
+                        Texture {
+                            image,
+                            float_image,
+                            scale,
+                            mean: Some(mean),
+                            constant: false,
+                            loc: loc.clone(),
+                            detail,
+                        }
                     }
                     Err(why) => {
-                        if image.is_some() {
+                        if image.is_some() || float_image.is_some() {
                             return Err(loc.error(format!("texture image \"{f}\" ({}) {why}", path.display())));
                         }
                         Texture {
                             image,
+                            float_image,
                             scale,
                             mean: None,
+                            constant: false,
                             loc: loc.clone(),
                             detail: format!("{} {why}", path.display()),
                         }
@@ -444,7 +491,15 @@ impl Importer {
             "constant" => {
                 let mut r = self.reader(p, loc, "Texture \"constant\"".into());
                 let v = r.colour("value", Vec3::ONE)?;
-                Texture { image: None, scale: 1.0, mean: Some(v), loc: loc.clone(), detail: "a constant".into() }
+                Texture {
+                    image: None,
+                    float_image: None,
+                    scale: 1.0,
+                    mean: Some(v),
+                    constant: true,
+                    loc: loc.clone(),
+                    detail: "a constant".into(),
+                }
             }
             _ => {
                 for q in &p.list {
@@ -452,8 +507,10 @@ impl Importer {
                 }
                 Texture {
                     image: None,
+                    float_image: None,
                     scale: 1.0,
                     mean: None,
+                    constant: false,
                     loc: loc.clone(),
                     detail: format!("rlpt does not evaluate \"{class}\" textures"),
                 }
