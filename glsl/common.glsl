@@ -291,7 +291,7 @@
 // rows, as float bits; unused), then one word: the cells in use. A leaf splits
 // into 8 children when those targets reach SPLIT_TARGETS_PER_BIN * bins and its
 // depth is below GUIDE_TREE_DEPTH, while the table has room for them.
-#define BINDING_GUIDE_TREE 25
+#define BINDING_GUIDE_TREE 26
 #define GUIDE_TREE_DEPTH 3
 #define SPLIT_TARGETS_PER_BIN 128
 // learn.comp's refine phase: one workgroup of this many invocations.
