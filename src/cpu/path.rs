@@ -49,6 +49,14 @@ struct PathState {
     prev_factor: f32,
 }
 
+impl PathState {
+    /// Whether the ray that arrives at a vertex of `depth` has a target to record
+    /// (where the path records): it left a vertex of depth below `record_vertices`.
+    fn records_target(&self, s: &PathSettings, depth: u32) -> bool {
+        depth <= s.record_vertices && self.prev_key != shared::NO_KEY
+    }
+}
+
 /// One vertex as the stages after the hit read it: its shading and guiding.
 struct Vertex<'a> {
     hit: Hit,
@@ -129,8 +137,7 @@ pub fn trace_path(
         }
         let Some(hit) = intersect(scene, o, d, f32::INFINITY) else {
             let (env, w) = environment_met(scene, &s, &path, d);
-            if let Some(learn) = learn.as_mut().filter(|_| depth <= s.record_vertices && path.prev_key != shared::NO_KEY)
-            {
+            if let Some(learn) = learn.as_mut().filter(|_| path.records_target(&s, depth)) {
                 let target = if s.mis_targets { mean3(env) * w } else { mean3(env) };
                 record_end(&mut **learn, &s, &path, target, mean3(env) * w);
             }
@@ -150,8 +157,7 @@ pub fn trace_path(
         let (cell_key, sampler, row_fraction) = guide_vertex(guide, &s, &hit, n, depth, &mut learn);
         if bsdf.kind == MaterialKind::Emissive {
             // Reflects nothing: the target is the emission alone.
-            if let Some(learn) = learn.as_mut().filter(|_| depth <= s.record_vertices && path.prev_key != shared::NO_KEY)
-            {
+            if let Some(learn) = learn.as_mut().filter(|_| path.records_target(&s, depth)) {
                 record_end(&mut **learn, &s, &path, le_target, le_counted);
             }
             break;
@@ -172,7 +178,7 @@ pub fn trace_path(
 
         // The continuation: sampled even at the last bounce when the path records,
         // since the Q-learning target of the previous vertex is estimated from it.
-        let wants_target = record && depth <= s.record_vertices && path.prev_key != shared::NO_KEY;
+        let wants_target = record && path.records_target(&s, depth);
         if last && !wants_target {
             break;
         }
@@ -356,7 +362,14 @@ fn choose_direction(
             }
             Some(b) => {
                 let wi = v.frame.to_world(b.wi).normalize();
-                Some(Direction { wi, weight: b.weight, pdf: b.pdf, delta: b.delta, bin: bin_of(guide, wi), factor: 0.0 })
+                Some(Direction {
+                    wi,
+                    weight: b.weight,
+                    pdf: b.pdf,
+                    delta: b.delta,
+                    bin: bin_of(guide, wi),
+                    factor: 0.0,
+                })
             }
             None => None,
         }
@@ -422,7 +435,13 @@ fn record_end(learn: &mut dyn Recorder, s: &PathSettings, path: &PathState, targ
 /// the probability is learned: the radiance the table expects along the ray
 /// about to be traced, times the throughput, against the pixel's.
 /// `glsl/pathtrace.comp` `roulette`.
-fn roulette(guide: Option<Guide>, path: &mut PathState, pixel_estimate: f32, rng: &mut PathSampler, depth: u32) -> bool {
+fn roulette(
+    guide: Option<Guide>,
+    path: &mut PathState,
+    pixel_estimate: f32,
+    rng: &mut PathSampler,
+    depth: u32,
+) -> bool {
     let q = match guide {
         Some(g) if pixel_estimate > 0.0 => {
             guide::survival_probability(mean3(path.beta) * g.q[path.prev_key as usize], pixel_estimate)
