@@ -14,8 +14,8 @@ use std::time::Instant;
 
 /// The renderer whose frames `rlpt bench` times.
 pub enum ProfiledDevice {
-    Gpu(GpuRenderer),
-    Cpu(CpuRenderer),
+    Gpu(Box<GpuRenderer>),
+    Cpu(Box<CpuRenderer>),
 }
 
 /// A renderer as `rlpt bench` runs it in a `crate::session::Session`: each frame
@@ -34,8 +34,8 @@ impl Profiled {
 
     fn renderer(&self) -> &dyn Renderer {
         match &self.device {
-            ProfiledDevice::Gpu(r) => r,
-            ProfiledDevice::Cpu(r) => r,
+            ProfiledDevice::Gpu(r) => &**r,
+            ProfiledDevice::Cpu(r) => &**r,
         }
     }
 }

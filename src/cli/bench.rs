@@ -144,9 +144,9 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
                     AblateArg::GuidedSampling => shared::ABLATE_GUIDED_SAMPLING,
                 }
             });
-            (Some(ctx), Profiled::new(ProfiledDevice::Gpu(r)), ablate)
+            (Some(ctx), Profiled::new(ProfiledDevice::Gpu(Box::new(r))), ablate)
         }
-        DeviceKind::Cpu => (None, Profiled::new(ProfiledDevice::Cpu(CpuRenderer::new(&prepared))), 0),
+        DeviceKind::Cpu => (None, Profiled::new(ProfiledDevice::Cpu(Box::new(CpuRenderer::new(&prepared)))), 0),
     };
     // The warm-up learns as usual; the measured frames leave out what --ablate names.
     run_frames(&mut profiled, args.warmup, paths_per_frame)?;
