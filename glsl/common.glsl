@@ -260,7 +260,7 @@
 // Guiding: sampling distributions per cell, one per class of surface orientation
 // (src/guide/mod.rs `normal_class`).
 #define NORMAL_CLASSES 6
-// Learned Russian roulette (src/cpu/mod.rs `survival_probability`): a path
+// Learned Russian roulette (src/guide/roulette.rs `survival_probability`): a path
 // survives with probability RR_WINDOW * (expected contribution) / (pixel
 // estimate), at least RR_MIN_PERCENT / 100 and at most 1.
 #define RR_WINDOW 4

@@ -2,7 +2,8 @@
 // One frame of progressive path tracing: 64 samples of each pixel, one path
 // per invocation. Workgroup (8, 8, Z): x,y are the samples of one pixel, z the
 // pixels; the group covers Z pixels of a row (SPEC_PIXELS_PER_GROUP).
-// src/cpu/mod.rs (`trace_path`, `render`) is the same algorithm on the CPU.
+// src/cpu/path.rs (`trace_path`, stage for stage) and src/cpu/mod.rs (`render`)
+// are the same algorithm on the CPU.
 #extension GL_KHR_shader_subgroup_arithmetic : require
 // Compiled for the render at hand: the specialization constants of common.glsl
 // (guide.glsl takes the table's shape from them instead of params where this is set).
@@ -134,14 +135,14 @@ Bsdf material_bsdf(uint mat, vec2 uv) {
     return b;
 }
 
-// src/cpu/mod.rs `shading_side`: the shading normal on the side of n, or n
+// src/cpu/path.rs `shading_side`: the shading normal on the side of n, or n
 // where wo lies on one side of it and the other of the surface.
 vec3 shading_side(vec3 n, Hit hit, vec3 wo) {
     vec3 ns = n == hit.n ? hit.ns : -hit.ns;
     return dot(ns, wo) * dot(n, wo) < 0.0 ? n : ns;
 }
 
-// src/cpu/mod.rs `sides_agree`: w on the same side of the surface as of the
+// src/cpu/path.rs `sides_agree`: w on the same side of the surface as of the
 // shading normal (always without smooth triangles).
 bool sides_agree(vec3 n, vec3 ns, vec3 w) {
     return !SCENE_SMOOTH || !(dot(w, n) * dot(w, ns) < 0.0);
@@ -149,7 +150,7 @@ bool sides_agree(vec3 n, vec3 ns, vec3 w) {
 
 
 #ifdef RLPT_GUIDING
-// src/cpu/mod.rs `survival_probability`.
+// src/guide/roulette.rs `survival_probability`.
 float survival_probability(float expected, float pixel_estimate) {
     return clamp(float(RR_WINDOW) * expected / pixel_estimate, float(RR_MIN_PERCENT) / 100.0, 1.0);
 }
@@ -180,7 +181,7 @@ float lobe_share(Bsdf b) {
     if (is_kind(b, MAT_ROUGH_DIELECTRIC)) return 0.0;
     return 1.0;
 }
-// src/cpu/mod.rs `record_to`: the target of the ray that left through `key`,
+// src/cpu/path.rs `record_to`: the target of the ray that left through `key`,
 // and where `factor` is not 0 its cell's fraction-gradient sample,
 // -factor * counted, summed after the table's entries (src/guide/mod.rs `FrameSums`);
 // nothing where the target is not finite (it would poison its entry for good).
@@ -201,7 +202,7 @@ void record(uint key, float target, float counted, float factor) {
 const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
 // The host sets FLAG_COUNT_RAYS only beside FLAG_COUNTERS, and the bit is tested
 // alone: glslang evaluates `&&` of specialization constants as code in the first
-// function that reads it, and COUNT_RAYS is read in trace_path and in main; written
+// function that reads it, and COUNT_RAYS is read in the path loop and in main; written
 // as COUNTERS && ..., the module was invalid SPIR-V and lavapipe rejected it.
 const bool COUNT_RAYS = (FLAGS & FLAG_COUNT_RAYS) != 0u;
 // The frame's relative variance is summed (add_frame_variance).
@@ -210,7 +211,9 @@ const bool FRAME_VARIANCE = (FLAGS & FLAG_FRAME_VARIANCE) != 0u;
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
 // depth: with the mask there too, their frames were longer.
-const bool PACK_RAYS = COUNT_RAYS && (FLAGS & FLAG_RUSSIAN_ROULETTE) != 0u;
+// Written without `&&` (see COUNT_RAYS): COUNT_RAY is read in light_sample too.
+const bool PACK_RAYS =
+    (FLAGS & (FLAG_COUNT_RAYS | FLAG_RUSSIAN_ROULETTE)) == (FLAG_COUNT_RAYS | FLAG_RUSSIAN_ROULETTE);
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
 #define COUNT_RAY() if (PACK_RAYS) depth_rays += 0x10000u; else if (COUNT_RAYS) segments += 1u
 
@@ -226,7 +229,225 @@ const bool MIS_TARGETS = (FLAGS & FLAG_MIS_TARGETS) != 0u;
 const bool LAST_RAY_TO_LIGHTS =
     (FLAGS & FLAG_LAST_RAY_TO_LIGHTS) != 0u && !(RECORDING && RECORD_VERTICES >= MAX_BOUNCES);
 
-// src/cpu/mod.rs `trace_path`, line for line. Returns the radiance; counts rays in `segments`.
+#ifdef RLPT_GUIDING
+// The path loop's guided stages (src/cpu/path.rs, same names); without guiding
+// each compiles to nothing, and trace_path's guiding state stays constant.
+
+// The path records Q-learning targets (the recording kernel, unless profiling
+// leaves recording out).
+bool path_records() { return RECORDING && (push.ablate & ABLATE_RECORD) == 0u; }
+// The path may take guided directions (unless profiling leaves them out).
+bool path_guides() { return (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u; }
+
+// src/cpu/path.rs `guide_vertex`: the vertex's cell (qrow, its first entry) and
+// sampling row, where something reads them: guided sampling (the first
+// GUIDE_VERTICES vertices), the target of the ray arriving here and the key of
+// the one leaving (recording), learned roulette (every vertex); deeper vertices
+// of the seed's scenes skip the lookups. Returns the row's guided fraction,
+// loaded at every vertex that may mix, before the emissive and delta tests, so
+// that the load's latency hides behind the material's. A recording path marks
+// the rows its guided vertices read (src/guide/table.rs `QTable::rows_read`);
+// a row with a fraction was marked for good already, so only rows without one
+// are marked again, which spares the other vertices a load of the mark.
+float guide_vertex(vec3 p, vec3 n, uint depth, bool learn, bool rr, out uint qrow, out uint row) {
+    qrow = NO_KEY;
+    row = 0u;
+    if (depth < GUIDE_VERTICES || (learn && depth <= RECORD_VERTICES) || rr) {
+        uint cell = cell_index(p);
+        qrow = cell * GUIDE_BINS;
+        row = sampler_row(cell, normal_class(n));
+    }
+    float fraction = depth < GUIDE_VERTICES ? row_fraction(row) : 0.0;
+    if (learn && depth < GUIDE_VERTICES && fraction == 0.0) rows_read[row / GUIDE_BINS] = 1u;
+    return fraction;
+}
+
+// src/cpu/path.rs `mixture_fraction`: the probability of guided sampling at a
+// vertex, the row's fraction times the lobe's share; 0 at delta vertices and
+// past the guided vertices.
+float mixture_fraction(bool guide, uint depth, Bsdf bsdf, float fraction) {
+    float g_frac = 0.0;
+    if (guide && depth < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
+        g_frac = fraction * lobe_share(bsdf);
+    }
+    return g_frac;
+}
+
+// src/cpu/path.rs `record_end`: keeps the target of the ray that ends the path
+// (it escapes or meets an emitter, `le` of MIS weight `w`) for after the loop,
+// one call site of record_target fewer inside it. The gradient weighs the
+// emission as the image does, and with MIS_TARGETS the target too.
+void record_end(bool records, uint key, vec3 le, float w, inout uint end_key, inout float end_target, inout float factor) {
+    if (records) {
+        end_key = key;
+        end_target = MIS_TARGETS ? mean3(le) * w : mean3(le);
+        if (!MIS_TARGETS) factor *= w;
+    }
+}
+
+// src/cpu/path.rs `record_vertex_target`: the target of the ray that arrived at
+// this vertex, a one-sample estimate of the expected-SARSA target
+// (src/guide/mod.rs). With MIS_TARGETS the target is the light as the image
+// counts it from here on, and the fraction's gradient weighs the same.
+void record_vertex_target(bool wants_target, bool ok, vec3 weight, uint qrow, uint wi_bin, vec3 le, float w_le,
+                          float nee_here, uint key, float factor) {
+    if (wants_target) {
+        float reflected = ok ? mean3(weight) * q_table[qrow + wi_bin] : 0.0;
+        float target = (MIS_TARGETS ? mean3(le) * w_le + nee_here : mean3(le)) + reflected;
+        record(key, target, MIS_TARGETS ? target : mean3(le) * w_le + reflected, factor);
+    }
+}
+#else
+bool path_records() { return false; }
+bool path_guides() { return false; }
+float guide_vertex(vec3 p, vec3 n, uint depth, bool learn, bool rr, out uint qrow, out uint row) {
+    qrow = NO_KEY;
+    row = 0u;
+    return 0.0;
+}
+float mixture_fraction(bool guide, uint depth, Bsdf bsdf, float fraction) { return 0.0; }
+void record_end(bool records, uint key, vec3 le, float w, inout uint end_key, inout float end_target, inout float factor) {}
+void record_vertex_target(bool wants_target, bool ok, vec3 weight, uint qrow, uint wi_bin, vec3 le, float w_le,
+                          float nee_here, uint key, float factor) {}
+void record(uint key, float target, float counted, float factor) {}
+#endif
+
+// src/cpu/path.rs `environment_met`: a ray that escapes meets the uniform sky,
+// or the image environment, a light whose emission is weighed against light
+// sampling as the other lights' is (its MIS weight in `w_env`, else 1).
+vec3 environment_met(vec3 d, bool nee, bool power, float prev_pdf, bool prev_delta, out float w_env) {
+    vec3 le_env = params.environment.xyz;
+    w_env = 1.0;
+    if (scene_has_light(LIGHT_ENV)) {
+        float pdf_env;
+        le_env = env_lookup(d, pdf_env);
+        if (nee && !prev_delta) w_env = mis_weight(prev_pdf, pdf_env * lights[params.num_lights - 1u].pmf, power);
+    }
+    return le_env;
+}
+
+// src/cpu/path.rs `emission_met`: the emission met at a hit, added to the
+// radiance with its MIS weight against light sampling (`w_le`, which the
+// fraction's gradient applies too).
+vec3 emission_met(Hit hit, vec3 wo, vec3 d, bool nee, bool power, float prev_pdf, bool prev_delta, vec3 prev_p,
+                  vec3 beta, inout vec3 radiance, out float w_le) {
+    vec3 le = emitted(hit.material, hit.n, wo);
+    w_le = 1.0;
+    if (max_component(le) > 0.0) {
+        if (nee && !prev_delta && hit.light != NO_LIGHT) {
+            w_le = mis_weight(prev_pdf, light_pdf(hit.light, prev_p, d), power);
+        }
+        radiance += beta * le * w_le;
+    }
+    return le;
+}
+
+// src/cpu/path.rs `light_sample`: next-event estimation at the vertex, its
+// shadow ray counted (COUNT_RAY), its contribution added to the radiance, MIS
+// against the mixture's density where the vertex mixes (src/cpu/path.rs
+// `mixture_sample`). Returns the light sample's estimate without the path's
+// throughput, the part of the target of the ray that arrived here that light
+// sampling found (MIS_TARGETS, where the path records; else 0).
+float light_sample(Hit hit, Bsdf bsdf, vec3 n, vec3 ns, mat3 frame, vec3 wo_local, float u_sel, vec2 u_light,
+                   float g_frac, uint row, bool power, bool learn, vec3 beta, inout vec3 radiance,
+                   inout uint depth_rays, inout uint segments) {
+    float nee_here = 0.0;
+    LightSample ls;
+    if (sample_light(hit.p, u_sel, u_light, ls) && sides_agree(n, ns, ls.wi)) {
+        vec3 wi_local = to_local(frame, ls.wi);
+        float pdf_bsdf;
+        vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
+        if (max_component(ls.le) > 0.0 && max_component(f) > 0.0) {
+            vec3 origin, dir;
+            float len;
+            shadow_ray(hit.p, hit.n, hit.eps, ls, origin, dir, len);
+            COUNT_RAY();
+            if (!occluded(origin, dir, len, ls.skip)) {
+                float pdf_mix = pdf_bsdf;
+#if GUIDED
+                if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_pdf(row, ls.wi));
+#endif
+                float w = mis_weight(ls.pdf, pdf_mix, power);
+                radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
+                if (MIS_TARGETS && learn) nee_here = mean3(f * abs(wi_local.z) * ls.le * (w / ls.pdf));
+            }
+        }
+    }
+    return nee_here;
+}
+
+// src/cpu/path.rs `choose_direction`: the direction leaving the vertex, from
+// the table (u_mix below g_frac) or the BSDF; then, where the two are mixed, one
+// evaluation of the BSDF and the mixture density for either choice, so that a
+// warp holding both runs it once. A guided direction comes with its bin
+// (`wi_bin`, where qrow is set), a BSDF direction's is found once. Returns
+// whether there is a direction; `factor` is its fraction-gradient factor
+// (src/guide/fraction.rs `fraction_gradient_factor`), 0 where it did not mix.
+bool choose_direction(Bsdf bsdf, mat3 frame, vec3 wo_local, vec3 n, vec3 ns, float u_mix, float uc, vec2 u,
+                      float g_frac, float fraction, uint row, uint qrow, bool learn_fraction,
+                      out vec3 wi, out vec3 weight, out float pdf, out bool delta, out uint wi_bin, out float factor) {
+    wi = vec3(0.0);
+    weight = vec3(0.0);
+    pdf = 0.0;
+    delta = false;
+    bool ok = false;
+    wi_bin = 0u;
+    factor = 0.0;
+#if GUIDED
+    if (u_mix < g_frac) {
+        wi = guided_direction(row, uc, u, wi_bin);
+        ok = true;
+    } else
+#endif
+    {
+        BsdfSample s = bsdf_sample(bsdf, wo_local, uc, u);
+        ok = s.ok;
+        if (ok) {
+            wi = normalize(to_world(frame, s.wi));
+            weight = s.weight;
+            pdf = s.pdf;
+            delta = s.delta;
+        }
+    }
+    // A direction on one side of the shading normal and the other of the
+    // surface would leak light through it: dropped.
+    if (!sides_agree(n, ns, wi)) ok = false;
+#if GUIDED
+    if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
+    // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
+    // 0), and the last test, always true here then, says so to the compiler:
+    // the glossy evaluation leaves this site, whose second copy of it costs
+    // guided frames time, and other scenes' kernels stay as they were.
+    if (ok && g_frac > 0.0 && !delta && (!GLOSSY_UNGUIDED || bsdf.kind != MAT_GLOSSY)) {
+        vec3 wi_local = to_local(frame, wi);
+        float pdf_bsdf;
+        vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
+        float pdf_guided = bin_pdf(row, wi_bin);
+        pdf = mixture_pdf(g_frac, pdf_bsdf, pdf_guided);
+        ok = pdf > 0.0 && max_component(f) > 0.0;
+        weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
+        // share * g (1 - g) is g_frac (1 - g).
+        if (learn_fraction && ok) factor = g_frac * (1.0 - fraction) * (pdf_guided - pdf_bsdf) / pdf * mean3(weight);
+    }
+#endif
+    return ok;
+}
+
+// src/cpu/path.rs `roulette`: Russian roulette after a bounce at `depth`:
+// whether the path goes on (beta then divided by the survival probability).
+// With guiding and a pixel estimate the probability is learned: the radiance
+// the table expects along the ray about to be traced (`key`), times beta.
+bool roulette(inout vec3 beta, float pixel_estimate, uint key, uint depth, inout PathSampler rng) {
+    float q = min(max_component(beta), 0.95);
+#if GUIDED
+    if (pixel_estimate > 0.0 && key != NO_KEY) q = survival_probability(mean3(beta) * q_table[key], pixel_estimate);
+#endif
+    if (sample_1d(rng, bounce_dim(depth, SAMPLE_ROULETTE)) >= q) return false;
+    beta /= q;
+    return true;
+}
+
+// src/cpu/path.rs `trace_path`, stage for stage. Returns the radiance; counts rays in `segments`.
 // `pixel_estimate`: mean3 of the pixel's accumulated mean, 0 where there is none yet.
 vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, inout uint segments) {
     bool nee = (FLAGS & FLAG_NEE) != 0u && params.num_lights > 0u;
@@ -244,24 +465,21 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
     // brought door's guided kernel to a better occupancy; packed in every kernel,
     // frames without roulette got longer, so those keep the count apart.
     uint depth_rays = 0u;
-#if GUIDED
-    // The recording kernel traces the rows whose paths record (src/guide/mod.rs
-    // `records`), the other kernel the rest. A path records the targets of the
-    // rays that leave its vertices of depth < RECORD_VERTICES, the ray that
-    // arrives at a vertex of depth `DEPTH` having left DEPTH - 1.
-    bool learn = RECORDING && (push.ablate & ABLATE_RECORD) == 0u;
-    bool guide = (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u;
-    // The target of the ray that ends the path (it escapes or meets a light),
-    // recorded after the loop: one call site of record_target fewer inside it
-    // makes the guided frames faster.
+    // Guiding's state, constant without guiding. The recording kernel traces the
+    // rows whose paths record (src/guide/mod.rs `records`), the other kernel the
+    // rest. A path records the targets of the rays that leave its vertices of
+    // depth < RECORD_VERTICES, the ray that arrives at a vertex of depth `DEPTH`
+    // having left DEPTH - 1.
+    bool learn = path_records();
+    bool guide = path_guides();
+    // The target of the ray that ends the path (record_end), recorded after the loop.
     uint end_key = NO_KEY;
     float end_target = 0.0;
     // Where cells learn their fractions (recording kernel only): the
     // fraction-gradient factor of the ray being traced, 0 where its vertex did
-    // not mix (src/guide/mod.rs `fraction_gradient_factor`).
+    // not mix (src/guide/fraction.rs `fraction_gradient_factor`).
     bool learn_fraction = learn && (FLAGS & FLAG_LEARN_FRACTION) != 0u;
     float prev_factor = 0.0;
-#endif
     for (;;) {
         COUNT_RAY();
         Hit hit;
@@ -270,219 +488,67 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         // line meets none, the closest-hit walk would find nothing to add.
         if (LAST_RAY_TO_LIGHTS && DEPTH >= MAX_BOUNCES && !meets_light(o, d)) break;
         if (!intersect_scene(o, d, 1.0 / 0.0, hit)) {
-            // The uniform sky, or the image environment: a light, whose emission
-            // is weighed against light sampling as the other lights' is
-            // (src/cpu/mod.rs `trace_path`).
-            vec3 le_env = params.environment.xyz;
-            float w_env = 1.0;
-            if (scene_has_light(LIGHT_ENV)) {
-                float pdf_env;
-                le_env = env_lookup(d, pdf_env);
-                if (nee && !prev_delta) w_env = mis_weight(prev_pdf, pdf_env * lights[params.num_lights - 1u].pmf, power);
-            }
-#if GUIDED
-            if (learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY) {
-                end_key = prev_key;
-                end_target = mean3(le_env);
-                // As for an emissive surface met (below).
-                if (scene_has_light(LIGHT_ENV)) {
-                    if (MIS_TARGETS) end_target *= w_env; else prev_factor *= w_env;
-                }
-            }
-#endif
+            float w_env;
+            vec3 le_env = environment_met(d, nee, power, prev_pdf, prev_delta, w_env);
+            record_end(learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY, prev_key, le_env, w_env, end_key,
+                       end_target, prev_factor);
             radiance += beta * (scene_has_light(LIGHT_ENV) ? le_env * w_env : le_env);
             break;
         }
         vec3 wo = -d;
-        vec3 le = emitted(hit.material, hit.n, wo);
-        // The emission's MIS weight, which the fraction's gradient applies too
-        // (src/cpu/mod.rs `record_to`).
-        float w_le = 1.0;
-        if (max_component(le) > 0.0) {
-            if (nee && !prev_delta && hit.light != NO_LIGHT) {
-                w_le = mis_weight(prev_pdf, light_pdf(hit.light, prev_p, d), power);
-            }
-            radiance += beta * le * w_le;
-        }
+        float w_le;
+        vec3 le = emission_met(hit, wo, d, nee, power, prev_pdf, prev_delta, prev_p, beta, radiance, w_le);
         Bsdf bsdf = material_bsdf(hit.material, hit.uv);
         vec3 n = (bsdf_transmits(bsdf) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
         vec3 ns = SCENE_SMOOTH ? shading_side(n, hit, wo) : n;
         mat3 frame = make_frame(ns);
         vec3 wo_local = to_local(frame, wo);
-
-#if GUIDED
-        // The vertex's cell, where something reads it: guided sampling (the first
-        // GUIDE_VERTICES vertices), the target of the ray arriving here and the key
-        // of the one leaving (recording), learned roulette (every vertex). Deeper
-        // vertices of the seed's scenes skip the lookups.
-        uint qrow = NO_KEY;
-        uint row = 0u;
-        if (DEPTH < GUIDE_VERTICES || (learn && DEPTH <= RECORD_VERTICES) || rr) {
-            uint cell = cell_index(hit.p);
-            qrow = cell * GUIDE_BINS;
-            row = sampler_row(cell, normal_class(n));
-        }
-        // The row's guided fraction, loaded at every vertex that may mix, before
-        // the emissive and delta tests rather than after them, so that the load's
-        // latency hides behind the material's.
-        float fraction = DEPTH < GUIDE_VERTICES ? row_fraction(row) : 0.0;
-        // A recording path marks the rows its guided vertices read: the table
-        // rebuilds those alone (src/guide/mod.rs `QTable::rows_read`). A row with
-        // a fraction has been built, so it was marked for good already: only
-        // rows without one are marked again, which spares the other vertices a
-        // load of the mark.
-        if (learn && DEPTH < GUIDE_VERTICES && fraction == 0.0) rows_read[row / GUIDE_BINS] = 1u;
-#endif
+        uint qrow, row;
+        float fraction = guide_vertex(hit.p, n, DEPTH, learn, rr, qrow, row);
         if (bsdf.kind == MAT_EMISSIVE) {
-#if GUIDED
-            if (learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY) {
-                end_key = prev_key;
-                // The gradient weighs the emission as the image does, and with
-                // MIS_TARGETS the target too.
-                end_target = MIS_TARGETS ? mean3(le) * w_le : mean3(le);
-                if (!MIS_TARGETS) prev_factor *= w_le;
-            }
-#endif
+            record_end(learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY, prev_key, le, w_le, end_key,
+                       end_target, prev_factor);
             break;
         }
-        float g_frac = 0.0;
-#if GUIDED
-        if (guide && DEPTH < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
-            g_frac = fraction * lobe_share(bsdf);
-        }
-#endif
+        float g_frac = mixture_fraction(guide, DEPTH, bsdf, fraction);
         bool last = DEPTH >= MAX_BOUNCES;
 
         float u_sel = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_LIGHT_SELECT));
         vec2 u_light = sample_2d(rng, bounce_dim(DEPTH, SAMPLE_LIGHT));
-#if GUIDED
-        // The light sample's estimate here, without the path's throughput: the
-        // part of the target of the ray that arrived here that light sampling
-        // found (MIS_TARGETS).
         float nee_here = 0.0;
-#endif
         if (nee && !last && !bsdf_is_delta(bsdf)) {
-            LightSample ls;
-            if (sample_light(hit.p, u_sel, u_light, ls) && sides_agree(n, ns, ls.wi)) {
-                vec3 wi_local = to_local(frame, ls.wi);
-                float pdf_bsdf;
-                vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-                if (max_component(ls.le) > 0.0 && max_component(f) > 0.0) {
-                    vec3 origin, dir;
-                    float len;
-                    shadow_ray(hit.p, hit.n, hit.eps, ls, origin, dir, len);
-                    COUNT_RAY();
-                    if (!occluded(origin, dir, len, ls.skip)) {
-                        // MIS against the mixture's density where the vertex mixes
-                        // (src/cpu/mod.rs `trace_path`, `mixture_sample`).
-                        float pdf_mix = pdf_bsdf;
-#if GUIDED
-                        if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_pdf(row, ls.wi));
-#endif
-                        float w = mis_weight(ls.pdf, pdf_mix, power);
-                        radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
-#if GUIDED
-                        if (MIS_TARGETS && learn) nee_here = mean3(f * abs(wi_local.z) * ls.le * (w / ls.pdf));
-#endif
-                    }
-                }
-            }
+            nee_here = light_sample(hit, bsdf, n, ns, frame, wo_local, u_sel, u_light, g_frac, row, power, learn, beta,
+                                    radiance, depth_rays, segments);
         }
 
         // The continuation: sampled at the last bounce too when the path records,
         // since the previous vertex's Q-learning target is estimated from it.
-        bool wants_target = false;
-#if GUIDED
-        wants_target = learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY;
-#endif
+        bool wants_target = learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY;
         if (last && !wants_target) break;
         float u_mix = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_MIX));
         float uc = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_LOBE));
         vec2 u = sample_2d(rng, bounce_dim(DEPTH, SAMPLE_DIRECTION));
-        vec3 wi = vec3(0.0);
-        vec3 weight = vec3(0.0);
-        float pdf = 0.0;
-        bool delta = false;
-        bool ok = false;
-#if GUIDED
-        // The bin of wi where something reads it (qrow set): a guided direction
-        // comes with its bin, a BSDF direction's is found once, below.
-        uint wi_bin = 0u;
-        float factor = 0.0;
-#endif
-        // First the direction, from the table or the BSDF; then, where the two
-        // are mixed, one evaluation of the BSDF and the mixture density for
-        // either choice, so that a warp holding both runs it once.
-#if GUIDED
-        if (u_mix < g_frac) {
-            wi = guided_direction(row, uc, u, wi_bin);
-            ok = true;
-        } else
-#endif
-        {
-            BsdfSample s = bsdf_sample(bsdf, wo_local, uc, u);
-            ok = s.ok;
-            if (ok) {
-                wi = normalize(to_world(frame, s.wi));
-                weight = s.weight;
-                pdf = s.pdf;
-                delta = s.delta;
-            }
-        }
-        // A direction on one side of the shading normal and the other of the
-        // surface would leak light through it: dropped (src/cpu/mod.rs).
-        if (!sides_agree(n, ns, wi)) ok = false;
-#if GUIDED
-        if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
-        // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
-        // 0), and the last test, always true here then, says so to the compiler:
-        // the glossy evaluation leaves this site, whose second copy of it costs
-        // guided frames time, and other scenes' kernels stay as they were.
-        if (ok && g_frac > 0.0 && !delta && (!GLOSSY_UNGUIDED || bsdf.kind != MAT_GLOSSY)) {
-            vec3 wi_local = to_local(frame, wi);
-            float pdf_bsdf;
-            vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-            float pdf_guided = bin_pdf(row, wi_bin);
-            pdf = mixture_pdf(g_frac, pdf_bsdf, pdf_guided);
-            ok = pdf > 0.0 && max_component(f) > 0.0;
-            weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
-            // share * g (1 - g) is g_frac (1 - g).
-            if (learn_fraction && ok) factor = g_frac * (1.0 - fraction) * (pdf_guided - pdf_bsdf) / pdf * mean3(weight);
-        }
-        if (wants_target) {
-            // One-sample estimate of the expected-SARSA target (src/guide/mod.rs).
-            float reflected = ok ? mean3(weight) * q_table[qrow + wi_bin] : 0.0;
-            // With MIS_TARGETS the target is the light as the image counts it from
-            // here on, and the fraction's gradient weighs the same.
-            float target = (MIS_TARGETS ? mean3(le) * w_le + nee_here : mean3(le)) + reflected;
-            record(prev_key, target, MIS_TARGETS ? target : mean3(le) * w_le + reflected, prev_factor);
-        }
-#endif
+        vec3 wi, weight;
+        float pdf, factor;
+        bool delta;
+        uint wi_bin;
+        bool ok = choose_direction(bsdf, frame, wo_local, n, ns, u_mix, uc, u, g_frac, fraction, row, qrow,
+                                   learn_fraction, wi, weight, pdf, delta, wi_bin, factor);
+        record_vertex_target(wants_target, ok, weight, qrow, wi_bin, le, w_le, nee_here, prev_key, prev_factor);
         if (last || !ok) break;
         beta *= weight;
         prev_pdf = pdf;
         prev_delta = delta;
         prev_p = hit.p;
-#if GUIDED
         prev_key = qrow == NO_KEY ? NO_KEY : qrow + wi_bin;
         prev_factor = factor;
-#endif
         o = offset_origin(hit.p, hit.n, hit.eps, wi);
         d = wi;
         depth_rays += 1u;
-        if (rr && DEPTH >= params.rr_depth) {
-            float q = min(max_component(beta), 0.95);
-#if GUIDED
-            if (pixel_estimate > 0.0 && prev_key != NO_KEY) q = survival_probability(mean3(beta) * q_table[prev_key], pixel_estimate);
-#endif
-            if (sample_1d(rng, bounce_dim(DEPTH, SAMPLE_ROULETTE)) >= q) break;
-            beta /= q;
-        }
+        if (rr && DEPTH >= params.rr_depth && !roulette(beta, pixel_estimate, prev_key, DEPTH, rng)) break;
         if (max_component(beta) <= 0.0) break;
     }
-#if GUIDED
     if (end_key != NO_KEY) record(end_key, end_target, end_target, prev_factor);
-#endif
     if (PACK_RAYS) segments += depth_rays >> 16u;
     return radiance;
 }

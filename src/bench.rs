@@ -3,8 +3,87 @@
 //! this module turns those per-frame times into a table, a JSON report and a
 //! Chrome trace-event file (opened by Perfetto and chrome://tracing).
 
-use crate::render::PassTimes;
+use crate::cpu::CpuRenderer;
+use crate::film::Film;
+use crate::gpu::GpuError;
+use crate::guide::QTable;
+use crate::render::{GpuRenderer, PassTimes};
+use crate::session::{FrameReport, Renderer};
 use serde::Serialize;
+use std::time::Instant;
+
+/// The renderer whose frames `rlpt bench` times.
+pub enum ProfiledDevice {
+    Gpu(Box<GpuRenderer>),
+    Cpu(Box<CpuRenderer>),
+}
+
+/// A renderer as `rlpt bench` runs it in a `crate::session::Session`: each frame
+/// in a submission of its own with its passes timed
+/// (`GpuRenderer::render_frame_profiled`; on the CPU, the frame's wall clock as
+/// path tracing's), every frame's times kept in `times` for the report.
+pub struct Profiled {
+    pub device: ProfiledDevice,
+    pub times: Vec<PassTimes>,
+}
+
+impl Profiled {
+    pub fn new(device: ProfiledDevice) -> Self {
+        Profiled { device, times: Vec::new() }
+    }
+
+    fn renderer(&self) -> &dyn Renderer {
+        match &self.device {
+            ProfiledDevice::Gpu(r) => &**r,
+            ProfiledDevice::Cpu(r) => &**r,
+        }
+    }
+}
+
+impl Renderer for Profiled {
+    fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
+        let t = match &mut self.device {
+            ProfiledDevice::Gpu(r) => r.render_frame_profiled()?,
+            ProfiledDevice::Cpu(r) => {
+                let start = Instant::now();
+                r.render_frame();
+                let ms = start.elapsed().as_secs_f64() * 1e3;
+                let c = r.last_counters;
+                PassTimes {
+                    start_ms: 0.0,
+                    pathtrace_ms: ms,
+                    zero_paths: Some(c.zero_paths),
+                    segments: Some(c.segments),
+                    ..Default::default()
+                }
+            }
+        };
+        self.times.push(t);
+        let timestamps = matches!(self.device, ProfiledDevice::Gpu(_));
+        Ok(FrameReport {
+            gpu_ms: timestamps.then_some(t.pathtrace_ms + t.learn_fold_ms + t.learn_rows_ms),
+            learn_ms: timestamps.then_some(t.learn_fold_ms + t.learn_rows_ms),
+            zero_paths: t.zero_paths,
+            kind: None,
+            variance: None,
+        })
+    }
+    fn image_frames(&self) -> u32 {
+        self.renderer().image_frames()
+    }
+    fn film(&self) -> Result<Film, GpuError> {
+        self.renderer().film()
+    }
+    fn device_name(&self) -> String {
+        self.renderer().device_name()
+    }
+    fn timestamps(&self) -> bool {
+        self.renderer().timestamps()
+    }
+    fn table(&self) -> Result<Option<QTable>, GpuError> {
+        self.renderer().table()
+    }
+}
 
 /// Median, minimum, maximum and mean of one pass over the measured frames (ms).
 #[derive(Clone, Debug, PartialEq, Serialize)]

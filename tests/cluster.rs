@@ -1,6 +1,9 @@
 //! docs/cluster.md's Slurm scripts, run as written on a one-node Slurm cluster
 //! that the test starts and stops (`scripts/cluster/one-node-slurm.sh`).
 
+mod common;
+
+use common::cli::rlpt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -31,15 +34,6 @@ fn ok(o: Output, what: &str) -> String {
     let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
     assert!(o.status.success(), "{what} failed:\n{out}\n{err}");
     out.into_owned()
-}
-
-fn rlpt() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rlpt"));
-    c.current_dir(ROOT);
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    }
-    c
 }
 
 /// submit.sh renders 3 parts by a job array and merges them by a dependent job;

@@ -18,14 +18,6 @@ use rlpt::shared;
 use rlpt_chi2::{chi2_sphere, Chi2Options};
 use std::path::{Path, PathBuf};
 
-/// A fresh directory for this test's files.
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-env-test-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// Writes a `w` x `h` float image of `texel(x, y)` to `path` (EXR or HDR by extension).
 fn write_image(path: &Path, w: u32, h: u32, texel: impl Fn(u32, u32) -> [f32; 3]) {
     let img = image::Rgb32FImage::from_fn(w, h, |x, y| image::Rgb(texel(x, y)));
@@ -62,7 +54,7 @@ fn varied(x: u32, y: u32) -> [f32; 3] {
 }
 
 fn varied_scene(test: &str, rotate: f32) -> (PreparedScene, PathBuf) {
-    let dir = temp_dir(test);
+    let dir = common::cli::fresh_dir(test);
     write_image(&dir.join("sky.exr"), 16, 8, varied);
     let scene = ball_scene(&format!("file = \"sky.exr\"\nscale = 2.0\nrotate = {rotate}"), &dir);
     let o = options(&scene, 8, 8, 64);
@@ -102,7 +94,7 @@ fn env_sampler_draws_its_density() {
 /// turns it counter-clockwise about +y (seen from above).
 #[test]
 fn env_convention_puts_the_image_centre_at_minus_z() {
-    let dir = temp_dir("convention");
+    let dir = common::cli::fresh_dir("convention");
     // One bright texel in the middle column of the middle row, one at u = 3/4.
     write_image(&dir.join("sky.exr"), 8, 4, |x, y| match (x, y) {
         (4, 2) => [1.0, 0.0, 0.0],
@@ -195,7 +187,7 @@ fn glsl_env_sampler_and_lookup_match_rust() {
 /// (CPU), and the GPU renders the image environment as the CPU does.
 #[test]
 fn constant_image_renders_as_the_uniform_sky() {
-    let dir = temp_dir("constant");
+    let dir = common::cli::fresh_dir("constant");
     let c = [0.4f32, 0.7, 1.1];
     write_image(&dir.join("sky.exr"), 8, 4, |_, _| c);
     let image = ball_scene("file = \"sky.exr\"", &dir);
@@ -219,7 +211,7 @@ fn constant_image_renders_as_the_uniform_sky() {
 /// renders 0.5 and the background 1, NEE on and off, GPU and CPU.
 #[test]
 fn tessellated_ball_in_an_image_furnace_renders_its_albedo() {
-    let dir = temp_dir("furnace");
+    let dir = common::cli::fresh_dir("furnace");
     write_image(&dir.join("sky.exr"), 8, 4, |_, _| [1.0; 3]);
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/furnace-open.toml")).unwrap();
     let text = text.replace("radiance = [1.0, 1.0, 1.0]", "file = \"sky.exr\"\nrotate = 33.0");
@@ -268,7 +260,7 @@ fn tessellated_ball_in_an_image_furnace_renders_its_albedo() {
 /// large enough that BSDF sampling alone finds it often enough for its noise to
 /// be estimated. Written into the temporary folder `name`.
 fn spot_lit_scene(name: &str) -> Scene {
-    let dir = temp_dir(name);
+    let dir = common::cli::fresh_dir(name);
     write_image(&dir.join("sky.exr"), 16, 8, |x, y| {
         if (9..11).contains(&x) && y == 2 {
             [20.0, 16.0, 12.0]
@@ -301,7 +293,7 @@ fn spot_lit_scene_agrees_with_nee_on_and_off() {
     }
     // The spot lights the scene: the image is not the dim background's alone.
     let sum = |f: &rlpt::film::Film| f.mean().pixels.iter().map(|p| p[0] as f64).sum::<f64>();
-    let dim = sum(&render_cpu(&ball_scene("radiance = [0.05, 0.06, 0.08]", &temp_dir("spot-dim")), &on));
+    let dim = sum(&render_cpu(&ball_scene("radiance = [0.05, 0.06, 0.08]", &common::cli::fresh_dir("spot-dim")), &on));
     assert!(sum(&gon) > 2.0 * dim, "the spot adds {} to the dim sky's {dim}", sum(&gon) - dim);
 }
 
@@ -344,7 +336,7 @@ fn load_error(env: &str, dir: &Path) -> String {
 
 #[test]
 fn env_loader_refuses_bad_images_naming_the_file() {
-    let dir = temp_dir("errors");
+    let dir = common::cli::fresh_dir("errors");
     let scene_file = dir.join("scene.toml").display().to_string();
     let e = load_error("file = \"missing.exr\"", &dir);
     assert!(e.starts_with(&format!("{scene_file}:6:8:")), "{e}");
@@ -376,7 +368,7 @@ fn env_loader_refuses_bad_images_naming_the_file() {
 /// and `scale` multiplies the texels.
 #[test]
 fn hdr_images_load_and_scale_multiplies() {
-    let dir = temp_dir("hdr");
+    let dir = common::cli::fresh_dir("hdr");
     let texel = |x: u32, y: u32| [0.25 * (x + 1) as f32, 0.5 * (y + 1) as f32, 2.0];
     write_image(&dir.join("sky.hdr"), 4, 2, texel);
     write_image(&dir.join("sky.exr"), 4, 2, texel);

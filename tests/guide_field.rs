@@ -4,6 +4,7 @@
 
 mod common;
 
+use common::cli::tmp;
 use common::*;
 use rlpt::cpu::CpuRenderer;
 use rlpt::guide::{scene_hash, Bins, GuideField, GuidingMode, QTable};
@@ -11,13 +12,6 @@ use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
-use std::path::PathBuf;
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-guide-field-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 fn guided(scene: &Scene, width: u32, height: u32) -> RenderOptions {
     let mut o = options(scene, width, height, 64);

@@ -159,7 +159,7 @@ fn guided_cpu_agrees_with_unguided_gpu() {
 
 /// The MIS weights between light sampling and the guided mixture use the
 /// mixture's density, at the light sample and where a mixture direction meets the
-/// light alike (src/cpu/mod.rs `trace_path`): weights that sum to one keep the
+/// light alike (src/cpu/path.rs `light_sample`, `mixture_sample`): weights that sum to one keep the
 /// image unbiased. Seed-exp1, lit directly by a small light, guided with a fixed
 /// fraction of 0.9 so that the mixture's density toward the light is far from the
 /// BSDF's: the CPU's guided render agrees with the GPU's unguided one over the

@@ -3,20 +3,14 @@
 //! element or JSON path. The real assets, in `tests/mesh_assets.rs`; the
 //! `[[mesh]]` tables of scenes in `tests/mesh_scene.rs`.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use rlpt::scene::mesh::{load_mesh_file, Location, MeshError};
 use rlpt::scene::MaterialKind;
-
-/// A fresh folder for this test's files.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-mesh-load-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     let path = dir.join(name);
@@ -49,14 +43,14 @@ const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
 
 #[test]
 fn obj_missing_file() {
-    let dir = temp_dir("obj-missing");
+    let dir = common::cli::fresh_dir("obj-missing");
     let e = refuse(&dir.join("nowhere.obj"), ": cannot read the mesh file: ", &["No such file"]);
     assert!(matches!(e, MeshError::Io { .. }));
 }
 
 #[test]
 fn obj_malformed_lines() {
-    let dir = temp_dir("obj-malformed");
+    let dir = common::cli::fresh_dir("obj-malformed");
     for (text, line, phrase) in [
         ("v 0 0\n", 1, "expected `v x y z` (with an optional w, or r g b), found 2 values"),
         ("v 0 0 0\nv 1 x 0\n", 2, "expected a number for the vertex coordinate y, found `x`"),
@@ -77,7 +71,7 @@ fn obj_malformed_lines() {
 
 #[test]
 fn obj_index_out_of_range() {
-    let dir = temp_dir("obj-range");
+    let dir = common::cli::fresh_dir("obj-range");
     let path = write(&dir, "bad.obj", format!("{TRIANGLE_OBJ}f 1 2 3\nf 1 2 9\n"));
     let e = refuse(&path, ":5: ", &["vertex index 9 is out of range: expected 1 to 3 (the file has 3 vertices)"]);
     assert!(matches!(e, MeshError::IndexOutOfRange { index: 9, .. }));
@@ -96,7 +90,7 @@ fn obj_index_out_of_range() {
 
 #[test]
 fn obj_non_finite_coordinates() {
-    let dir = temp_dir("obj-nan");
+    let dir = common::cli::fresh_dir("obj-nan");
     for (text, line, phrase) in [
         ("v 0 0 0\nv 1 nan 0\n", 2, "vertex coordinate y is `nan` (NaN); expected a finite number"),
         ("v 0 0 inf\n", 1, "vertex coordinate z is `inf` (inf)"),
@@ -111,7 +105,7 @@ fn obj_non_finite_coordinates() {
 
 #[test]
 fn obj_missing_and_malformed_mtl() {
-    let dir = temp_dir("obj-mtl");
+    let dir = common::cli::fresh_dir("obj-mtl");
     let path = write(&dir, "box.obj", format!("# box\nmtllib box.mtl\n{TRIANGLE_OBJ}usemtl a\nf 1 2 3\n"));
     let e = refuse(&path, ":2: ", &["cannot read the material library `box.mtl`", "No such file"]);
     assert!(matches!(e, MeshError::Io { .. }));
@@ -130,7 +124,7 @@ fn obj_missing_and_malformed_mtl() {
 
 #[test]
 fn obj_faces_without_a_material() {
-    let dir = temp_dir("obj-no-material");
+    let dir = common::cli::fresh_dir("obj-no-material");
     write(&dir, "m.mtl", "newmtl a\nKd 1 0 0\n");
     // Faces before any `usemtl`, and a `usemtl` of an undefined material: noted,
     // and those triangles have none (the scene then asks for `material`).
@@ -155,7 +149,7 @@ fn obj_faces_without_a_material() {
 
 #[test]
 fn obj_polygons_normals_and_notes() {
-    let dir = temp_dir("obj-features");
+    let dir = common::cli::fresh_dir("obj-features");
     // A quad fan-triangulated from its first corner, negative indices, normals
     // per corner (one vertex with two normals becomes two), colours and lines noted.
     let text = "o quad\ns 1\nv 0 0 0 1 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nvn 0 0 -1\n\
@@ -178,7 +172,7 @@ fn obj_polygons_normals_and_notes() {
 
 #[test]
 fn obj_empty_meshes() {
-    let dir = temp_dir("obj-empty");
+    let dir = common::cli::fresh_dir("obj-empty");
     let path = write(&dir, "none.obj", TRIANGLE_OBJ);
     let e = refuse(&path, ": the mesh has no triangles; ", &["expected at least one triangle of non-zero area"]);
     assert!(matches!(e, MeshError::Empty { skipped_degenerate: 0, .. }));
@@ -194,7 +188,7 @@ fn obj_empty_meshes() {
 
 #[test]
 fn unknown_extension() {
-    let dir = temp_dir("unknown");
+    let dir = common::cli::fresh_dir("unknown");
     let path = write(&dir, "mesh.stl", "solid x\n");
     let e = refuse(&path, ": not a mesh file rlpt reads: expected a name ending in .obj, .ply, .gltf or .glb", &[]);
     assert!(matches!(e, MeshError::UnknownFormat { .. }));
@@ -233,13 +227,13 @@ const QUAD: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], 
 
 #[test]
 fn ply_missing_file() {
-    let dir = temp_dir("ply-missing");
+    let dir = common::cli::fresh_dir("ply-missing");
     refuse(&dir.join("nowhere.ply"), ": cannot read the mesh file: ", &["No such file"]);
 }
 
 #[test]
 fn ply_malformed_elements_name_the_element_and_line() {
-    let dir = temp_dir("ply-malformed");
+    let dir = common::cli::fresh_dir("ply-malformed");
     let path = write(&dir, "bad.ply", format!("{PLY_HEADER}{PLY_VERTICES}3 0 1 2\n3 0 x 2\n"));
     let e = refuse(
         &path,
@@ -266,7 +260,7 @@ fn ply_malformed_elements_name_the_element_and_line() {
 
 #[test]
 fn ply_index_out_of_range() {
-    let dir = temp_dir("ply-range");
+    let dir = common::cli::fresh_dir("ply-range");
     let path = write(&dir, "bad.ply", format!("{PLY_HEADER}{PLY_VERTICES}3 0 1 2\n3 0 1 3\n"));
     let e = refuse(&path, ": face 1: ", &["vertex index 3 is out of range: expected 0 to 2 (the file has 3 vertices)"]);
     assert!(matches!(e, MeshError::IndexOutOfRange { index: 3, .. }));
@@ -276,7 +270,7 @@ fn ply_index_out_of_range() {
 
 #[test]
 fn ply_non_finite_coordinates() {
-    let dir = temp_dir("ply-nan");
+    let dir = common::cli::fresh_dir("ply-nan");
     let mut vertices = QUAD;
     vertices[2][1] = f32::NAN;
     let path = write(&dir, "bad.ply", binary_ply(false, &vertices, &[&[0, 1, 2]], 1));
@@ -291,7 +285,7 @@ fn ply_non_finite_coordinates() {
 
 #[test]
 fn ply_unsupported_property_types() {
-    let dir = temp_dir("ply-types");
+    let dir = common::cli::fresh_dir("ply-types");
     let path = write(&dir, "bad.ply", format!("{}{PLY_VERTICES}", PLY_HEADER.replace("float y", "int y")));
     let e = refuse(&path, ": property `y` of element `vertex` has type int; expected float or double", &[]);
     assert!(matches!(e, MeshError::UnsupportedProperty { .. }));
@@ -308,7 +302,7 @@ fn ply_unsupported_property_types() {
 
 #[test]
 fn ply_without_faces_is_empty() {
-    let dir = temp_dir("ply-empty");
+    let dir = common::cli::fresh_dir("ply-empty");
     let header =
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
     let path = write(&dir, "points.ply", format!("{header}{PLY_VERTICES}"));
@@ -317,7 +311,7 @@ fn ply_without_faces_is_empty() {
 
 #[test]
 fn ply_both_endians_polygons_normals_and_notes() {
-    let dir = temp_dir("ply-good");
+    let dir = common::cli::fresh_dir("ply-good");
     let little = write(&dir, "little.ply", binary_ply(false, &QUAD, &[&[0, 1, 2, 3]], 1));
     let big = write(&dir, "big.ply", binary_ply(true, &QUAD, &[&[0, 1, 2, 3]], 1));
     let (little, big) = (load_mesh_file(&little).unwrap(), load_mesh_file(&big).unwrap());
@@ -380,7 +374,7 @@ fn write_gltf(dir: &Path, edit: impl FnOnce(&mut serde_json::Value, &mut Vec<u8>
 
 #[test]
 fn gltf_missing_or_short_buffer() {
-    let dir = temp_dir("gltf-buffer");
+    let dir = common::cli::fresh_dir("gltf-buffer");
     let path = write_gltf(&dir, |_, _| {}, false);
     let e = refuse(&path, ": buffers[0].uri: cannot read the buffer `tri.bin` (", &["No such file"]);
     assert!(matches!(e, MeshError::MissingBuffer { .. }));
@@ -408,7 +402,7 @@ fn gltf_missing_or_short_buffer() {
 
 #[test]
 fn gltf_accessor_out_of_bounds() {
-    let dir = temp_dir("gltf-bounds");
+    let dir = common::cli::fresh_dir("gltf-bounds");
     let path = write_gltf(&dir, |json, _| json["accessors"][0]["count"] = 4.into(), true);
     let e = refuse(
         &path,
@@ -428,7 +422,7 @@ fn gltf_accessor_out_of_bounds() {
 
 #[test]
 fn gltf_index_out_of_range_and_non_finite_positions() {
-    let dir = temp_dir("gltf-values");
+    let dir = common::cli::fresh_dir("gltf-values");
     let path = write_gltf(&dir, |_, bin| bin[40..42].copy_from_slice(&5u16.to_le_bytes()), true);
     let e = refuse(
         &path,
@@ -442,7 +436,7 @@ fn gltf_index_out_of_range_and_non_finite_positions() {
 
 #[test]
 fn gltf_invalid_documents_name_the_json_path() {
-    let dir = temp_dir("gltf-invalid");
+    let dir = common::cli::fresh_dir("gltf-invalid");
     let path = write_gltf(&dir, |json, _| json["meshes"][0]["primitives"][0]["indices"] = 7.into(), true);
     refuse(&path, ": meshes[0].primitives[0].indices: ", &["expected the index of an existing object"]);
     let path = write_gltf(
@@ -477,7 +471,7 @@ fn gltf_invalid_documents_name_the_json_path() {
 
 #[test]
 fn gltf_nodes_modes_materials_and_embedded_buffers() {
-    let dir = temp_dir("gltf-good");
+    let dir = common::cli::fresh_dir("gltf-good");
     // The buffer as a data: URI; a parent node that mirrors in x; a strip, a
     // fan and a list of points beside the triangle; a material on one primitive.
     let path = write_gltf(
@@ -519,7 +513,7 @@ fn gltf_nodes_modes_materials_and_embedded_buffers() {
 
 #[test]
 fn gltf_with_only_zero_area_triangles_is_empty() {
-    let dir = temp_dir("gltf-empty");
+    let dir = common::cli::fresh_dir("gltf-empty");
     let path = write_gltf(&dir, |_, bin| bin[40..42].copy_from_slice(&1u16.to_le_bytes()), true);
     refuse(&path, ": the mesh has no triangles (its 1 triangle has zero area)", &[]);
 }

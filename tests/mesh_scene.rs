@@ -3,6 +3,8 @@
 //! transpose, the files' materials appended to the scene's, notes prefixed by
 //! the file, and every refusal naming the scene file's line and column.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -27,9 +29,7 @@ const SLOPE_PLY: &str =
 
 /// A folder with box.obj, box.mtl and slope.ply.
 fn meshes_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-mesh-scene-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
+    let dir = common::cli::fresh_dir(&format!("mesh-scene-{name}"));
     fs::write(dir.join("box.obj"), BOX_OBJ).unwrap();
     fs::write(dir.join("box.mtl"), BOX_MTL).unwrap();
     fs::write(dir.join("slope.ply"), SLOPE_PLY).unwrap();

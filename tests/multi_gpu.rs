@@ -250,21 +250,9 @@ fn a_session_on_two_contexts_keeps_its_budget() {
     assert_no_validation_messages(&b);
 }
 
+/// `rlpt ARGS` as the command-line tests run it (`common::cli::rlpt`), with `env` set.
 fn rlpt(args: &[&str], env: &[(&str, &str)]) -> std::process::Output {
-    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rlpt"));
-    c.args(args).env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().expect("rlpt runs")
-}
-
-/// A fresh directory for one test's files.
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-multi-gpu-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    cli::rlpt().args(args).envs(env.iter().copied()).output().expect("rlpt runs")
 }
 
 fn door_path() -> String {
@@ -276,7 +264,7 @@ fn door_path() -> String {
 /// the last (listing those found), a word that is no index.
 #[test]
 fn bad_gpu_lists_are_refused_with_a_sentence() {
-    let dir = scratch("refusals");
+    let dir = cli::fresh_dir("multi-gpu-refusals");
     let out = dir.join("out.png");
     let door_toml = door_path();
     for (gpus, extra, want) in [
@@ -308,7 +296,7 @@ fn bad_gpu_lists_are_refused_with_a_sentence() {
 #[test]
 fn render_and_bench_on_two_gpus_from_the_command_line() {
     let _serial = one_at_a_time();
-    let dir = scratch("cli");
+    let dir = cli::fresh_dir("multi-gpu-cli");
     let (exr, json) = (dir.join("two.exr"), dir.join("bench.json"));
     let door_toml = door_path();
     let hook = [("RLPT_TEST_DUPLICATE_GPUS", "1")];
@@ -343,7 +331,7 @@ fn render_and_bench_on_two_gpus_from_the_command_line() {
 #[test]
 fn parts_rendered_on_two_gpus_merge_to_the_one_gpu_render() {
     let _serial = one_at_a_time();
-    let dir = scratch("parts");
+    let dir = cli::fresh_dir("multi-gpu-parts");
     let door_toml = door_path();
     let hook = [("RLPT_TEST_DUPLICATE_GPUS", "1")];
     let base = ["render", &door_toml, "--width", "20", "--height", "12", "--spp", "640"];

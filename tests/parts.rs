@@ -2,6 +2,9 @@
 //! complete (merged, they are the unsplit render to rounding), their files carry
 //! what merge checks, and merge refuses parts that do not belong together.
 
+mod common;
+
+use common::cli::{rlpt, tmp, Checked};
 use rlpt::cpu::CpuRenderer;
 use rlpt::film::Film;
 use rlpt::guide::scene_hash;
@@ -10,7 +13,6 @@ use rlpt::parts::{merge, settings_hash, Part, PartImage, PartInfo};
 use rlpt::prepared::PreparedScene;
 use rlpt::scene::Scene;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn scene(name: &str) -> Scene {
     Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("shipped scene loads")
@@ -201,12 +203,6 @@ fn merge_refuses_parts_that_do_not_belong_together() {
     assert_eq!(refused(parts).len(), 2);
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-parts-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
 /// A part's file holds its header, image and variance exactly, and is an EXR that
 /// other readers open (the image in R, G, B).
 #[test]
@@ -232,18 +228,9 @@ fn a_part_file_round_trips() {
     assert!(e.starts_with(&format!("{} is not an EXR that rlpt can read", cut.display())), "{e}");
 }
 
-fn rlpt() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_rlpt"));
-    c.current_dir(env!("CARGO_MANIFEST_DIR")).env("RLPT_VALIDATION", "1");
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    }
-    c
-}
-
 /// Runs rlpt with `args`; its stdout on success, else its stderr.
 fn run(args: &[&str]) -> Result<String, String> {
-    let o = rlpt().args(args).output().expect("rlpt runs");
+    let o = rlpt().args(args).checked_output();
     let (out, err) = (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
     assert!(!err.contains("validation"), "the validation layer spoke:\n{err}");
     if o.status.success() {

@@ -2,6 +2,7 @@
 //! what was expected (or, for a missing file, its path as written and as
 //! resolved), and nothing is rendered.
 
+mod common;
 mod pbrt_support;
 
 use pbrt_support::{dir, refuse, write, TRIANGLE};
@@ -102,7 +103,7 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
     let d = dir("cli");
     let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
     let run = |strict: bool| {
-        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rlpt"));
+        let mut c = common::cli::rlpt();
         c.arg("info").arg(&p);
         if strict {
             c.arg("--strict");
@@ -133,7 +134,7 @@ fn cli_render_prints_the_notes_and_strict_renders_nothing() {
         write(&d, "scene.pbrt", &format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
     let out = d.join("out.png");
     let run = |strict: bool| {
-        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_rlpt"));
+        let mut c = common::cli::rlpt();
         c.arg("render")
             .arg(&p)
             .args(["--width", "8", "--height", "8", "--spp", "64", "--device", "cpu", "-o"])

@@ -1,6 +1,7 @@
 //! `rlpt bench`: GPU timestamps of every pass of every frame.
 
 use crate::*;
+use rlpt::bench::{Profiled, ProfiledDevice};
 
 #[derive(clap::Args)]
 pub(crate) struct BenchArgs {
@@ -128,28 +129,35 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     let samples_per_frame = opts.width as u64 * opts.height as u64 * shared::SAMPLES_PER_FRAME as u64;
-    let mut times = Vec::with_capacity(args.frames as usize);
-    let (device, driver, clock, pipelines) = match args.settings.device {
+    let paths_per_frame = samples_per_frame as f64;
+    let (ctx, mut profiled, ablate) = match args.settings.device {
         DeviceKind::Gpu => {
             let mut contexts = open_gpus(&args.settings)?;
             if contexts.len() > 1 {
                 return bench_gpus(&args, &contexts, &prepared, samples_per_frame);
             }
             let ctx = contexts.remove(0);
-            let mut r = GpuRenderer::new(&ctx, &prepared)?;
+            let r = GpuRenderer::new(&ctx, &prepared)?;
             let ablate = args.ablate.iter().fold(0, |bits, a| {
                 bits | match a {
                     AblateArg::Record => shared::ABLATE_RECORD,
                     AblateArg::GuidedSampling => shared::ABLATE_GUIDED_SAMPLING,
                 }
             });
-            for f in 0..args.warmup + args.frames {
-                r.ablate = if f >= args.warmup { ablate } else { 0 };
-                let t = r.render_frame_profiled()?;
-                if f >= args.warmup {
-                    times.push(t);
-                }
-            }
+            (Some(ctx), Profiled::new(ProfiledDevice::Gpu(Box::new(r))), ablate)
+        }
+        DeviceKind::Cpu => (None, Profiled::new(ProfiledDevice::Cpu(Box::new(CpuRenderer::new(&prepared)))), 0),
+    };
+    // The warm-up learns as usual; the measured frames leave out what --ablate names.
+    run_frames(&mut profiled, args.warmup, paths_per_frame)?;
+    if let ProfiledDevice::Gpu(r) = &mut profiled.device {
+        r.ablate = ablate;
+    }
+    profiled.times.clear();
+    run_frames(&mut profiled, args.frames, paths_per_frame)?;
+    let times = std::mem::take(&mut profiled.times);
+    let (device, driver, clock, pipelines) = match (&ctx, &profiled.device) {
+        (Some(ctx), ProfiledDevice::Gpu(r)) => {
             let pipelines = r
                 .pipeline_statistics()?
                 .into_iter()
@@ -157,30 +165,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
                 .collect();
             (ctx.info.name.clone(), ctx.info.driver.clone(), "GPU timestamps", pipelines)
         }
-        DeviceKind::Cpu => {
-            let mut r = CpuRenderer::new(&prepared);
-            for f in 0..args.warmup + args.frames {
-                let start = Instant::now();
-                r.render_frame();
-                let ms = start.elapsed().as_secs_f64() * 1e3;
-                if f >= args.warmup {
-                    let c = r.last_counters;
-                    times.push(rlpt::render::PassTimes {
-                        start_ms: 0.0,
-                        pathtrace_ms: ms,
-                        zero_paths: Some(c.zero_paths),
-                        segments: Some(c.segments),
-                        ..Default::default()
-                    });
-                }
-            }
-            (
-                format!("CPU ({} threads)", rayon::current_num_threads()),
-                "rlpt CPU renderer".into(),
-                "wall clock",
-                Vec::new(),
-            )
-        }
+        _ => (profiled.device_name(), "rlpt CPU renderer".into(), "wall clock", Vec::new()),
     };
     let setup = rlpt::bench::BenchSetup {
         scene: args.scene.display().to_string(),
@@ -223,20 +208,11 @@ fn bench_gpus(
 ) -> Result<()> {
     super::gpus::refuse_race_on_several(prepared)?;
     let mut r = rlpt::render::MultiGpuRenderer::new(contexts, prepared)?;
-    let run = |r: &mut rlpt::render::MultiGpuRenderer, frames: u32| -> Result<f64> {
-        let (mut traced, mut ms) = (0, 0.0);
-        while traced < frames {
-            let start = Instant::now();
-            let round = r.render_round(frames - traced, None)?;
-            traced += round.frames;
-            ms += round.gpu_ms.unwrap_or_else(|| start.elapsed().as_secs_f64() * 1e3);
-        }
-        Ok(ms)
-    };
-    run(&mut r, args.warmup)?;
+    let paths_per_frame = samples_per_frame as f64;
+    run_frames(&mut r, args.warmup, paths_per_frame)?;
     let before = r.device_stats();
     let start = Instant::now();
-    let gpu_ms = run(&mut r, args.frames)?;
+    let gpu_ms = run_frames(&mut r, args.frames, paths_per_frame)?;
     let wall_s = start.elapsed().as_secs_f64();
     let devices: Vec<rlpt::bench::DeviceBench> = r
         .device_stats()
@@ -290,4 +266,16 @@ fn bench_gpus(
             .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())
+}
+
+/// Renders `frames` more frames of `renderer` in a session of its own (no time
+/// budget; a lost device is an error): its time, GPU time where the renderer has
+/// timestamps (with several GPUs, the busiest device's per round), else wall clock.
+fn run_frames(renderer: &mut dyn Renderer, frames: u32, paths_per_frame: f64) -> Result<f64> {
+    let mut session = Session::new(Box::new(renderer), None, paths_per_frame);
+    let (stop, _) = session.run(Budget { frames, time_ms: None }, &AtomicBool::new(false))?;
+    if let Stop::DeviceLost(detail) = stop {
+        return Err(rlpt::gpu::GpuError::DeviceLost(detail).into());
+    }
+    Ok(session.elapsed_ms)
 }

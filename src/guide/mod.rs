@@ -44,7 +44,7 @@
 //!   sample, one per density), and a direction uniformly inside it; otherwise the BSDF is
 //!   sampled. The mixture pdf weights the path and the MIS with light sampling, so
 //!   the image stays unbiased, and no direction where the BSDF is non-zero gets pdf
-//!   zero (`crate::cpu` `trace_path` says why the MIS weights use the mixture's
+//!   zero (`crate::cpu` `mixture_sample` says why the MIS weights use the mixture's
 //!   density, not the BSDF's). Cells that have learned nothing use BSDF sampling alone. The cosine is
 //!   that of the class axis, exact on axis-aligned walls; the BSDF's own lobe is
 //!   left to the BSDF half of the mixture.

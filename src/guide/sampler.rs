@@ -220,7 +220,7 @@ pub fn build_sampling_rows(cosines: &[f32], q: &[f32], floor: f32, rows: &mut [A
 
 /// The density of the one-sample mixture at a vertex that mixes: guided sampling
 /// with probability `g_frac`, the BSDF otherwise. It weights the path and the MIS
-/// with light sampling alike (`crate::cpu` `trace_path`); `glsl/guide.glsl`
+/// with light sampling alike (`crate::cpu` `light_sample`, `mixture_sample`); `glsl/guide.glsl`
 /// `mixture_pdf` is the same arithmetic.
 pub fn mixture_pdf(g_frac: f32, p_bsdf: f32, p_guided: f32) -> f32 {
     (1.0 - g_frac) * p_bsdf + g_frac * p_guided

@@ -39,10 +39,19 @@ pub fn assert_no_validation_messages(output: &str) {
     }
 }
 
+/// A file `name` in this test binary's own directory of files.
 pub fn tmp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("rlpt-cli-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
+}
+
+/// A fresh, empty directory `name` for one test's files.
+pub fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rlpt-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }
 
 /// Runs `rlpt ARGS` and returns (success, stderr).
