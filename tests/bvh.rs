@@ -238,21 +238,10 @@ fn measure_build_and_walk() {
             })
             .collect()
     };
-    let flat =
-        |ply: &Ply| -> Vec<[Vec3; 3]> { ply.triangles.iter().map(|t| t.map(|i| ply.positions[i as usize])).collect() };
-    let bunny_tris = flat(&read_ply(&asset("stanford_bunny/bun_zipper.ply")));
-    let mut bmw_tris = Vec::new();
-    let mut files: Vec<_> = std::fs::read_dir(asset("bmw_m6_pbrt/geometry"))
-        .expect("the BMW's meshes in ../shared/assets/bmw_m6_pbrt/geometry")
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "ply"))
-        .collect();
-    files.sort();
+    let bunny_tris = ply_triangles(&read_ply(&asset("stanford_bunny/bun_zipper.ply")));
     let t0 = Instant::now();
-    for f in &files {
-        bmw_tris.extend(flat(&read_ply(f)));
-    }
-    eprintln!("BMW: {} files, {} triangles, read in {:.2} s", files.len(), bmw_tris.len(), t0.elapsed().as_secs_f64());
+    let (bmw_tris, files) = bmw_triangles();
+    eprintln!("BMW: {files} files, {} triangles, read in {:.2} s", bmw_tris.len(), t0.elapsed().as_secs_f64());
     for (name, tris) in [("bunny", &bunny_tris), ("BMW M6", &bmw_tris)] {
         let prims = boxes(tris);
         let _ = bvh::build(&prims); // warm up the thread pool and the allocator

@@ -16,9 +16,19 @@ use rlpt::shared;
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
+/// The repository's root: rlpt's, or its parent's for bvh-crates/, which reads this module too.
+fn repo_root() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    if env!("CARGO_PKG_NAME") == "rlpt-bvh-crates" {
+        dir.parent().expect("bvh-crates/ lies in the repository").to_path_buf()
+    } else {
+        dir.to_path_buf()
+    }
+}
+
 /// The shared assets (issue 36): other people's data, never committed here.
 pub fn asset(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets").join(rel)
+    repo_root().join("../shared/assets").join(rel)
 }
 
 /// A PLY file's vertex positions and its faces as triangles (polygons fanned).
@@ -121,9 +131,27 @@ pub fn read_ply(path: &Path) -> Ply {
     ply
 }
 
+/// A PLY's triangles as their three vertices each.
+pub fn ply_triangles(ply: &Ply) -> Vec<[Vec3; 3]> {
+    ply.triangles.iter().map(|t| t.map(|i| ply.positions[i as usize])).collect()
+}
+
+/// The BMW M6's 114 meshes (`bmw_m6_pbrt/geometry/*.ply`, in name order) as
+/// one list of triangles, and how many files they came from.
+pub fn bmw_triangles() -> (Vec<[Vec3; 3]>, usize) {
+    let mut files: Vec<_> = std::fs::read_dir(asset("bmw_m6_pbrt/geometry"))
+        .expect("the BMW's meshes in ../shared/assets/bmw_m6_pbrt/geometry")
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ply"))
+        .collect();
+    files.sort();
+    let tris = files.iter().flat_map(|f| ply_triangles(&read_ply(f))).collect();
+    (tris, files.len())
+}
+
 /// A scene of one grey material under a sky (the open furnace, its ball taken out).
 fn base_scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/furnace-open.toml")).unwrap();
+    let text = std::fs::read_to_string(repo_root().join("scenes/furnace-open.toml")).unwrap();
     let mut scene = Scene::parse(&text, "furnace-open.toml").unwrap();
     scene.spheres.clear();
     scene

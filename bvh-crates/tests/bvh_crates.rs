@@ -1,0 +1,457 @@
+//! rlpt's BVH builder (src/math/bvh.rs) against the BVH crates of crates.io, on
+//! the bunny and the BMW M6 (issue 36: keep the builder, or take a crate's if it
+//! measures better). Each crate's binary tree is laid out as rlpt's nodes
+//! (`GpuBvhNode`, its leaves' primitives as rlpt's references) and walked by
+//! rlpt's own `closest_hit` and `occluded`, the walk the GPU twin repeats, so
+//! that the rays per second and the SAH cost measure the trees and nothing else.
+//! Ignored (it prints figures): `cargo test -p rlpt-bvh-crates -- --ignored --nocapture`;
+//! docs/meshes.md says what was decided and BENCHMARKS.md gives the figures.
+
+#[path = "../../tests/bvh_support/mod.rs"]
+mod bvh_support;
+
+use bvh_support::*;
+use rayon::prelude::*;
+use rlpt::layout::{prim_ref, GpuBvhNode, GpuTriangle, RenderParams, Room, SceneArrays};
+use rlpt::math::bvh::{self, closest_hit, occluded, PrimBox};
+use rlpt::math::rng::Rng;
+use rlpt::math::Vec3;
+use rlpt::shared;
+use std::time::Instant;
+
+/// A tree in rlpt's layout, as `rlpt::math::bvh::Bvh` holds one.
+struct Tree {
+    nodes: Vec<GpuBvhNode>,
+    prim_refs: Vec<u32>,
+}
+
+/// A child while a crate's tree is laid out: a box and either one of the crate's
+/// nodes or a leaf's triangle indices.
+enum Child {
+    Node(usize),
+    Leaf(Vec<u32>),
+}
+
+/// The boxes grow as `rlpt::math::bvh` grows its own (`BOX_PAD`: 2^-20 of the
+/// largest coordinate), so that every tree meets the walk's rounding alike.
+fn padded(lo: Vec3, hi: Vec3) -> ([f32; 3], [f32; 3]) {
+    let pad = lo.abs().max(hi.abs()).max_element() / (1u32 << 20) as f32;
+    ((lo - pad).into(), (hi + pad).into())
+}
+
+/// Lays a crate's binary tree out as rlpt's, depth first as `bvh::build` does:
+/// `expand` gives a crate node's two children.
+fn lay_out(root: [(Vec3, Vec3, Child); 2], expand: &dyn Fn(usize) -> [(Vec3, Vec3, Child); 2]) -> Tree {
+    fn node(
+        children: [(Vec3, Vec3, Child); 2],
+        expand: &dyn Fn(usize) -> [(Vec3, Vec3, Child); 2],
+        tree: &mut Tree,
+    ) -> u32 {
+        let index = tree.nodes.len();
+        tree.nodes.push(GpuBvhNode::default());
+        let mut words = [(0u32, 0u32); 2];
+        let mut boxes = [([0.0; 3], [0.0; 3]); 2];
+        for (k, (lo, hi, child)) in children.into_iter().enumerate() {
+            boxes[k] = padded(lo, hi);
+            words[k] = match child {
+                Child::Leaf(tris) => {
+                    let first = tree.prim_refs.len() as u32;
+                    tree.prim_refs.extend(tris.iter().map(|&t| prim_ref(shared::PRIM_TRIANGLE, t)));
+                    (shared::BVH_LEAF | first, tris.len() as u32)
+                }
+                Child::Node(n) => (node(expand(n), expand, tree), 0),
+            };
+        }
+        tree.nodes[index] = GpuBvhNode {
+            a_lo: boxes[0].0,
+            a_child: words[0].0,
+            a_hi: boxes[0].1,
+            a_count: words[0].1,
+            b_lo: boxes[1].0,
+            b_child: words[1].0,
+            b_hi: boxes[1].1,
+            b_count: words[1].1,
+        };
+        index as u32
+    }
+    let mut tree = Tree { nodes: vec![], prim_refs: vec![] };
+    node(root, expand, &mut tree);
+    tree
+}
+
+fn rlpt_tree(tris: &[[Vec3; 3]]) -> Tree {
+    let prims: Vec<PrimBox> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, [a, b, c])| PrimBox {
+            prim: prim_ref(shared::PRIM_TRIANGLE, i as u32),
+            lo: a.min(*b).min(*c),
+            hi: a.max(*b).max(*c),
+        })
+        .collect();
+    let b = bvh::build(&prims);
+    Tree { nodes: b.nodes, prim_refs: b.prim_refs }
+}
+
+/// obvhs's BVH2 (PLOC, reinsertion, leaf collapse, with `pre_split` the large
+/// triangles' boxes split first), laid out: a leaf of a primitive range becomes
+/// a leaf of those triangles (a split triangle in every leaf that holds a part).
+fn obvhs_tree(tris: &[obvhs::triangle::Triangle], params: obvhs::BvhBuildParams) -> Tree {
+    let b = obvhs::bvh2::builder::build_bvh2_from_tris(tris, params, &mut Default::default());
+    let v = |a: obvhs_glam::Vec3A| Vec3::new(a.x, a.y, a.z);
+    let child = |i: usize| {
+        let n = &b.nodes[i];
+        let c = if n.is_leaf() {
+            let first = n.first_index as usize;
+            Child::Leaf(b.primitive_indices[first..first + n.prim_count as usize].to_vec())
+        } else {
+            Child::Node(i)
+        };
+        (v(n.aabb.min), v(n.aabb.max), c)
+    };
+    let expand = |i: usize| {
+        let first = b.nodes[i].first_index as usize;
+        [child(first), child(first + 1)]
+    };
+    assert!(!b.nodes[0].is_leaf(), "obvhs: the root is a leaf");
+    lay_out(expand(0), &expand)
+}
+
+/// A triangle as the `bvh` crate builds over it: its box and its node.
+struct BvhShape {
+    lo: Vec3,
+    hi: Vec3,
+    node: usize,
+}
+
+type NPoint = bvh_nalgebra::Point3<f32>;
+
+impl ::bvh::aabb::Bounded<f32, 3> for BvhShape {
+    fn aabb(&self) -> ::bvh::aabb::Aabb<f32, 3> {
+        let p = |v: Vec3| NPoint::new(v.x, v.y, v.z);
+        ::bvh::aabb::Aabb::with_bounds(p(self.lo), p(self.hi))
+    }
+}
+
+impl ::bvh::bounding_hierarchy::BHShape<f32, 3> for BvhShape {
+    fn set_bh_node_index(&mut self, i: usize) {
+        self.node = i;
+    }
+    fn bh_node_index(&self) -> usize {
+        self.node
+    }
+}
+
+/// The `bvh` crate's tree (binned SAH, one triangle a leaf), laid out.
+fn bvh_crate_tree(shapes: &mut [BvhShape]) -> Tree {
+    use ::bvh::bounding_hierarchy::BoundingHierarchy;
+    use ::bvh::bvh::BvhNode;
+    let b = ::bvh::bvh::Bvh::<f32, 3>::build_par(shapes);
+    let v = |p: &NPoint| Vec3::new(p.x, p.y, p.z);
+    let child = |i: usize, bx: &::bvh::aabb::Aabb<f32, 3>| {
+        let c = match b.nodes[i] {
+            BvhNode::Leaf { shape_index, .. } => Child::Leaf(vec![shape_index as u32]),
+            BvhNode::Node { .. } => Child::Node(i),
+        };
+        (v(&bx.min), v(&bx.max), c)
+    };
+    let expand = |i: usize| match &b.nodes[i] {
+        BvhNode::Node { child_l_index, child_l_aabb, child_r_index, child_r_aabb, .. } => {
+            [child(*child_l_index, child_l_aabb), child(*child_r_index, child_r_aabb)]
+        }
+        BvhNode::Leaf { .. } => unreachable!("leaves are laid out by their parents"),
+    };
+    lay_out(expand(0), &expand)
+}
+
+/// What a tree is made of: nodes, leaves, references, depth (nodes on the longest
+/// path) and its SAH cost with rlpt's costs (a node visit 1, a primitive test 1):
+/// each node's visit and each leaf's tests weighted by its box's area over the root's.
+struct Shape {
+    nodes: usize,
+    leaves: usize,
+    refs: usize,
+    depth: u32,
+    sah: f64,
+}
+
+fn shape(t: &Tree) -> Shape {
+    let area = |lo: [f32; 3], hi: [f32; 3]| {
+        let e: [f64; 3] = std::array::from_fn(|k| (hi[k] - lo[k]).max(0.0) as f64);
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    };
+    let r = &t.nodes[0];
+    let root =
+        area(std::array::from_fn(|k| r.a_lo[k].min(r.b_lo[k])), std::array::from_fn(|k| r.a_hi[k].max(r.b_hi[k])));
+    let mut s = Shape { nodes: t.nodes.len(), leaves: 0, refs: t.prim_refs.len(), depth: 0, sah: 0.0 };
+    // (node, the area of its box, its depth)
+    let mut todo = vec![(0u32, root, 1u32)];
+    while let Some((i, a, depth)) = todo.pop() {
+        s.depth = s.depth.max(depth);
+        s.sah += a;
+        let n = &t.nodes[i as usize];
+        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
+            if child & shared::BVH_LEAF != 0 {
+                s.leaves += 1;
+                s.sah += count as f64 * area(lo, hi);
+            } else {
+                todo.push((child, area(lo, hi), depth + 1));
+            }
+        }
+    }
+    s.sah /= root;
+    s
+}
+
+/// Rays through a mesh, as `measure_build_and_walk` in tests/bvh.rs shoots them:
+/// from points around it (a sphere of its box's diagonal) towards random points of
+/// its box, "outside" (camera-like, most hit), and from random points inside its
+/// box in random directions, "inside". A shadow segment for each: to the target
+/// point outside, of a random length up to the diagonal inside.
+struct Rays {
+    outside: Vec<(Vec3, Vec3, f32)>,
+    inside: Vec<(Vec3, Vec3, f32)>,
+}
+
+fn rays(tris: &[[Vec3; 3]], n: usize) -> Rays {
+    let (lo, hi) = tris.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), p| (l.min(*p), h.max(*p)));
+    let mut rng = Rng::new(5, 36, 0, 0);
+    let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let diag = (hi - lo).length();
+    let sphere = rlpt::math::sampling::uniform_sphere;
+    let outside = (0..n)
+        .map(|_| {
+            let o = (lo + hi) * 0.5 + sphere([r3().x, r3().y]) * diag;
+            let to = lo + (hi - lo) * r3() - o;
+            (o, to.normalize(), to.length())
+        })
+        .collect();
+    let inside = (0..n)
+        .map(|_| {
+            let o = lo + (hi - lo) * r3();
+            let u = r3();
+            (o, sphere([u.x, u.y]), u.z * diag)
+        })
+        .collect();
+    Rays { outside, inside }
+}
+
+/// A scene of the triangles alone; the tree is put in by `with_tree`.
+fn triangle_scene(tris: &[[Vec3; 3]]) -> SceneArrays {
+    let triangles = tris
+        .iter()
+        .map(|[a, b, c]| GpuTriangle { v0: (*a).into(), v1: (*b).into(), v2: (*c).into(), ..Default::default() })
+        .collect();
+    SceneArrays {
+        params: RenderParams::default(),
+        materials: vec![],
+        spheres: vec![],
+        quads: vec![],
+        lights: vec![],
+        triangles,
+        triangle_normals: vec![],
+        bvh_nodes: vec![],
+        prim_refs: vec![],
+        room: Room::NONE,
+        env_texels: vec![],
+        env_cdf: vec![],
+        textures: vec![],
+        texels: vec![],
+        triangle_uvs: vec![],
+    }
+}
+
+fn with_tree(s: &mut SceneArrays, t: &Tree) {
+    s.bvh_nodes.clone_from(&t.nodes);
+    s.prim_refs.clone_from(&t.prim_refs);
+}
+
+/// Seconds of CPU time: of this thread, or of the whole process (every thread).
+fn cpu_seconds(clock: libc::clockid_t) -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes the timespec it is given and nothing else.
+    assert_eq!(unsafe { libc::clock_gettime(clock, &mut ts) }, 0);
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// The medians of `reps` builds' wall times (all threads) and CPU times (summed
+/// over the threads), and the last tree.
+fn time_build(reps: usize, build: &mut dyn FnMut() -> Tree) -> (f64, f64, Tree) {
+    let mut times = Vec::new();
+    let mut tree = None;
+    for _ in 0..reps {
+        let (t, cpu) = (Instant::now(), cpu_seconds(libc::CLOCK_PROCESS_CPUTIME_ID));
+        tree = Some(build());
+        times.push((t.elapsed().as_secs_f64(), cpu_seconds(libc::CLOCK_PROCESS_CPUTIME_ID) - cpu));
+    }
+    let mut wall: Vec<f64> = times.iter().map(|t| t.0).collect();
+    let mut cpu: Vec<f64> = times.iter().map(|t| t.1).collect();
+    wall.sort_by(f64::total_cmp);
+    cpu.sort_by(f64::total_cmp);
+    (wall[reps / 2], cpu[reps / 2], tree.unwrap())
+}
+
+/// The same answers as rlpt's own tree on every ray: the nearest hit at the same
+/// distance (bit for bit: the same triangle tests), on the same triangle unless
+/// another lies at that distance too, and the same occlusion of each segment.
+fn check_same_hits(s: &SceneArrays, reference: &SceneArrays, rays: &[(Vec3, Vec3, f32)], name: &str) -> (usize, usize) {
+    rays.par_iter()
+        .map(|&(o, d, t_max)| {
+            let (got, want) = (closest_hit(s, o, d, f32::INFINITY), closest_hit(reference, o, d, f32::INFINITY));
+            assert_eq!(got.map(|g| g.0), want.map(|w| w.0), "{name}: ray {o} {d}: {got:?}, rlpt's tree {want:?}");
+            let tie = got.zip(want).is_some_and(|(g, w)| g.1 != w.1);
+            if tie {
+                let t = prim_t(s, got.unwrap().1, o, d, f32::INFINITY);
+                assert_eq!(t, Some(want.unwrap().0), "{name}: ray {o} {d}: another triangle, not at the same distance");
+            }
+            assert_eq!(
+                occluded(s, o, d, t_max, shared::NO_PRIM),
+                occluded(reference, o, d, t_max, shared::NO_PRIM),
+                "{name}: ray {o} {d}, t_max {t_max}"
+            );
+            (got.is_some() as usize, tie as usize)
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
+}
+
+/// Mrays per second of this thread's CPU time (the machine's other jobs do not
+/// count): closest hits, then occlusion, over `rays`.
+fn walk_rates(s: &SceneArrays, rays: &[(Vec3, Vec3, f32)]) -> [f64; 2] {
+    let clock = || cpu_seconds(libc::CLOCK_THREAD_CPUTIME_ID);
+    let t = clock();
+    let hits = rays.iter().filter(|(o, d, _)| closest_hit(s, *o, *d, f32::INFINITY).is_some()).count();
+    let closest = clock() - t;
+    let t = clock();
+    let blocked = rays.iter().filter(|(o, d, t_max)| occluded(s, *o, *d, *t_max, shared::NO_PRIM)).count();
+    let any = clock() - t;
+    std::hint::black_box((hits, blocked));
+    [rays.len() as f64 / closest / 1e6, rays.len() as f64 / any / 1e6]
+}
+
+/// Builds each tree of the bunny and the BMW M6 (median of 5 builds; 3 where a
+/// build takes over a second; wall and CPU time), checks it gives rlpt's tree's
+/// answers, and prints its shape, SAH cost and walk rates (per CPU second of one
+/// thread, the best of 3 passes, the trees interleaved).
+#[test]
+#[ignore]
+fn compare_bvh_builders() {
+    let bunny = ply_triangles(&read_ply(&asset("stanford_bunny/bun_zipper.ply")));
+    let (bmw, _) = bmw_triangles();
+    let rays_per_kind = 250_000;
+    eprintln!(
+        "{} threads; {rays_per_kind} rays of each kind; walk rates in Mrays per CPU second of one thread",
+        rayon::current_num_threads()
+    );
+    for (scene, tris) in [("bunny", &bunny), ("BMW M6", &bmw)] {
+        let obvhs_tris: Vec<obvhs::triangle::Triangle> = tris
+            .iter()
+            .map(|t| {
+                let [v0, v1, v2] = t.map(|p| obvhs_glam::Vec3A::new(p.x, p.y, p.z));
+                obvhs::triangle::Triangle { v0, v1, v2 }
+            })
+            .collect();
+        // Leaves of up to 4 and a node visit costing one primitive test, as rlpt's.
+        let ob = |base: obvhs::BvhBuildParams| obvhs::BvhBuildParams {
+            max_prims_per_leaf: 4,
+            collapse_traversal_cost: 1.0,
+            ..base
+        };
+        let mut shapes: Vec<BvhShape> =
+            tris.iter().map(|[a, b, c]| BvhShape { lo: a.min(*b).min(*c), hi: a.max(*b).max(*c), node: 0 }).collect();
+        type Builder<'a> = (&'a str, Box<dyn FnMut() -> Tree + 'a>);
+        let builders: Vec<Builder> = vec![
+            ("rlpt binned SAH", Box::new(|| rlpt_tree(tris))),
+            (
+                "obvhs very_fast_build",
+                Box::new(|| obvhs_tree(&obvhs_tris, ob(obvhs::BvhBuildParams::very_fast_build()))),
+            ),
+            ("obvhs medium_build", Box::new(|| obvhs_tree(&obvhs_tris, ob(obvhs::BvhBuildParams::medium_build())))),
+            ("obvhs slow_build", Box::new(|| obvhs_tree(&obvhs_tris, ob(obvhs::BvhBuildParams::slow_build())))),
+            (
+                "obvhs very_slow_build",
+                Box::new(|| obvhs_tree(&obvhs_tris, ob(obvhs::BvhBuildParams::very_slow_build()))),
+            ),
+            ("bvh binned SAH", Box::new(|| bvh_crate_tree(&mut shapes))),
+        ];
+        let mut built = Vec::new();
+        for (name, mut build) in builders {
+            // The first build warms the thread pool and the allocator up.
+            let t = Instant::now();
+            let _ = build();
+            let reps = if t.elapsed().as_secs_f64() > 1.0 { 3 } else { 5 };
+            let (wall, cpu, tree) = time_build(reps, &mut build);
+            built.push((name, wall, cpu, tree));
+        }
+        let rays = rays(tris, rays_per_kind);
+        let mut reference = triangle_scene(tris);
+        with_tree(&mut reference, &built[0].3);
+        let mut s = triangle_scene(tris);
+        let mut rates = vec![[0.0f64; 4]; built.len()];
+        let mut walkable = vec![true; built.len()];
+        for (k, (name, _, _, tree)) in built.iter().enumerate() {
+            let depth = shape(tree).depth;
+            // The walk's stack holds depth - 1 entries.
+            walkable[k] = depth <= shared::BVH_STACK + 1;
+            if !walkable[k] {
+                eprintln!(
+                    "{scene}, {name}: depth {depth} overflows the walk's stack of {}: not walked",
+                    shared::BVH_STACK
+                );
+                continue;
+            }
+            let mut held = vec![false; tris.len()];
+            tree.prim_refs.iter().for_each(|&r| held[(r & shared::PRIM_INDEX_MASK) as usize] = true);
+            assert!(held.iter().all(|&h| h), "{scene}, {name}: a triangle in no leaf");
+            if k == 0 {
+                continue; // rlpt's own tree, the reference (tests/bvh.rs checks it against brute force)
+            }
+            with_tree(&mut s, tree);
+            let (hits, ties) = check_same_hits(&s, &reference, &rays.outside, name);
+            let (hits_in, ties_in) = check_same_hits(&s, &reference, &rays.inside, name);
+            eprintln!(
+                "{scene}, {name}: the same hits as rlpt's tree ({} hits, {} on another triangle at the same distance)",
+                hits + hits_in,
+                ties + ties_in
+            );
+        }
+        for _ in 0..3 {
+            for (k, (_, _, _, tree)) in built.iter().enumerate() {
+                if !walkable[k] {
+                    continue;
+                }
+                with_tree(&mut s, tree);
+                let [c_out, o_out] = walk_rates(&s, &rays.outside);
+                let [c_in, o_in] = walk_rates(&s, &rays.inside);
+                for (best, r) in rates[k].iter_mut().zip([c_out, c_in, o_out, o_in]) {
+                    *best = best.max(r);
+                }
+            }
+        }
+        eprintln!("\n{scene}: {} triangles", tris.len());
+        eprintln!("| builder | build s (CPU s) | nodes | leaves | refs | depth | SAH cost | closest outside | closest inside | occluded outside | occluded inside |");
+        eprintln!("|---|---|---|---|---|---|---|---|---|---|---|");
+        let base = rates[0];
+        for (k, (name, wall, cpu, tree)) in built.iter().enumerate() {
+            let sh = shape(tree);
+            let r: Vec<String> = (0..4)
+                .map(|i| {
+                    if walkable[k] {
+                        format!("{:.2} ({:+.0} %)", rates[k][i], 100.0 * (rates[k][i] / base[i] - 1.0))
+                    } else {
+                        "-".into()
+                    }
+                })
+                .collect();
+            eprintln!(
+                "| {name} | {wall:.3} ({cpu:.3}) | {} | {} | {} | {} | {:.1} | {} |",
+                sh.nodes,
+                sh.leaves,
+                sh.refs,
+                sh.depth,
+                sh.sah,
+                r.join(" | ")
+            );
+        }
+        eprintln!();
+    }
+}
