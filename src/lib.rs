@@ -45,6 +45,7 @@ pub mod parts;
 pub mod plot;
 pub mod prepared;
 pub mod render;
+pub mod renderer;
 pub mod scene;
 pub mod session;
 pub mod stats;

@@ -12,105 +12,11 @@ use crate::gpu::GpuError;
 use crate::guide::QTable;
 use crate::metrics::Reference;
 use crate::render::GpuRenderer;
+pub use crate::renderer::{FrameReport, Renderer, RoundReport};
 use crate::stats::FrameStats;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-
-/// What one frame reports to the session.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FrameReport {
-    /// GPU time of the frame, from timestamps; None where there are none (the CPU).
-    pub gpu_ms: Option<f64>,
-    /// The learning pass's share of `gpu_ms`, where it is timed.
-    pub learn_ms: Option<f64>,
-    /// Paths that carried zero radiance, where the renderer counts them.
-    pub zero_paths: Option<u64>,
-    /// The kernel that traced the frame, with guiding (`guide::FrameRace`).
-    pub kind: Option<crate::guide::FrameKind>,
-    /// The frame's mean relative variance, where the renderer weighs it.
-    pub variance: Option<f64>,
-}
-
-/// What one round of frames reports to the session ([`Renderer::render_round`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct RoundReport {
-    /// New frames the round traced (at least one unless `time_up`).
-    pub frames: u32,
-    /// Time of the round, from timestamps: with several devices, as long as the
-    /// busiest device took (they run in parallel); None where there are none.
-    pub gpu_ms: Option<f64>,
-    /// The learning passes' share of `gpu_ms`, where they are timed.
-    pub learn_ms: Option<f64>,
-    /// Paths that carried zero radiance, where the renderer counts them.
-    pub zero_paths: Option<u64>,
-    /// Where the renderer keeps the time budget itself: whether no further frame
-    /// fits the time left. None where the session judges it (one frame a round).
-    pub time_up: Option<bool>,
-    /// The kernel of a one-frame round, with guiding (`guide::FrameRace`).
-    pub kind: Option<crate::guide::FrameKind>,
-    /// The one frame's mean relative variance, where the renderer weighs it.
-    pub variance: Option<f64>,
-}
-
-/// What the frame loop needs of a renderer: [`GpuRenderer`] and [`CpuRenderer`]
-/// are both one, and so is `crate::render::MultiGpuRenderer`.
-pub trait Renderer {
-    /// Traces one frame: a learning frame, or one of the image.
-    fn render_frame(&mut self) -> Result<FrameReport, GpuError>;
-    /// Traces a round of at most `max` frames (`max` at least 1), where
-    /// `time_left_ms` is set none that its renderer judges would end past it.
-    /// One frame, the time judged by the session, unless a renderer does more.
-    fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
-        let _ = (max, time_left_ms);
-        let r = self.render_frame()?;
-        Ok(RoundReport {
-            frames: 1,
-            gpu_ms: r.gpu_ms,
-            learn_ms: r.learn_ms,
-            zero_paths: r.zero_paths,
-            time_up: None,
-            kind: r.kind,
-            variance: r.variance,
-        })
-    }
-    /// Frames in the image (the learning frames left out once it starts).
-    fn image_frames(&self) -> u32;
-    /// The image so far.
-    fn film(&self) -> Result<Film, GpuError>;
-    /// The device, in words: a GPU's name, or the CPU and its threads.
-    fn device_name(&self) -> String;
-    /// Whether frames report GPU time; the session times wall clock where not.
-    fn timestamps(&self) -> bool;
-    /// The learned table, None without guiding.
-    fn table(&self) -> Result<Option<QTable>, GpuError>;
-}
-
-/// A borrowed renderer renders as its owner: the owner keeps it for what the
-/// session does not ask (a [`crate::render::MultiGpuRenderer`]'s device stats).
-impl<R: Renderer + ?Sized> Renderer for &mut R {
-    fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
-        (**self).render_frame()
-    }
-    fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
-        (**self).render_round(max, time_left_ms)
-    }
-    fn image_frames(&self) -> u32 {
-        (**self).image_frames()
-    }
-    fn film(&self) -> Result<Film, GpuError> {
-        (**self).film()
-    }
-    fn device_name(&self) -> String {
-        (**self).device_name()
-    }
-    fn timestamps(&self) -> bool {
-        (**self).timestamps()
-    }
-    fn table(&self) -> Result<Option<QTable>, GpuError> {
-        (**self).table()
-    }
-}
 
 impl Renderer for CpuRenderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError> {

@@ -1,6 +1,6 @@
 //! Several GPUs in one render (`--gpus`): a [`MultiGpuRenderer`] drives one
 //! [`GpuRenderer`] per device, each with its own context, queue and copy of the
-//! scene, each from its own host thread, and is a `session::Renderer`, so that
+//! scene, each from its own host thread, and is a `renderer::Renderer`, so that
 //! the session's budget, progress, statistics and Ctrl-C work unchanged.
 //!
 //! The render goes in rounds (`render_round`): a round hands out frames from a
@@ -16,7 +16,7 @@
 
 use super::*;
 use crate::guide::FrameSums;
-use crate::session::{FrameReport, Renderer, RoundReport};
+use crate::renderer::{FrameReport, Renderer, RoundReport};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;

@@ -1,10 +1,10 @@
 //! The GPU renderer of `--gpu` or `--gpus`, built one way for `rlpt render`,
 //! `rlpt bench` and `rlpt view`: a [`GpuRenderer`] on one context, a
-//! [`MultiGpuRenderer`] on several. It is a `session::Renderer`, and gives the
+//! [`MultiGpuRenderer`] on several. It is a `renderer::Renderer`, and gives the
 //! viewer what it changes between frames (camera, NEE, restarts) on every device.
 
 use super::*;
-use crate::session::{FrameReport, Renderer, RoundReport};
+use crate::renderer::{FrameReport, Renderer, RoundReport};
 
 /// A renderer on one GPU or on several; see the module's description.
 pub enum GpuSet {
