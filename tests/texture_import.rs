@@ -34,12 +34,7 @@ fn grey(g: u8) -> [u8; 4] {
 }
 
 fn srgb(b: u8) -> f32 {
-    let c = b as f32 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    rlpt::scene::texture::srgb_to_linear(b as f32 / 255.0)
 }
 
 fn material<'a>(s: &'a Scene, name: &str) -> &'a Material {

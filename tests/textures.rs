@@ -65,12 +65,7 @@ fn write_scene(d: &Path, text: &str) -> PathBuf {
 }
 
 fn srgb(b: u8) -> f32 {
-    let c = b as f32 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    rlpt::scene::texture::srgb_to_linear(b as f32 / 255.0)
 }
 
 #[test]

@@ -157,16 +157,15 @@ impl GuideField {
             || bins.rows as u64 * bins.cols as u64 > Bins::MAX_COUNT
             || roots.is_none_or(|n| n > grid.capacity as u64 || n > used_cells as u64)
             || used_cells > grid.capacity;
-        let cells = Some(grid.capacity as u64);
-        let fits =
-            |c: u64| c.checked_mul(bins.rows as u64 * bins.cols as u64 * 8).is_some_and(|n| n <= bytes.len() as u64);
-        let Some(cells) = cells.filter(|&c| !bad_shape && fits(c)) else {
+        let cells = grid.capacity as u64;
+        let fits = cells.checked_mul(bins.rows as u64 * bins.cols as u64 * 8).is_some_and(|n| n <= bytes.len() as u64);
+        if bad_shape || !fits {
             return Err(FieldError(format!(
                 "{name}: its header's table shape (grid {:?} over {} to {}, {}x{} bins, {} cells of which {used_cells} \
                  in use) is not one rlpt writes, or larger than the file",
                 grid.res, grid.min, grid.max, bins.rows, bins.cols, grid.capacity
             )));
-        };
+        }
         let (cells, entries) = (cells as usize, cells as usize * bins.count() as usize);
         let q = (0..entries).map(|_| r.f32()).collect::<Option<Vec<f32>>>().ok_or_else(short)?;
         let visits = (0..entries).map(|_| r.u32()).collect::<Option<Vec<u32>>>().ok_or_else(short)?;

@@ -336,9 +336,9 @@ impl GpuRenderer {
             }
         })?;
         if let Some(l) = &learning {
-            // Every cell a leaf of depth 0, the grid's own cells in use.
-            let fresh = crate::guide::QTable::new(&l.cfg);
-            l.upload_tree(ctx, &fresh.nodes, fresh.used_cells)?;
+            // Every cell a leaf of depth 0, the grid's own cells in use (as `QTable::new`).
+            let leaves = vec![crate::guide::CellNode::default(); l.cfg.cells() as usize];
+            l.upload_tree(ctx, &leaves, l.cfg.grid.cells())?;
         }
         if let (Some(l), Some(field)) = (&learning, &scene.guide_start) {
             l.load_field(ctx, field)?;

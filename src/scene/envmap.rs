@@ -37,15 +37,7 @@ impl EnvironmentMap {
         let image = image::open(&path).map_err(|e| format!("the environment image {shown} cannot be read: {e}"))?;
         // Integer images hold sRGB-encoded colour, float ones linear (as pbrt reads them).
         let srgb = !matches!(image, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
-        let decode = |c: f32| {
-            if !srgb {
-                c
-            } else if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        };
+        let decode = |c: f32| if srgb { crate::scene::texture::srgb_to_linear(c) } else { c };
         let rgb = image.to_rgb32f();
         let (width, height) = rgb.dimensions();
         let mut texels = Vec::with_capacity(width as usize * height as usize);

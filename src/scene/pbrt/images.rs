@@ -22,15 +22,7 @@ pub(super) fn mean(path: &Path, srgb: Option<bool>, latlong: bool) -> Result<Vec
     let rgb = image.to_rgb32f();
     let (w, h) = rgb.dimensions();
     let weighted = latlong && w == 2 * h;
-    let to_linear = |c: f32| {
-        if !decode {
-            c
-        } else if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let to_linear = |c: f32| if decode { crate::scene::texture::srgb_to_linear(c) } else { c };
     let (mut sum, mut total) = (DVec3::ZERO, 0.0f64);
     for (_, y, p) in rgb.enumerate_pixels() {
         let weight = if weighted { (std::f64::consts::PI * (y as f64 + 0.5) / h as f64).sin() } else { 1.0 };

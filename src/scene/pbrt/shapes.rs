@@ -420,7 +420,9 @@ impl Importer {
                 // reflectance of another encoding, or inverted, keeps its mean.
                 let eight_bit = images::eight_bit(&path);
                 let as_read = srgb.is_none_or(|s| Some(s) == eight_bit);
-                let image = (ty != "float" && as_read && !invert).then(|| TextureRef {
+                // The image read: the stand-in where the file named is missing.
+                let read = TextureRef {
+                    path: path.clone(),
                     transform,
                     ..TextureRef::new(
                         &f,
@@ -429,25 +431,9 @@ impl Importer {
                         Some((loc.line, loc.column)),
                         crate::scene::TextureUse::Colour,
                     )
-                });
-                // The image read: the stand-in where the file named is missing.
-                let image = image.map(|r| TextureRef { path: path.clone(), ..r });
-                let float_image = (ty == "float").then(|| FloatImage {
-                    image: TextureRef {
-                        path: path.clone(),
-                        transform,
-                        ..TextureRef::new(
-                            &f,
-                            &self.base,
-                            &loc.file,
-                            Some((loc.line, loc.column)),
-                            crate::scene::TextureUse::Colour,
-                        )
-                    },
-                    srgb: float_srgb,
-                    scale,
-                    invert,
-                });
+                };
+                let image = (ty != "float" && as_read && !invert).then(|| read.clone());
+                let float_image = (ty == "float").then_some(FloatImage { image: read, srgb: float_srgb, scale, invert });
                 if ty != "float" && image.is_none() {
                     let why = if invert {
                         "\"invert\" on a colour image".to_string()
