@@ -114,12 +114,17 @@ impl Buffer {
 
     /// Copies `data` to the start of a host-visible buffer.
     pub fn write(&mut self, data: &[u8]) {
+        self.write_at(0, data);
+    }
+
+    /// Copies `data` into a host-visible buffer from byte `offset` on.
+    pub fn write_at(&mut self, offset: usize, data: &[u8]) {
         let slice = self
             .allocation
             .as_mut()
             .and_then(|a| a.mapped_slice_mut())
             .expect("write() needs a host-visible (Upload) buffer");
-        slice[..data.len()].copy_from_slice(data);
+        slice[offset..offset + data.len()].copy_from_slice(data);
     }
 
     /// The contents of a host-visible buffer (call after the GPU work that wrote it has finished).

@@ -35,6 +35,31 @@ pub(super) struct Learning {
     pub(super) cfg: GuideConfig,
     /// Which pixel rows record targets, frame by frame, and when the table learns.
     pub(super) schedule: RecordSchedule,
+    /// Host-visible copies of `sums`, `counts` and `rows_read`, kept from the
+    /// first exchange of a render on several devices (`GpuRenderer::frame_sums`,
+    /// `learn_from`) rather than made for each.
+    pub(super) exchange: Option<Exchange>,
+}
+
+/// The host-visible buffers through which a device's frame sums go to the host
+/// and every device's sums come back: sums, counts, rows read, each way.
+pub(super) struct Exchange {
+    pub(super) readback: [Buffer; 3],
+    pub(super) upload: [Buffer; 3],
+}
+
+impl Exchange {
+    pub(super) fn new(ctx: &Arc<Context>, l: &Learning) -> Result<Exchange, GpuError> {
+        let sizes = [l.sums.size, l.counts.size, l.rows_read.size];
+        let names = ["frame sums", "frame counts", "rows read"];
+        let readback = [0, 1, 2].map(|i| Buffer::new(ctx, &format!("{} readback", names[i]), sizes[i], BufferUsage::Readback));
+        let upload = [0, 1, 2].map(|i| {
+            Buffer::new(ctx, &format!("{} upload", names[i]), sizes[i], BufferUsage::Upload { uniform: false })
+        });
+        let [r0, r1, r2] = readback;
+        let [u0, u1, u2] = upload;
+        Ok(Exchange { readback: [r0?, r1?, r2?], upload: [u0?, u1?, u2?] })
+    }
 }
 
 /// Words in learn.comp's push constants (`Learning::push`).

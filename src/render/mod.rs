@@ -305,6 +305,7 @@ impl GpuRenderer {
                     tree: Buffer::new(ctx, "cell tree", tree_bytes(cfg), BufferUsage::Storage)?,
                     cfg: *cfg,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
+                    exchange: None,
                 };
                 let buffers = [
                     &l.q,

@@ -321,7 +321,7 @@ impl MultiGpuRenderer {
     /// Returns the pass's time (the slowest device's).
     fn learn_together(&mut self) -> Result<f64, GpuError> {
         let sums: Vec<Result<Option<FrameSums>, GpuError>> = std::thread::scope(|s| {
-            let handles: Vec<_> = self.devices.iter().map(|d| s.spawn(|| d.r.frame_sums())).collect();
+            let handles: Vec<_> = self.devices.iter_mut().map(|d| s.spawn(move || d.r.frame_sums())).collect();
             handles.into_iter().map(|h| h.join().expect("a GPU's thread panicked")).collect()
         });
         let mut total: Option<FrameSums> = None;

@@ -5,6 +5,7 @@
 
 use super::*;
 use crate::guide::FrameSums;
+use learning::Exchange;
 
 impl GpuRenderer {
     /// Traces frame `frame` of the render (its random numbers `rng_frame(frame, ..)`,
@@ -26,16 +27,18 @@ impl GpuRenderer {
 
     /// The targets, fraction gradients and rows read recorded since the table
     /// last learned (None without guiding).
-    pub fn frame_sums(&self) -> Result<Option<FrameSums>, GpuError> {
-        let Some(l) = &self.learning else { return Ok(None) };
-        let rs = Buffer::new(&self.ctx, "frame sums readback", l.sums.size, BufferUsage::Readback)?;
-        let rc = Buffer::new(&self.ctx, "frame counts readback", l.counts.size, BufferUsage::Readback)?;
-        let rr = Buffer::new(&self.ctx, "rows read readback", l.rows_read.size, BufferUsage::Readback)?;
+    pub fn frame_sums(&mut self) -> Result<Option<FrameSums>, GpuError> {
+        let Some(l) = &mut self.learning else { return Ok(None) };
+        if l.exchange.is_none() {
+            l.exchange = Some(Exchange::new(&self.ctx, l)?);
+        }
+        let x = l.exchange.as_ref().expect("made above");
+        let [rs, rc, rr] = &x.readback;
         self.ctx.run_commands("read frame sums", |cmd| {
             self.ctx.barrier(cmd);
-            l.sums.cmd_copy_to(cmd, &rs);
-            l.counts.cmd_copy_to(cmd, &rc);
-            l.rows_read.cmd_copy_to(cmd, &rr);
+            l.sums.cmd_copy_to(cmd, rs);
+            l.counts.cmd_copy_to(cmd, rc);
+            l.rows_read.cmd_copy_to(cmd, rr);
         })?;
         let entries = l.entries() as usize;
         let sums: Vec<f32> = bytemuck::pod_collect_to_vec(&rs.read()[..l.sums.size as usize]);
@@ -56,18 +59,23 @@ impl GpuRenderer {
     /// hold the same table after it. Returns the pass's GPU time in ms (0 where
     /// the queue has no timestamps).
     pub fn learn_from(&mut self, sums: &FrameSums) -> Result<f64, GpuError> {
-        let Some(l) = &self.learning else { return Ok(0.0) };
-        let mut all_sums = sums.sums.clone();
-        all_sums.extend_from_slice(&sums.gradients);
-        let mut all_counts = sums.counts.clone();
-        all_counts.extend_from_slice(&sums.gradient_counts);
+        let Some(l) = &mut self.learning else { return Ok(0.0) };
+        assert_eq!(4 * (sums.sums.len() + sums.gradients.len()) as u64, l.sums.size, "frame sums of this table's shape");
+        if l.exchange.is_none() {
+            l.exchange = Some(Exchange::new(&self.ctx, l)?);
+        }
+        let x = l.exchange.as_mut().expect("made above");
+        let [us, uc, ur] = &mut x.upload;
+        let n = 4 * sums.sums.len();
+        us.write_at(0, bytes(&sums.sums));
+        us.write_at(n, bytes(&sums.gradients));
+        uc.write_at(0, bytes(&sums.counts));
+        uc.write_at(n, bytes(&sums.gradient_counts));
         let rows_read: Vec<u32> = sums.rows_read.iter().map(|&r| r as u32).collect();
-        assert_eq!(4 * all_sums.len() as u64, l.sums.size, "frame sums of this table's shape");
-        let staged = [
-            (Buffer::with_data(&self.ctx, "frame sums upload", bytes(&all_sums), false)?, &l.sums),
-            (Buffer::with_data(&self.ctx, "frame counts upload", bytes(&all_counts), false)?, &l.counts),
-            (Buffer::with_data(&self.ctx, "rows read upload", bytes(&rows_read), false)?, &l.rows_read),
-        ];
+        ur.write_at(0, bytes(&rows_read));
+        let l = self.learning.as_ref().expect("guided");
+        let x = l.exchange.as_ref().expect("made above");
+        let staged = [(&x.upload[0], &l.sums), (&x.upload[1], &l.counts), (&x.upload[2], &l.rows_read)];
         let timestamps = self.ctx.info.timestamps;
         self.ctx.run_commands("learn from every device's sums", |cmd| {
             if timestamps {
