@@ -434,7 +434,8 @@ fn record_end(learn: &mut dyn Recorder, s: &PathSettings, path: &PathState, targ
 /// then divided by the survival probability). With guiding and a pixel estimate,
 /// the probability is learned: the radiance the table expects along the ray
 /// about to be traced, times the throughput, against the pixel's.
-/// `glsl/pathtrace.comp` `roulette`.
+/// `glsl/pathtrace.comp` writes it inline in `trace_path`'s loop ("src/cpu/path.rs
+/// `roulette`"): as a function it made the unguided kernel slower.
 fn roulette(
     guide: Option<Guide>,
     path: &mut PathState,
