@@ -87,11 +87,14 @@ fn procedural_textures_evaluate_as_pbrt_defines_them() {
         MakeNamedMaterial \"mixed\" \"string type\" \"coateddiffuse\" \"texture reflectance\" \"mixed\"\n\
         MakeNamedMaterial \"folded\" \"string type\" \"diffuse\" \"texture reflectance\" \"folded\"\n\
         MakeNamedMaterial \"const\" \"string type\" \"diffuse\" \"texture reflectance\" \"const\"\n\
+        MakeNamedMaterial \"wood\" \"string type\" \"diffuse\" \"texture reflectance\" \"img\"\n\
+        MakeNamedMaterial \"dark\" \"string type\" \"diffuse\" \"rgb reflectance\" [0.1 0.2 0.3]\n\
+        MakeNamedMaterial \"blend\" \"string type\" \"mix\" \"string materials\" [\"wood\" \"dark\"] \"float amount\" 0.25\n\
         ";
     let triangle = "Shape \"trianglemesh\" \"point3 P\" [-1 -1 0 1 -1 0 1 1 0] \"integer indices\" [0 1 2] \
                     \"point2 uv\" [0 0 1 0 1 1]\n";
     let mut pbrt = pbrt.to_string();
-    for m in ["check", "v4scale", "v3scale", "mixed", "folded", "const"] {
+    for m in ["check", "v4scale", "v3scale", "mixed", "folded", "const", "blend"] {
         pbrt += &format!("NamedMaterial \"{m}\"\n{triangle}");
     }
     let s = load(&d, &pbrt);
@@ -124,6 +127,8 @@ fn procedural_textures_evaluate_as_pbrt_defines_them() {
     close(eval("mixed", 0.25, 0.5), Vec3::new(0.9, 0.1, 0.1), "mix at amount 0");
     close(eval("mixed", 0.75, 0.5), tb, "mix at amount 1");
     close(eval("mixed", 0.5, 0.5), 0.5 * Vec3::new(0.9, 0.1, 0.1) + 0.5 * (0.5 * (ta + tb)), "mix at 0.5");
+    // A mix material of two diffuse ones, one textured: their albedos blended per hit.
+    close(eval("blend", 0.25, 0.5), 0.75 * ta + 0.25 * Vec3::new(0.1, 0.2, 0.3), "mix material at texel 0");
     // Checkerboard: s = 4u + 0.5, t = 2v; tex1 where floor(s) + floor(t) is even.
     let tex1 = Vec3::new(0.8, 0.5, 0.2);
     close(eval("check", 0.05, 0.1), tex1, "s 0.7, t 0.2: even");

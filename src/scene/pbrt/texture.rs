@@ -8,12 +8,79 @@ use glam::Vec3;
 
 use super::images;
 use super::lexer::Loc;
-use super::material::{FloatImage, Reader, Texture};
+use super::material::Reader;
 use super::params::Params;
 use super::Importer;
 use crate::scene::procedural::{Combine, Operand, Procedural};
 use crate::scene::texture::Factor;
-use crate::scene::{SceneError, TextureRef, TextureUse};
+use crate::scene::{Material, SceneError, TextureRef, TextureUse};
+
+/// A `Texture` as the materials see it: an `imagemap`'s image (a reflectance
+/// reads a colour one as a texture, a roughness a float one), else its mean
+/// colour where it has one.
+#[derive(Clone, Debug)]
+pub(crate) struct Texture {
+    /// The colour image, with its UV transform (a `spectrum` `imagemap`).
+    pub image: Option<TextureRef>,
+    /// The float image (a `float` `imagemap`): how its texels are read.
+    pub float_image: Option<FloatImage>,
+    /// What multiplies the colour image: its `scale` (times a `scale` texture's constant).
+    pub scale: Vec3,
+    /// A checkerboard, scale or mix over constants and images, read per hit as a
+    /// reflectance.
+    pub procedural: Option<Procedural>,
+    pub mean: Option<Vec3>,
+    /// A `constant` texture: `mean` is its value, exact.
+    pub constant: bool,
+    pub loc: Loc,
+    /// Why there is no mean, or where it came from (for the note).
+    pub detail: String,
+}
+
+impl Texture {
+    /// A texture read as its `mean` alone (None: not at all), `detail` saying why.
+    pub fn stand_in(mean: Option<Vec3>, loc: &Loc, detail: String) -> Texture {
+        Texture {
+            image: None,
+            float_image: None,
+            scale: Vec3::ONE,
+            procedural: None,
+            mean,
+            constant: false,
+            loc: loc.clone(),
+            detail,
+        }
+    }
+}
+
+/// A reflectance parameter as [`Reader::reflectance`] reads it: `value` times
+/// the image or procedural texture at each hit, where there is one.
+pub(crate) struct Reflectance {
+    pub value: Vec3,
+    pub image: Option<TextureRef>,
+    pub procedural: Option<Procedural>,
+}
+
+impl Reflectance {
+    /// Sets `m`'s textures to these (its albedo is set by the caller).
+    pub fn texture(self, m: &mut Material) {
+        (m.albedo_texture, m.albedo_procedural) = (self.image, self.procedural);
+    }
+
+    pub fn textured(&self) -> bool {
+        self.image.is_some() || self.procedural.is_some()
+    }
+}
+
+/// A float `imagemap` as a roughness reads it: the image (with its UV
+/// transform) and pbrt's per-texel `encoding`, `scale` and `invert`.
+#[derive(Clone, Debug)]
+pub(crate) struct FloatImage {
+    pub image: TextureRef,
+    pub srgb: bool,
+    pub scale: f32,
+    pub invert: bool,
+}
 
 impl Importer {
     /// `Texture`: an `imagemap`'s image with its UV transform (and its mean
