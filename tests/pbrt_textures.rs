@@ -161,7 +161,7 @@ fn a_checkerboard_and_a_mix_in_a_furnace_render_their_albedos_alike_on_gpu_and_c
     let opts = options(&check, w, h, 128);
     let g = render_gpu(&ctx, &check, &opts);
     let c = render_cpu(&check, &opts);
-    let even = |i: u32, j: u32| (i / 8 + j / 16) % 2 == 0;
+    let even = |i: u32, j: u32| (i / 8 + j / 16).is_multiple_of(2);
     for (film, dev) in [(&g, "GPU"), (&c, "CPU")] {
         assert_region(film, 0.7, &format!("{dev}: checkerboard tex1 squares"), even);
         assert_region(film, 0.5 * srgb(128) as f64, &format!("{dev}: tex2 squares"), |i, j| !even(i, j));
