@@ -131,6 +131,13 @@ vec3 fresnel_complex3(float cos_i, vec3 eta, vec3 k) {
     return vec3(fresnel_complex(cos_i, eta.x, k.x), fresnel_complex(cos_i, eta.y, k.y), fresnel_complex(cos_i, eta.z, k.z));
 }
 
+// src/scene/mod.rs `conductor_k`: pbrt-v4's k of a conductor of eta 1 whose
+// normal-incidence reflectance is r.
+vec3 conductor_k(vec3 r) {
+    r = clamp(r, vec3(0.0), vec3(0.9999));
+    return 2.0 * sqrt(r) / sqrt(vec3(1.0) - r);
+}
+
 // src/math/bsdf.rs `rough_dielectric_eval_pdf`: GGX reflection and transmission
 // (Walter et al. 2007, as pbrt-v4), transmitted radiance scaled by 1/etap^2.
 vec3 rough_dielectric_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {

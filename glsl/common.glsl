@@ -70,6 +70,11 @@
 // to take guided directions (src/guide/mod.rs `glossy_share`).
 #define SCENE_KIND_LIGHT_SHIFT 8
 #define SCENE_KIND_GUIDED_GLOSSY 15
+// Bit (1 << SCENE_KIND_PROCEDURAL) where a material reads a procedural texture,
+// (1 << SCENE_KIND_REFLECTANCE_CONDUCTOR) where a conductor's index comes from a
+// reflectance texture (Material.eta.w 1): kernels without them skip that code.
+#define SCENE_KIND_PROCEDURAL 16
+#define SCENE_KIND_REFLECTANCE_CONDUCTOR 17
 
 // RenderParams.flags bits.
 #define FLAG_NEE 1
@@ -338,6 +343,13 @@
 #define TEXEL_RGBA8 0
 #define TEXEL_RGBA8_SRGB 1
 #define TEXEL_RGBA16F 2
+// TextureHeader.format of a procedural colour texture (texture.glsl
+// `colour_texture`; src/scene/procedural.rs): its operands at texels[offset]:
+// three operand headers (1 + index, or NO_TEXTURE), then their three constant
+// colours (float bits); a checkerboard's st transform in `transform`.
+#define TEXTURE_CHECKER 3
+#define TEXTURE_SCALE 4
+#define TEXTURE_MIX 5
 // Material.albedo_texture and roughness_texture: 0 for none, else 1 + the
 // index of its TextureHeader. A roughness from a texture is kept within
 // [TEXTURE_MIN_ROUGHNESS, 1]: the smallest roughness GGX is tested at
@@ -357,7 +369,7 @@
 struct Material {
     vec4 albedo_roughness;   // xyz albedo, w GGX roughness
     vec4 emission_ior;       // xyz emitted radiance, w index of refraction
-    vec4 eta;                // xyz a conductor's eta (real part of its index)
+    vec4 eta;                // xyz a conductor's eta (real part of its index); w 1 for a reflectance conductor
     vec4 k;                  // xyz a conductor's k (imaginary part)
     uint kind;               // MAT_*
     uint two_sided;          // emission leaves both sides

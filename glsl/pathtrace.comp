@@ -126,10 +126,16 @@ Bsdf material_bsdf(uint mat, vec2 uv) {
     b.eta = scene_has_material(MAT_CONDUCTOR) ? m.eta.xyz : vec3(1.0);
     b.k = scene_has_material(MAT_CONDUCTOR) ? m.k.xyz : vec3(0.0);
     if (SCENE_TEXTURES) {
-        if (m.albedo_texture != NO_TEXTURE) b.albedo *= texture_lookup(m.albedo_texture - 1u, uv).rgb;
+        if (m.albedo_texture != NO_TEXTURE) b.albedo *= colour_texture(m.albedo_texture - 1u, uv);
         if (m.roughness_texture != NO_TEXTURE) {
             float r = clamp(m.albedo_roughness.w * texture_lookup(m.roughness_texture - 1u, uv).r, TEXTURE_MIN_ROUGHNESS, 1.0);
             b.alpha = r * r;
+        }
+        // A reflectance conductor: its textured albedo is pbrt-v4's reflectance r.
+        if ((SCENE_KINDS & (1u << SCENE_KIND_REFLECTANCE_CONDUCTOR)) != 0u && m.eta.w != 0.0) {
+            b.eta = vec3(1.0);
+            b.k = conductor_k(b.albedo);
+            b.albedo = vec3(1.0);
         }
     }
     return b;

@@ -57,6 +57,41 @@ vec4 texture_lookup(uint index, vec2 uv) {
                  lerp4(texel(t, xs.x, ys.y), texel(t, xs.y, ys.y), fx), fy);
 }
 
+// src/math/texture.rs `procedural_operand`: operand `which` of the procedural
+// texture whose operands start at texels[at]: its constant times its image.
+vec3 procedural_operand(uint at, uint which, vec2 uv) {
+    uint tex = texels[at + which];
+    uint c = at + 3u + 3u * which;
+    vec3 value = uintBitsToFloat(uvec3(texels[c], texels[c + 1u], texels[c + 2u]));
+    return tex == NO_TEXTURE ? value : value * texture_lookup(tex - 1u, uv).rgb;
+}
+
+// src/math/texture.rs `checker_odd`: whether floor(s) + floor(t) is odd
+// (pbrt's 2D checkerboard, unfiltered); false where not finite.
+bool checker_odd(vec2 st) {
+    float f = floor(st.x) + floor(st.y);
+    return f - 2.0 * floor(f * 0.5) == 1.0;
+}
+
+// src/math/texture.rs `colour_texture`: the RGB of texture `index` at uv: an
+// image's bilinear lookup, or a procedural texture's (TEXTURE_CHECKER, ...;
+// at most 1), whose code only kernels of scenes with one carry (SCENE_KIND_PROCEDURAL).
+vec3 colour_texture(uint index, vec2 uv) {
+    uint format = textures[index].format;
+    if ((SCENE_KINDS & (1u << SCENE_KIND_PROCEDURAL)) == 0u || format < TEXTURE_CHECKER) return texture_lookup(index, uv).rgb;
+    uint at = textures[index].offset;
+    vec3 c;
+    if (format == TEXTURE_CHECKER) {
+        vec4 t = textures[index].transform;
+        c = procedural_operand(at, checker_odd(uv * t.xy + t.zw) ? 1u : 0u, uv);
+    } else {
+        vec3 a = procedural_operand(at, 0u, uv), b = procedural_operand(at, 1u, uv);
+        float amount = format == TEXTURE_MIX ? procedural_operand(at, 2u, uv).x : 0.0;
+        c = format == TEXTURE_SCALE ? a * b : a * (1.0 - amount) + b * amount;
+    }
+    return min(c, vec3(1.0));
+}
+
 // src/math/texture.rs `triangle_barycentrics`: p's weights in the triangle, clamped into it.
 vec3 triangle_barycentrics(vec3 v0, vec3 v1, vec3 v2, vec3 p) {
     vec3 e1 = v1 - v0, e2 = v2 - v0, ep = p - v0;

@@ -74,7 +74,9 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         if matches!(m.kind, K::Dielectric | K::RoughDielectric | K::Coated) {
             line += &format!(", ior {}", m.ior);
         }
-        if m.kind == K::Conductor {
+        if m.reflectance_conductor {
+            line += ", eta 1 and k per hit from its reflectance (the albedo)";
+        } else if m.kind == K::Conductor {
             line += &format!(", eta {}, k {}", v(m.eta), v(m.k));
         }
         if m.emits() {
@@ -82,6 +84,9 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         }
         if let Some(t) = &m.albedo_texture {
             line += &format!(", albedo times texture {}", t.path.display());
+        }
+        if let Some(p) = &m.albedo_procedural {
+            line += &format!(", albedo times the {}", p.describe());
         }
         if let Some(t) = &m.roughness_texture {
             line += &format!(", roughness times texture {}", t.path.display());

@@ -70,6 +70,50 @@ pub fn texture_lookup(scene: &SceneArrays, index: u32, uv: Vec2) -> Vec4 {
     mix(mix(tx(x0, y0), tx(x1, y0), fx), mix(tx(x0, y1), tx(x1, y1), fx), fy)
 }
 
+/// Operand `which` of the procedural texture whose operands start at
+/// `texels[at]` (`procedural_operand`): its constant times its image at `uv`.
+pub fn procedural_operand(scene: &SceneArrays, at: u32, which: u32, uv: Vec2) -> Vec3 {
+    let tex = scene.texels[(at + which) as usize];
+    let c = (at + 3 + 3 * which) as usize;
+    let value = Vec3::from_array([0, 1, 2].map(|k| f32::from_bits(scene.texels[c + k])));
+    if tex == shared::NO_TEXTURE {
+        value
+    } else {
+        value * texture_lookup(scene, tex - 1, uv).truncate()
+    }
+}
+
+/// Whether floor(s) + floor(t) is odd (`checker_odd`): pbrt's 2D
+/// checkerboard, unfiltered, reads its second operand there; false where not finite.
+pub fn checker_odd(st: Vec2) -> bool {
+    let f = st.x.floor() + st.y.floor();
+    f - 2.0 * (f * 0.5).floor() == 1.0
+}
+
+/// The RGB of texture `index` at `uv` (`colour_texture`): an image's bilinear
+/// lookup, or a procedural texture's (`shared::TEXTURE_CHECKER`, ...;
+/// `crate::scene::procedural`), at most 1.
+pub fn colour_texture(scene: &SceneArrays, index: u32, uv: Vec2) -> Vec3 {
+    let t = &scene.textures[index as usize];
+    if t.format < shared::TEXTURE_CHECKER {
+        return texture_lookup(scene, index, uv).truncate();
+    }
+    let at = t.offset;
+    let c = if t.format == shared::TEXTURE_CHECKER {
+        let st = uv * Vec2::new(t.transform[0], t.transform[1]) + Vec2::new(t.transform[2], t.transform[3]);
+        procedural_operand(scene, at, checker_odd(st) as u32, uv)
+    } else {
+        let (a, b) = (procedural_operand(scene, at, 0, uv), procedural_operand(scene, at, 1, uv));
+        let amount = if t.format == shared::TEXTURE_MIX { procedural_operand(scene, at, 2, uv).x } else { 0.0 };
+        if t.format == shared::TEXTURE_SCALE {
+            a * b
+        } else {
+            a * (1.0 - amount) + b * amount
+        }
+    };
+    c.min(Vec3::ONE)
+}
+
 /// The barycentric weights of `p` in the triangle `v` (by projection onto its
 /// plane), clamped into the triangle (`triangle_barycentrics`).
 pub fn triangle_barycentrics(v: [Vec3; 3], p: Vec3) -> Vec3 {
@@ -114,15 +158,18 @@ pub fn triangle_uv(scene: &SceneArrays, i: usize, p: Vec3) -> Vec2 {
 /// The material's textures applied to its BSDF at `uv` (`apply_textures` in
 /// `glsl/pathtrace.comp`'s `material_bsdf`): the albedo times the colour
 /// texture's RGB, the roughness its own times the roughness texture's red,
-/// within [`shared::TEXTURE_MIN_ROUGHNESS`], 1].
+/// within [`shared::TEXTURE_MIN_ROUGHNESS`], 1]; a reflectance conductor's
+/// (`eta[3]` 1) textured albedo its reflectance (eta 1, k `conductor_k`).
 pub fn apply_textures(scene: &SceneArrays, m: &GpuMaterial, uv: Vec2, b: &mut Bsdf) {
     if m.albedo_texture != shared::NO_TEXTURE {
-        let c = texture_lookup(scene, m.albedo_texture - 1, uv);
-        b.albedo *= Vec3::new(c.x, c.y, c.z);
+        b.albedo *= colour_texture(scene, m.albedo_texture - 1, uv);
     }
     if m.roughness_texture != shared::NO_TEXTURE {
         let r = m.albedo_roughness[3] * texture_lookup(scene, m.roughness_texture - 1, uv).x;
         let r = r.clamp(shared::TEXTURE_MIN_ROUGHNESS, 1.0);
         b.alpha = r * r;
+    }
+    if m.eta[3] != 0.0 {
+        (b.eta, b.k, b.albedo) = (Vec3::ONE, crate::scene::conductor_k(b.albedo), Vec3::ONE);
     }
 }

@@ -13,12 +13,18 @@ use super::*;
 /// material or light in the scene is never asked for, so its code only took room.
 /// Likewise `1 << SCENE_KIND_GUIDED_GLOSSY` where a glossy material is wide enough
 /// to take guided directions ([`crate::guide::glossy_guided`]): without one the
-/// guided kernel evaluates the mixture of diffuse vertices alone.
-pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight]) -> u32 {
+/// guided kernel evaluates the mixture of diffuse vertices alone. And
+/// `SCENE_KIND_PROCEDURAL` where a texture is procedural, and
+/// `SCENE_KIND_REFLECTANCE_CONDUCTOR` where a conductor reads its index from
+/// its reflectance texture: kernels without them leave that code out.
+pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight], textures: &[GpuTexture]) -> u32 {
     let m = materials.iter().fold(0, |k, m| {
         let guided_glossy = if crate::guide::glossy_guided(m) { 1 << shared::SCENE_KIND_GUIDED_GLOSSY } else { 0 };
-        k | 1 << m.kind | guided_glossy
+        let reflectance = if m.eta[3] != 0.0 { 1 << shared::SCENE_KIND_REFLECTANCE_CONDUCTOR } else { 0 };
+        k | 1 << m.kind | guided_glossy | reflectance
     });
+    let procedural = textures.iter().any(|t| t.format >= shared::TEXTURE_CHECKER);
+    let m = if procedural { m | 1 << shared::SCENE_KIND_PROCEDURAL } else { m };
     lights.iter().fold(m, |k, l| k | 1 << (shared::SCENE_KIND_LIGHT_SHIFT + l.kind))
 }
 

@@ -7,7 +7,7 @@
 //! vectors agree exactly.
 
 use crate::guide::{self, Bins, FieldError, Grid, GuideConfig, GuideField, GuidingMode};
-use crate::layout::{v4, GpuLight, GpuMaterial, GpuQuad, GpuSphere, RenderParams, Room, SceneArrays};
+use crate::layout::{v4, GpuLight, GpuMaterial, GpuQuad, GpuSphere, GpuTexture, RenderParams, Room, SceneArrays};
 use crate::math::bvh;
 use crate::math::sampler::SamplerKind;
 use crate::math::Vec3;
@@ -147,7 +147,7 @@ impl PreparedScene {
             .map(|m| GpuMaterial {
                 albedo_roughness: v4(m.albedo, m.roughness),
                 emission_ior: v4(m.emission, m.ior),
-                eta: v4(m.eta, 0.0),
+                eta: v4(m.eta, if m.reflectance_conductor { 1.0 } else { 0.0 }),
                 k: v4(m.k, 0.0),
                 kind: m.kind as u32,
                 two_sided: m.two_sided as u32,
@@ -325,7 +325,7 @@ impl PreparedScene {
             guide_floor: 0.0,
             guide_vertices: 0,
             occluding_quads,
-            scene_kinds: scene_kinds(&materials, &lights),
+            scene_kinds: scene_kinds(&materials, &lights, &textures),
             num_triangles: triangles.len() as u32,
             bvh_nodes: 0,
             env_width: env.as_ref().map_or(0, |(m, _)| m.width),

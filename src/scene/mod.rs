@@ -8,12 +8,14 @@ mod envmap;
 mod load;
 pub mod mesh;
 mod pbrt;
+pub mod procedural;
 pub mod texture;
 
 use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 pub use envmap::EnvironmentMap;
+pub use procedural::Procedural;
 pub use texture::{TextureImage, TextureRef, TextureUse};
 
 pub use load::SceneError;
@@ -91,6 +93,12 @@ pub struct Material {
     pub albedo_texture: Option<TextureRef>,
     /// An image whose value times `roughness` is the roughness at each hit.
     pub roughness_texture: Option<TextureRef>,
+    /// A procedural texture whose RGB multiplies `albedo` at each hit, in place of
+    /// `albedo_texture` (pbrt's checkerboard, scale and mix).
+    pub albedo_procedural: Option<Procedural>,
+    /// A conductor whose albedo (times its texture) is pbrt-v4's `reflectance` r
+    /// at each hit: eta 1 and k = [`conductor_k`] of r there, the Fresnel untinted.
+    pub reflectance_conductor: bool,
 }
 
 impl Material {
@@ -110,6 +118,8 @@ impl Material {
             two_sided: false,
             albedo_texture: None,
             roughness_texture: None,
+            albedo_procedural: None,
+            reflectance_conductor: false,
         }
     }
 
@@ -118,6 +128,19 @@ impl Material {
     pub fn emits(&self) -> bool {
         self.emission.max_element() > 0.0
     }
+
+    /// Whether it reads a texture at each hit.
+    pub fn textured(&self) -> bool {
+        self.albedo_texture.is_some() || self.roughness_texture.is_some() || self.albedo_procedural.is_some()
+    }
+}
+
+/// pbrt-v4's conductor of normal-incidence reflectance `r` (clamped to [0,
+/// 0.9999]): eta 1 and this k, `2 sqrt(r) / sqrt(1 - r)`. `glsl/bsdf.glsl`
+/// `conductor_k` is its twin.
+pub fn conductor_k(r: Vec3) -> Vec3 {
+    let r = r.clamp(Vec3::ZERO, Vec3::splat(0.9999));
+    2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt)
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -23,6 +23,10 @@ pub enum TextureUse {
     /// `scale`, then 1 - v where `invert` (pbrt-v4's order), then mapped by
     /// `remap`, before filtering.
     Roughness { channel: Channel, srgb: bool, scale: Factor, invert: bool, remap: Remap },
+    /// A grey value in [0, 1] (pbrt's float `imagemap` as an operand of a
+    /// procedural texture): read as a roughness of `Remap::Identity` is, in every
+    /// channel.
+    Float { srgb: bool, scale: Factor, invert: bool },
 }
 
 impl TextureUse {
@@ -248,7 +252,12 @@ pub fn decode(r: &TextureRef) -> Result<TextureImage, SceneError> {
             }
             (shared::TEXEL_RGBA16F, texels)
         }
-        TextureUse::Roughness { channel, srgb, scale, invert, remap } => {
+        TextureUse::Roughness { .. } | TextureUse::Float { .. } => {
+            let (channel, srgb, scale, invert, remap) = match r.usage {
+                TextureUse::Roughness { channel, srgb, scale, invert, remap } => (channel, srgb, scale, invert, remap),
+                TextureUse::Float { srgb, scale, invert } => (Channel::Average, srgb, scale, invert, Remap::Identity),
+                TextureUse::Colour => unreachable!(),
+            };
             let rgba = image.to_rgba32f();
             let decode = |c: f32| if srgb && !float { srgb_to_linear(c) } else { c };
             let mut texels = Vec::with_capacity(n);
@@ -292,13 +301,14 @@ pub fn find(textures: &[TextureImage], r: &TextureRef) -> Option<usize> {
 /// the texture's mean colour (its roughness times the mean roughness), noted.
 pub fn load_textures(scene: &mut Scene) -> Result<(), SceneError> {
     for m in &scene.materials {
-        for r in [&m.albedo_texture, &m.roughness_texture].into_iter().flatten() {
+        let procedural = m.albedo_procedural.iter().flat_map(|p| p.images());
+        for r in [&m.albedo_texture, &m.roughness_texture].into_iter().flatten().chain(procedural) {
             if find(&scene.textures, r).is_none() {
                 scene.textures.push(decode(r)?);
             }
         }
     }
-    let textured = |m: &super::Material| m.albedo_texture.is_some() || m.roughness_texture.is_some();
+    let textured = |m: &super::Material| m.textured();
     if !scene.materials.iter().any(textured) {
         return Ok(());
     }
@@ -318,6 +328,12 @@ pub fn load_textures(scene: &mut Scene) -> Result<(), SceneError> {
                 if let Some(r) = plain.albedo_texture.take() {
                     plain.albedo =
                         (plain.albedo * scene.textures[find(&scene.textures, &r).unwrap()].mean).min(Vec3::ONE);
+                }
+                if let Some(p) = plain.albedo_procedural.take() {
+                    plain.albedo = (plain.albedo * p.mean(&scene.textures)).min(Vec3::ONE);
+                }
+                if std::mem::take(&mut plain.reflectance_conductor) {
+                    (plain.eta, plain.k, plain.albedo) = (Vec3::ONE, super::conductor_k(plain.albedo), Vec3::ONE);
                 }
                 if let Some(r) = plain.roughness_texture.take() {
                     let mean = scene.textures[find(&scene.textures, &r).unwrap()].mean.x;
@@ -353,6 +369,14 @@ pub fn describe(textures: &[TextureImage]) -> Vec<String> {
                 TextureUse::Colour => "colour".to_string(),
                 TextureUse::Roughness { srgb, scale, invert, remap, .. } => {
                     let mut w = format!("roughness, {remap:?} remap");
+                    w += if srgb { ", sRGB-decoded" } else { "" };
+                    if scale.0 != 1.0 {
+                        w += &format!(", scale {}", scale.0);
+                    }
+                    w + if invert { ", inverted" } else { "" }
+                }
+                TextureUse::Float { srgb, scale, invert } => {
+                    let mut w = "grey".to_string();
                     w += if srgb { ", sRGB-decoded" } else { "" };
                     if scale.0 != 1.0 {
                         w += &format!(", scale {}", scale.0);

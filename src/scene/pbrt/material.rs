@@ -7,38 +7,11 @@ use glam::Vec3;
 
 use super::lexer::Loc;
 use super::params::{Param, Params};
+pub(crate) use super::texture::{FloatImage, Reflectance, Texture};
 use super::{Importer, Notes};
+use crate::scene::procedural::{Combine, Operand, Procedural};
 use crate::scene::texture::{Channel, Factor, Remap};
-use crate::scene::{Material, MaterialKind, SceneError, TextureRef, TextureUse};
-
-/// A `Texture` as the materials see it: an `imagemap`'s image (a reflectance
-/// reads a colour one as a texture, a roughness a float one), else its mean
-/// colour where it has one.
-#[derive(Clone, Debug)]
-pub(crate) struct Texture {
-    /// The colour image, with its UV transform (a `spectrum` `imagemap`).
-    pub image: Option<TextureRef>,
-    /// The float image (a `float` `imagemap`): how its texels are read.
-    pub float_image: Option<FloatImage>,
-    /// The texture's `scale`, which multiplies the image.
-    pub scale: f32,
-    pub mean: Option<Vec3>,
-    /// A `constant` texture: `mean` is its value, exact.
-    pub constant: bool,
-    pub loc: Loc,
-    /// Why there is no mean, or where it came from (for the note).
-    pub detail: String,
-}
-
-/// A float `imagemap` as a roughness reads it: the image (with its UV
-/// transform) and pbrt's per-texel `encoding`, `scale` and `invert`.
-#[derive(Clone, Debug)]
-pub(crate) struct FloatImage {
-    pub image: TextureRef,
-    pub srgb: bool,
-    pub scale: f32,
-    pub invert: bool,
-}
+use crate::scene::{conductor_k, Material, MaterialKind, SceneError, TextureRef, TextureUse};
 
 /// A pbrt material mapped onto one of rlpt's, with the line `rlpt info` prints.
 #[derive(Clone, Debug)]
@@ -76,12 +49,13 @@ fn text(v: Vec3) -> String {
 }
 
 /// A reflectance for the mapping line: `Kd [r, g, b]`, or with an image
-/// `Kd texture dir/wood.png` (times a scale other than 1).
-fn textured(key: &str, v: Vec3, image: &Option<TextureRef>) -> String {
-    match image {
-        None => format!("{key} {}", text(v)),
-        Some(t) if v == Vec3::ONE => format!("{key} texture {}", t.path.display()),
-        Some(t) => format!("{key} texture {} times {}", t.path.display(), text(v)),
+/// `Kd texture dir/wood.png` (times a scale other than 1), or a procedural one.
+fn textured(key: &str, v: Vec3, r: &Reflectance) -> String {
+    let times = if v == Vec3::ONE { String::new() } else { format!(" times {}", text(v)) };
+    match (&r.image, &r.procedural) {
+        (Some(t), _) => format!("{key} texture {}{times}", t.path.display()),
+        (None, Some(p)) => format!("{key} {}{times}", p.describe()),
+        (None, None) => format!("{key} {}", text(v)),
     }
 }
 
@@ -96,7 +70,7 @@ pub(crate) struct Reader<'a> {
 }
 
 impl Reader<'_> {
-    fn note(&mut self, message: String) -> Result<(), SceneError> {
+    pub fn note(&mut self, message: String) -> Result<(), SceneError> {
         let m = format!("{}: {message}", self.what);
         self.notes.approximated(self.loc, m)
     }
@@ -126,15 +100,21 @@ impl Reader<'_> {
     /// A reflectance parameter: a colour as [`Reader::colour`] reads it, or an
     /// `imagemap` texture, which the material reads at each hit: then its
     /// `scale` as the colour, and the image.
-    pub fn reflectance(&mut self, name: &str, default: Vec3) -> Result<(Vec3, Option<TextureRef>), SceneError> {
+    pub fn reflectance(&mut self, name: &str, default: Vec3) -> Result<Reflectance, SceneError> {
         if let Some(p) = self.params.get(name, &["texture"]) {
             let p = p.clone();
             let tex = p.string()?;
-            if let Some(Texture { image: Some(image), scale, .. }) = self.textures.get(&tex) {
-                return Ok((Vec3::splat(*scale), Some(image.clone())));
+            match self.textures.get(&tex) {
+                Some(Texture { image: Some(image), scale, .. }) => {
+                    return Ok(Reflectance { value: *scale, image: Some(image.clone()), procedural: None })
+                }
+                Some(Texture { procedural: Some(procedural), .. }) => {
+                    return Ok(Reflectance { value: Vec3::ONE, image: None, procedural: Some(procedural.clone()) })
+                }
+                _ => {}
             }
         }
-        Ok((self.colour(name, default)?, None))
+        Ok(Reflectance { value: self.colour(name, default)?, image: None, procedural: None })
     }
 
     fn texture(&mut self, p: &Param, default: Vec3) -> Result<Vec3, SceneError> {
@@ -335,14 +315,21 @@ impl Reader<'_> {
     }
 
     /// A conductor's complex index eta + i k: `reflectance` if given (as pbrt-v4,
-    /// eta 1 and k = 2 sqrt(r) / sqrt(1 - r)), else `eta` and `k` (default copper).
-    fn conductor(&mut self, prefix: &str) -> Result<(Vec3, Vec3, String), SceneError> {
-        if self.params.get(&format!("{prefix}reflectance"), &["rgb", "color", "spectrum", "float", "texture"]).is_some()
-        {
-            let r = self.colour(&format!("{prefix}reflectance"), Vec3::ONE)?;
-            let r = self.albedo(r, "reflectance")?.min(Vec3::splat(0.9999));
-            let k = 2.0 * r.map(f32::sqrt) / (Vec3::ONE - r).map(f32::sqrt);
-            return Ok((Vec3::ONE, k, format!("reflectance {} -> eta 1, k {}", text(r), text(k))));
+    /// eta 1 and k = [`conductor_k`] of it), else `eta` and `k` (default copper).
+    /// A reflectance texture (image or procedural) comes back to be read per hit,
+    /// its constant factor as its `value`.
+    fn conductor(&mut self, prefix: &str) -> Result<(Vec3, Vec3, String, Option<Reflectance>), SceneError> {
+        let name = format!("{prefix}reflectance");
+        if self.params.get(&name, &["rgb", "color", "spectrum", "float", "texture"]).is_some() {
+            let mut refl = self.reflectance(&name, Vec3::ONE)?;
+            refl.value = self.albedo(refl.value, "reflectance")?;
+            if refl.textured() {
+                let from = format!("{} -> eta 1, k per hit", textured("reflectance", refl.value, &refl));
+                return Ok((Vec3::ONE, Vec3::ZERO, from, Some(refl)));
+            }
+            let r = refl.value.min(Vec3::splat(0.9999));
+            let k = conductor_k(r);
+            return Ok((Vec3::ONE, k, format!("reflectance {} -> eta 1, k {}", text(r), text(k)), None));
         }
         let (cu_eta, cu_k) = (Vec3::from(METALS[0].1), Vec3::from(METALS[0].2));
         let eta = self.colour(&format!("{prefix}eta"), cu_eta)?;
@@ -355,7 +342,7 @@ impl Reader<'_> {
                 text(k)
             )));
         }
-        Ok((eta, k, format!("eta {} k {}", text(eta), text(k))))
+        Ok((eta, k, format!("eta {} k {}", text(eta), text(k)), None))
     }
 }
 
@@ -385,13 +372,14 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
     let (material, how) = match ty {
         "diffuse" | "matte" => {
             let key = if ty == "diffuse" { "reflectance" } else { "Kd" };
-            let (a, image) = r.reflectance(key, Vec3::splat(0.5))?;
+            let image = r.reflectance(key, Vec3::splat(0.5))?;
+            let a = image.value;
             if ty == "matte" && r.scalar("sigma", 0.0)? != 0.0 {
                 r.note("Oren-Nayar `sigma` dropped (Lambertian)".to_string())?;
             }
             let mut m = plain(MaterialKind::Diffuse, r.albedo(a, key)?);
             let how = textured(key, a, &image);
-            m.albedo_texture = image;
+            image.texture(&mut m);
             (m, how)
         }
         "conductor" | "metal" | "coatedconductor" => {
@@ -412,19 +400,24 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                     r.params.touch(p);
                 }
             }
-            let (eta, k, from) = r.conductor(prefix)?;
+            let (eta, k, from, textured) = r.conductor(prefix)?;
             let rough = r.rough(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
             let mut m = plain(MaterialKind::Conductor, Vec3::ONE);
             (m.eta, m.k, m.roughness) = (eta, k, rough.roughness);
+            if let Some(refl) = textured {
+                (m.albedo, m.reflectance_conductor) = (refl.value, true);
+                refl.texture(&mut m);
+            }
             let how = if m.roughness == 0.0 { format!("alpha {} -> a mirror", rough.alpha as f32) } else { rough.how };
             m.roughness_texture = rough.texture;
             (m, format!("{from}, {how}"))
         }
         "mirror" => {
-            let (a, image) = r.reflectance("Kr", Vec3::splat(0.9))?;
+            let image = r.reflectance("Kr", Vec3::splat(0.9))?;
+            let a = image.value;
             let mut m = plain(MaterialKind::Specular, r.albedo(a, "Kr")?);
             let how = textured("Kr", a, &image);
-            m.albedo_texture = image;
+            image.texture(&mut m);
             (m, how)
         }
         "dielectric" | "glass" | "thindielectric" => {
@@ -471,8 +464,8 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
         "coateddiffuse" | "plastic" | "substrate" => {
             let (key, default) = if ty == "coateddiffuse" { ("reflectance", 0.5) } else { ("Kd", 0.25) };
             let default = if ty == "substrate" { 0.5 } else { default };
-            let (a, image) = r.reflectance(key, Vec3::splat(default))?;
-            let albedo = r.albedo(a, key)?;
+            let image = r.reflectance(key, Vec3::splat(default))?;
+            let albedo = r.albedo(image.value, key)?;
             // pbrt-v3's plastic and substrate: a dielectric interface of index 1.5 over
             // the diffuse layer; their Ks scales what rlpt's coat reflects by its Fresnel.
             let ior = if ty == "coateddiffuse" { r.scalar("eta", 1.5)? as f32 } else { 1.5 };
@@ -497,7 +490,7 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             let mut m = plain(MaterialKind::Coated, albedo);
             (m.ior, m.roughness, m.roughness_texture) = (ior, rough.roughness, rough.texture);
             let how = format!("{}, eta {ior}, {}", textured(key, albedo, &image), rough.how);
-            m.albedo_texture = image;
+            image.texture(&mut m);
             (m, how)
         }
         "interface" | "none" | "" => {
@@ -522,8 +515,12 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
                 }
             };
             let key = if ty == "kdsubsurface" { "Kd" } else { key };
-            let (a, image) =
-                if key.is_empty() { (Vec3::splat(default), None) } else { r.reflectance(key, Vec3::splat(default))? };
+            let image = if key.is_empty() {
+                Reflectance { value: Vec3::splat(default), image: None, procedural: None }
+            } else {
+                r.reflectance(key, Vec3::splat(default))?
+            };
+            let a = image.value;
             r.note(format!("{ty} rendered as diffuse ({what})"))?;
             // The dropped layers' parameters are covered by that note.
             let names: Vec<String> = r.params.list.iter().map(|p| p.name.clone()).collect();
@@ -533,7 +530,7 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             let a = r.albedo(a, if key.is_empty() { "albedo" } else { key })?;
             let mut m = plain(MaterialKind::Diffuse, a);
             let how = textured(if key.is_empty() { "albedo" } else { key }, a, &image);
-            m.albedo_texture = image;
+            image.texture(&mut m);
             (m, how)
         }
     };
@@ -589,10 +586,19 @@ impl Importer {
         let (a, b) = (&pair[0].material, &pair[1].material);
         let t = amount.clamp(0.0, 1.0) as f32;
         let untextured = a.albedo_texture.is_none() && b.albedo_texture.is_none();
-        let (material, how) = if a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse && untextured {
+        let images_only = |m: &Material| m.albedo_procedural.is_none() && m.roughness_texture.is_none();
+        let diffuse = a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse;
+        let (material, how) = if diffuse && untextured && images_only(a) && images_only(b) {
             let mut m = a.clone();
             m.albedo = a.albedo.lerp(b.albedo, t);
             (m, format!("albedos of \"{}\" and \"{}\" blended by amount {amount}", names[0], names[1]))
+        } else if diffuse && images_only(a) && images_only(b) {
+            // A textured albedo: the two blended per hit as a procedural mix.
+            let op = |m: &Material| Operand { value: m.albedo, image: m.albedo_texture.clone() };
+            let mut m = a.clone();
+            let p = Procedural { combine: Combine::Mix, a: op(a), b: op(b), amount: Operand::constant(Vec3::splat(t)) };
+            (m.albedo, m.albedo_texture, m.albedo_procedural) = (Vec3::ONE, None, Some(p));
+            (m, format!("albedos of \"{}\" and \"{}\" blended per hit by amount {amount}", names[0], names[1]))
         } else {
             let (pick, name) = if t < 0.5 { (a, &names[0]) } else { (b, &names[1]) };
             (pick.clone(), format!("\"{name}\", the larger share at amount {amount}"))

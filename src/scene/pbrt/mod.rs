@@ -10,6 +10,7 @@ mod lexer;
 mod material;
 mod params;
 mod shapes;
+mod texture;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

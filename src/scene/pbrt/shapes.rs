@@ -1,4 +1,4 @@
-//! Shapes, area lights, lights and textures: placed in the space rlpt renders
+//! Shapes, area lights and lights: placed in the space rlpt renders
 //! in (pbrt's camera space mirrored in x), each turned the way pbrt turns it.
 
 use std::collections::HashMap;
@@ -8,12 +8,11 @@ use glam::{DMat3, DMat4, DVec3, Vec3};
 
 use super::images;
 use super::lexer::Loc;
-use super::material::{FloatImage, Texture};
 use super::params::Params;
 use super::{AreaLight, Importer, Pending};
 use crate::scene::mesh::{self, Builder, MeshFile, PlaceError};
+use crate::scene::SphereUv;
 use crate::scene::{Material, Mesh, SceneError, Sphere};
-use crate::scene::{SphereUv, TextureRef};
 
 /// Largest coordinate magnitude (as the TOML loader's).
 const LIMIT: f64 = 1e12;
@@ -340,173 +339,6 @@ impl Importer {
                 "unknown light \"{ty}\"; expected infinite, distant, point, spot, goniometric or projection"
             ))),
         }
-    }
-
-    /// `Texture`: an `imagemap`'s image with its UV transform (and its mean
-    /// colour, for parameters that take it as one); a missing image may be
-    /// found under another image extension nearby, noted.
-    pub(super) fn texture(&mut self, ty: &str, class: &str, p: &Params, loc: &Loc) -> Result<Texture, SceneError> {
-        for name in ["filter", "maxanisotropy", "trilinear"] {
-            p.touch(name);
-        }
-        let texture = match class {
-            "imagemap" => {
-                let f = p
-                    .string("filename")?
-                    .ok_or_else(|| loc.error("Texture \"imagemap\": missing \"string filename\""))?;
-                let mut path = self.base.join(&f);
-                let mut detail = format!("the mean of {}", path.display());
-                if !path.is_file() {
-                    match images::substitute(&path) {
-                        Some(found) => {
-                            self.notes.approximated(
-                                loc,
-                                format!(
-                                    "texture image \"{f}\" ({}) is missing; {} has the same name and is read instead",
-                                    path.display(),
-                                    found.display()
-                                ),
-                            )?;
-                            detail = format!("the mean of {}, standing in for the missing \"{f}\"", found.display());
-                            path = found;
-                        }
-                        None => {
-                            return Ok(Texture {
-                                image: None,
-                                float_image: None,
-                                scale: 1.0,
-                                mean: None,
-                                constant: false,
-                                loc: loc.clone(),
-                                detail: format!("\"{f}\" does not exist (resolved to {})", path.display()),
-                            })
-                        }
-                    }
-                }
-                let srgb = match (p.string("encoding")?, p.bool("gamma")?) {
-                    (Some(e), _) => Some(e == "sRGB"),
-                    (None, Some(g)) => Some(g),
-                    _ => None,
-                };
-                // A float image's integer texels are sRGB-decoded as pbrt does: where
-                // the file says so, else for PNG (pbrt-v3 and v4) and TGA (pbrt-v3).
-                let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
-                let float_srgb = srgb.unwrap_or(ext == "png" || ext == "tga");
-                let scale = p.float_or("scale", 1.0)? as f32;
-                let invert = p.bool("invert")?.unwrap_or(false);
-                let wrap = p.string("wrap")?.unwrap_or_else(|| "repeat".into());
-                if wrap != "repeat" {
-                    self.notes.approximated(loc, format!("Texture \"imagemap\": wrap \"{wrap}\" read as repeat"))?;
-                }
-                let mapping = p.string("mapping")?.unwrap_or_else(|| "uv".into());
-                if mapping != "uv" {
-                    self.notes.approximated(
-                        loc,
-                        format!("Texture \"imagemap\": mapping \"{mapping}\" read as \"uv\" (the shapes' own UVs)"),
-                    )?;
-                }
-                let transform = [
-                    p.float_or("uscale", 1.0)? as f32,
-                    p.float_or("vscale", 1.0)? as f32,
-                    p.float_or("udelta", 0.0)? as f32,
-                    p.float_or("vdelta", 0.0)? as f32,
-                ];
-                if transform.iter().any(|x| !x.is_finite()) {
-                    return Err(loc.error(format!(
-                        "Texture \"imagemap\": uscale, vscale, udelta, vdelta {transform:?} must be finite"
-                    )));
-                }
-                // The renderers read 8-bit images as sRGB and others as linear; a
-                // reflectance of another encoding, or inverted, keeps its mean.
-                let eight_bit = images::eight_bit(&path);
-                let as_read = srgb.is_none_or(|s| Some(s) == eight_bit);
-                // The image read: the stand-in where the file named is missing.
-                let read = TextureRef {
-                    path: path.clone(),
-                    transform,
-                    ..TextureRef::new(
-                        &f,
-                        &self.base,
-                        &loc.file,
-                        Some((loc.line, loc.column)),
-                        crate::scene::TextureUse::Colour,
-                    )
-                };
-                let image = (ty != "float" && as_read && !invert).then(|| read.clone());
-                let float_image = (ty == "float").then_some(FloatImage { image: read, srgb: float_srgb, scale, invert });
-                if ty != "float" && image.is_none() {
-                    let why = if invert {
-                        "\"invert\" on a colour image".to_string()
-                    } else {
-                        "an encoding other than the file's (rlpt reads 8-bit images as sRGB, others as linear)".into()
-                    };
-                    self.notes.approximated(loc, format!("Texture \"imagemap\": {why}: taken as its mean colour"))?;
-                }
-                let float_file = matches!(ext.as_str(), "exr" | "hdr" | "pfm");
-                let mean_srgb = if ty == "float" { Some(float_srgb && !float_file) } else { srgb };
-                match images::mean(&path, mean_srgb, false) {
-                    Ok(mean) => {
-                        let mean = mean * scale;
-                        let mean = if invert { Vec3::ONE - mean } else { mean };
-                        Texture {
-                            image,
-                            float_image,
-                            scale,
-                            mean: Some(mean),
-                            constant: false,
-                            loc: loc.clone(),
-                            detail,
-                        }
-                    }
-                    Err(why) => {
-                        if image.is_some() || float_image.is_some() {
-                            return Err(loc.error(format!("texture image \"{f}\" ({}) {why}", path.display())));
-                        }
-                        Texture {
-                            image,
-                            float_image,
-                            scale,
-                            mean: None,
-                            constant: false,
-                            loc: loc.clone(),
-                            detail: format!("{} {why}", path.display()),
-                        }
-                    }
-                }
-            }
-            "constant" => {
-                let mut r = self.reader(p, loc, "Texture \"constant\"".into());
-                let v = r.colour("value", Vec3::ONE)?;
-                Texture {
-                    image: None,
-                    float_image: None,
-                    scale: 1.0,
-                    mean: Some(v),
-                    constant: true,
-                    loc: loc.clone(),
-                    detail: "a constant".into(),
-                }
-            }
-            _ => {
-                for q in &p.list {
-                    p.touch(&q.name);
-                }
-                Texture {
-                    image: None,
-                    float_image: None,
-                    scale: 1.0,
-                    mean: None,
-                    constant: false,
-                    loc: loc.clone(),
-                    detail: format!("rlpt does not evaluate \"{class}\" textures"),
-                }
-            }
-        };
-        let unused: Vec<String> = p.unused().map(|q| q.label()).collect();
-        if !unused.is_empty() {
-            self.notes.approximated(loc, format!("Texture \"{class}\": ignored {}", unused.join(", ")))?;
-        }
-        Ok(texture)
     }
 }
 
