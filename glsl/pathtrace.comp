@@ -54,7 +54,7 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // accumulation replaces;
 // table_frames: frames the table learned from before this render (a loaded field);
 // rng_frame: the frame index of the random numbers: frame, plus a part's offset on
-// the image's frames (src/render/dispatch.rs `rng_frame`), so that parts draw disjoint samples.
+// the image's frames (src/math/sampler.rs `rng_frame`), so that parts draw disjoint samples.
 layout(push_constant) uniform Push {
     uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames; uint rng_frame;
 } push;

@@ -8,7 +8,7 @@ use crate::film::Film;
 use crate::gpu::GpuError;
 use crate::guide::QTable;
 use crate::render::{GpuRenderer, PassTimes};
-use crate::session::{FrameReport, Renderer};
+use crate::renderer::{FrameReport, Renderer};
 use serde::Serialize;
 use std::time::Instant;
 
