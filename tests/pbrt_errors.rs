@@ -89,7 +89,7 @@ fn missing_files_are_named_as_written_and_as_resolved() {
     // An error inside an included file names that file.
     let d = fresh_dir("inner");
     write(&d, "geo.pbrt", "\n\nShape \"cube\"\n");
-    let p = write(&d, "scene.pbrt", &format!("WorldBegin\n{TRIANGLE}Include \"geo.pbrt\"\n"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\n{TRIANGLE}Include \"geo.pbrt\"\n"));
     let e = Scene::load(&p).unwrap_err().to_string().replace(&d.display().to_string(), "DIR");
     assert!(e.starts_with("DIR/geo.pbrt:3:1: unknown shape \"cube\""), "{e}");
     // A PLY that does not read: the shape's place and the PLY's own error.
@@ -103,7 +103,7 @@ fn missing_files_are_named_as_written_and_as_resolved() {
 #[test]
 fn cli_info_prints_the_mapping_and_strict_refuses() {
     let d = fresh_dir("cli");
-    let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();
         c.arg("info").arg(&p);
@@ -132,8 +132,7 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
 #[test]
 fn cli_render_prints_the_notes_and_strict_renders_nothing() {
     let d = fresh_dir("cli-render");
-    let p =
-        write(&d, "scene.pbrt", &format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
     let out = d.join("out.png");
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();

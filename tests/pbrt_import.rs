@@ -360,7 +360,7 @@ fn infinite_light_images_render_as_images_turned_by_their_transform() {
         let p = write(
             &d,
             "scene.pbrt",
-            &format!(
+            format!(
                 "WorldBegin\nAttributeBegin\n{transform}LightSource \"infinite\" \"string filename\" \"sky.exr\" \"rgb L\" [2 2 2]\nAttributeEnd\n{TRIANGLE}"
             ),
         );
@@ -416,7 +416,7 @@ fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
     let p = write(
         &d,
         "scene.pbrt",
-        &format!(
+        format!(
             "WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"tex.png\"\n\
              Texture \"u\" \"spectrum\" \"imagemap\" \"string filename\" \"tga/other.tga\"\n\
              Material \"diffuse\" \"texture reflectance\" \"t\"\n{TRIANGLE}\
@@ -453,12 +453,12 @@ fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
 #[test]
 fn strict_refuses_what_would_be_noted() {
     let d = fresh_dir("strict");
-    let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
     assert!(Scene::load(&p).is_ok());
     let e = Scene::load_with(&p, true).unwrap_err().to_string();
     assert!(e.contains("scene.pbrt:2:1: ") && e.contains("a smooth coat (alpha 0)") && e.contains("--strict"), "{e}");
     // Render settings rlpt takes from its own options stay notes.
-    let p = write(&d, "ok.pbrt", &format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
+    let p = write(&d, "ok.pbrt", format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
     assert!(Scene::load_with(&p, true).is_ok());
 }
 
