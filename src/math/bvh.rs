@@ -434,7 +434,7 @@ fn children(ray: &WalkRay, n: &GpuBvhNode, t_max: f32) -> Children {
 /// references against the current `t_max` and returns the new one (or `None` to
 /// stop the walk). Leaves are tested where they are met, nearer first; of the
 /// interior children met, the nearer is walked next and the farther pushed.
-/// `glsl/bvh.glsl` writes the loop out in each of its two functions.
+/// `glsl/bvh.glsl` `bvh_walk` (its `any_hit` picking the leaf test).
 fn walk(s: &SceneArrays, ray: &WalkRay, mut t_max: f32, mut leaf: impl FnMut(&[u32], f32) -> Option<f32>) {
     if s.bvh_nodes.is_empty() {
         return;
