@@ -135,12 +135,15 @@ bool bvh_prim_blocks(WalkRay r, uint ref, float t_max) {
     return bvh_prim_t(r, ref, t_max) > 0.0;
 }
 
-// src/math/bvh.rs `closest_hit`: the nearest primitive in (0, t_max), its
-// distance t and reference prim. Each node is read once; the leaves the ray
-// enters are tested there, the nearer first; of the interior children it enters,
-// the walk descends into the nearer and pushes the farther. The BVH has a node
-// at least (callers walk it where params.bvh_nodes > 0).
-bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
+// src/math/bvh.rs `walk`, with the leaf tests of `closest_hit` (any_hit false:
+// the nearest primitive in (0, t_max), its distance t and reference prim) or of
+// `occluded` (any_hit true: whether anything but the primitive skip blocks
+// (0, t_max); the first blocker ends the walk). Callers pass any_hit as a
+// constant: the inlined walk keeps only its own tests. Each node is read once;
+// the leaves the ray enters are tested there, the nearer first; of the interior
+// children it enters, the walk descends into the nearer and pushes the farther.
+// The BVH has a node at least (callers walk it where params.bvh_nodes > 0).
+bool bvh_walk(vec3 o, vec3 d, float t_max, uint skip, const bool any_hit, out float t, out uint prim) {
     WalkRay r = walk_ray(o, d);
     float best = t_max;
     prim = NO_PRIM;
@@ -159,15 +162,23 @@ bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
             bool is_b = (k == 0u) == b_first;
             float te = is_b ? tb : ta;
             uint child = is_b ? n.b_child : n.a_child;
-            // A leaf before may have brought best nearer than this child.
-            if (te < 0.0 || te > best * BVH_EXIT_SCALE) continue;
+            // A leaf before may have brought best nearer than this child (not
+            // with any_hit, whose best stays t_max, which box_enter bounds).
+            if (any_hit ? te < 0.0 : (te < 0.0 || te > best * BVH_EXIT_SCALE)) continue;
             if ((child & BVH_LEAF) != 0u) {
                 uint first = child & ~BVH_LEAF;
                 uint end = first + (is_b ? n.b_count : n.a_count);
                 for (uint j = first; j < end; ++j) {
                     uint ref = prim_refs[j];
-                    float h = bvh_prim_t(r, ref, best);
-                    if (h > 0.0) { best = h; prim = ref; }
+                    if (any_hit) {
+                        if (ref != skip && bvh_prim_blocks(r, ref, best)) {
+                            t = best;
+                            return true;
+                        }
+                    } else {
+                        float h = bvh_prim_t(r, ref, best);
+                        if (h > 0.0) { best = h; prim = ref; }
+                    }
                 }
             } else {
                 if (inner == 0u) near_child = child; else far_child = child;
@@ -189,51 +200,18 @@ bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
     return prim != NO_PRIM;
 }
 
+// src/math/bvh.rs `closest_hit`: the nearest primitive in (0, t_max), its
+// distance t and reference prim.
+bool bvh_closest(vec3 o, vec3 d, float t_max, out float t, out uint prim) {
+    return bvh_walk(o, d, t_max, NO_PRIM, false, t, prim);
+}
+
 // src/math/bvh.rs `occluded`: whether anything but the primitive skip (a
-// reference, or NO_PRIM) blocks the segment (0, t_max); the first blocker ends
-// the walk, which is bvh_closest's with t_max fixed.
+// reference, or NO_PRIM) blocks the segment (0, t_max).
 bool bvh_occluded(vec3 o, vec3 d, float t_max, uint skip) {
-    WalkRay r = walk_ray(o, d);
-    uint stack[BVH_STACK];
-    uint sp = 0u;
-    uint node = 0u;
-    while (true) {
-        BvhNode n = bvh_nodes[node];
-        float ta = box_enter(r, n.a_lo, n.a_hi, t_max);
-        float tb = box_enter(r, n.b_lo, n.b_hi, t_max);
-        bool b_first = tb >= 0.0 && (ta < 0.0 || tb < ta);
-        // The interior children entered, nearer first (no array: registers).
-        uint near_child = 0u, far_child = 0u;
-        uint inner = 0u;
-        for (uint k = 0u; k < 2u; ++k) {
-            bool is_b = (k == 0u) == b_first;
-            float te = is_b ? tb : ta;
-            uint child = is_b ? n.b_child : n.a_child;
-            if (te < 0.0) continue;
-            if ((child & BVH_LEAF) != 0u) {
-                uint first = child & ~BVH_LEAF;
-                uint end = first + (is_b ? n.b_count : n.a_count);
-                for (uint j = first; j < end; ++j) {
-                    uint ref = prim_refs[j];
-                    if (ref != skip && bvh_prim_blocks(r, ref, t_max)) return true;
-                }
-            } else {
-                if (inner == 0u) near_child = child; else far_child = child;
-                ++inner;
-            }
-        }
-        if (inner == 2u) {
-            stack[sp++] = far_child;
-            node = near_child;
-        } else if (inner == 1u) {
-            node = near_child;
-        } else if (sp == 0u) {
-            break;
-        } else {
-            node = stack[--sp];
-        }
-    }
-    return false;
+    float t;
+    uint prim;
+    return bvh_walk(o, d, t_max, skip, true, t, prim);
 }
 
 #endif

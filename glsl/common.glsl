@@ -43,7 +43,7 @@
 // whose index is 0; a kernel without it has none of its code (SCENE_KINDS).
 #define LIGHT_ENV 3
 #define NO_LIGHT 4294967295
-// A face of the room (src/math/geometry.rs `Room`) that no quad covers, and the
+// A face of the room (src/layout.rs `Room`) that no quad covers, and the
 // shadow test's "skip no primitive" (geometry.glsl `occluded`).
 #define NO_QUAD 4294967295
 #define NO_SPHERE 4294967295
@@ -67,7 +67,7 @@
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
 // bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light, and bit
 // (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough
-// to take guided directions (src/guide/mod.rs `glossy_share`).
+// to take guided directions (src/guide/sampler.rs `glossy_share`).
 #define SCENE_KIND_LIGHT_SHIFT 8
 #define SCENE_KIND_GUIDED_GLOSSY 15
 // Bit (1 << SCENE_KIND_PROCEDURAL) where a material reads a procedural texture,
@@ -81,18 +81,18 @@
 #define FLAG_RUSSIAN_ROULETTE 2
 // MIS heuristic: power (beta = 2) when set, balance otherwise.
 #define FLAG_POWER_HEURISTIC 4
-// Each cell learns its guided fraction (src/guide/mod.rs `FractionState`).
+// Each cell learns its guided fraction (src/guide/fraction.rs `FractionState`).
 #define FLAG_LEARN_FRACTION 8
 // The ray into a path's last vertex is traced in full only where its line meets
 // a light: the environment is black, so nothing else could add to the image
-// (src/prepared.rs `last_ray_to_lights`: set where, besides, every light has a
+// (src/prepared/analysis.rs `last_ray_to_lights`: set where, besides, every light has a
 // specialized slot and the scene has no roulette).
 #define FLAG_LAST_RAY_TO_LIGHTS 16
 // The frame counters are kept: the paths that carried nothing (one sum per
 // subgroup after the paths) with FLAG_COUNTERS, which `render --stats` sets; the
 // rays traced and the rays the subgroups' longest paths set (counted inside the
 // path loop) with FLAG_COUNT_RAYS too, which `rlpt bench` sets. Without them the
-// kernel has none of their code (src/prepared.rs `Counters`).
+// kernel has none of their code (src/options.rs `Counters`).
 #define FLAG_COUNTERS 32
 #define FLAG_COUNT_RAYS 64
 // Q-learning targets count the emission a ray meets with its MIS weight and add
@@ -150,10 +150,10 @@
 // a uniform buffer of CONST_SPHERES spheres and CONST_QUADS quads.
 #define BINDING_SCENE_CONSTANTS 11
 // Learned guiding (pathtrace.comp): the guided fraction of each sampling row,
-// 0 where the row is unlearned (src/guide/mod.rs `QTable::fractions`).
+// 0 where the row is unlearned (src/guide/table.rs `QTable::fractions`).
 #define BINDING_FRACTIONS 12
 // Learned guiding: per sampling row, 1 once a recording path's guided vertex
-// has read it (src/guide/mod.rs `QTable::rows_read`); learn.comp rebuilds those alone.
+// has read it (src/guide/table.rs `QTable::rows_read`); learn.comp rebuilds those alone.
 #define BINDING_ROWS_READ 13
 // Triangle meshes and the BVH (geometry.glsl, bvh.glsl): the triangles, the
 // shading normals of the smooth ones, the nodes, and the leaves' primitive refs.
@@ -184,14 +184,14 @@
 #define SPEC_RECORD_VERTICES 11
 #define SPEC_OCCLUDING_QUADS 12
 // params.scene_kinds: the kernel leaves out the code of the material and light
-// kinds the scene lacks (src/prepared.rs `scene_kinds`).
+// kinds the scene lacks (src/prepared/analysis.rs `scene_kinds`).
 #define SPEC_SCENE_KINDS 13
 // params.num_lights: a scene with one light skips choosing one (geometry.glsl).
 #define SPEC_NUM_LIGHTS 14
 // The workgroup's pixels (local_size_z): PIXELS_PER_GROUP or PIXELS_PER_GROUP_SMALL.
 #define SPEC_PIXELS_PER_GROUP 15
 // The hit-test data of the first SPEC_QUADS quads and SPEC_SPHERES spheres, one
-// float per constant (geometry.glsl; src/prepared.rs `geometry_specialization`):
+// float per constant (geometry.glsl; src/prepared/mod.rs `geometry_specialization`):
 // quad i from SPEC_QUAD_BASE + SPEC_QUAD_FLOATS * i (normal and plane offset,
 // origin, dual_u, dual_v), sphere i from SPEC_SPHERE_BASE + SPEC_SPHERE_FLOATS * i
 // (centre, anchor and radius, axis). The driver sees the numbers: the zeros of an
@@ -202,15 +202,15 @@
 #define SPEC_SPHERE_BASE 224
 #define SPEC_SPHERE_FLOATS 10
 #define SPEC_SPHERES 16
-// Bit i: the sphere in slot i is compact (src/prepared.rs `GpuSphere::compact`).
+// Bit i: the sphere in slot i is compact (src/layout.rs `GpuSphere::compact`).
 // The host works it out, as the driver did not fold the same comparison of the
 // slot's float constants: the branch on it stayed, with both sides' code.
 #define SPEC_COMPACT_SPHERES 384
 // Bit i: the quad (sphere) in slot i is a light, whose test `meets_light` runs
-// (geometry.glsl; src/prepared.rs `geometry_specialization`).
+// (geometry.glsl; src/prepared/mod.rs `geometry_specialization`).
 #define SPEC_LIGHT_QUADS 385
 #define SPEC_LIGHT_SPHERES 386
-// The room (geometry.glsl `room_hit`; src/math/geometry.rs `Room`): how many of
+// The room (geometry.glsl `room_hit`; src/layout.rs `Room`): how many of
 // its faces have a quad (the scene's last quads, which the closest-hit walk
 // leaves to room_hit), its box (6 floats: min, then max), and per face
 // 2 * axis + side the index of its quad, NO_QUAD where the face is open; and
@@ -263,7 +263,7 @@
 #define SPEC_LEARN_STAGE_WORDS 1
 #define SPEC_LEARN_STAGED 2
 // Guiding: sampling distributions per cell, one per class of surface orientation
-// (src/guide/mod.rs `normal_class`).
+// (src/guide/bins.rs `normal_class`).
 #define NORMAL_CLASSES 6
 // Learned Russian roulette (src/guide/roulette.rs `survival_probability`): a path
 // survives with probability RR_WINDOW * (expected contribution) / (pixel
@@ -271,14 +271,14 @@
 #define RR_WINDOW 4
 #define RR_MIN_PERCENT 25
 // Glossy lobes whose share of the guided fraction (4 alpha^2) is below
-// 1 / GLOSSY_SHARE_MIN_INV take none (src/guide/mod.rs `glossy_share`).
+// 1 / GLOSSY_SHARE_MIN_INV take none (src/guide/sampler.rs `glossy_share`).
 #define GLOSSY_SHARE_MIN_INV 16
 // Learned roulette starts once the table has learned from this many frames (and
 // the pixel has an estimate); plain throughput roulette before
-// (src/cpu/mod.rs `roulette_estimate`): a table of one frame is too noisy, and
+// (src/guide/roulette.rs `roulette_estimate`): a table of one frame is too noisy, and
 // roulette by it makes fireflies (docs/guiding.md, "Learned Russian roulette").
 #define LEARNED_RR_FRAMES 4
-// Learned guided fraction (src/guide/mod.rs `FractionState`): each cell's
+// Learned guided fraction (src/guide/fraction.rs `FractionState`): each cell's
 // fraction is sigmoid(theta), theta moved by Adam (step FRACTION_RATE, decay
 // rates FRACTION_BETA1, FRACTION_BETA2) down the gradient of the KL divergence
 // between the normalised integrand and the mixture, and kept within
@@ -301,7 +301,7 @@
 #define SPLIT_TARGETS_PER_BIN 128
 // learn.comp's refine phase: one workgroup of this many invocations.
 #define REFINE_GROUP 64
-// Which paths hand their Q-learning targets to the table (src/guide/mod.rs
+// Which paths hand their Q-learning targets to the table (src/guide/record.rs
 // `RecordSchedule`): all of them in the first RECORD_ALL_FRAMES frames, then those
 // of one pixel row in a stride, a different row each frame. The stride starts at
 // RECORD_ROW_STRIDE and doubles, up to RECORD_MAX_STRIDE, as the table fills.
@@ -323,7 +323,7 @@
 #define RAYCAST_SHADOW 2
 #define BINDING_RAYCAST_HITS 18
 #define BINDING_RAYCAST_COUNT 19
-// The image environment (geometry.glsl `env_sample`, `env_lookup`): per texel
+// The image environment (envmap.glsl `env_sample`, `env_lookup`): per texel
 // vec4(scaled rgb, density over the image's unit square); the cdfs over rows,
 // then per row over its texels. Empty for the uniform sky.
 #define BINDING_ENV_TEXELS 20
@@ -360,7 +360,7 @@
 #define TONEMAP_GROUP_X 16
 #define TONEMAP_GROUP_Y 16
 #define NO_KEY 4294967295
-// Guided sampling rows are alias tables (src/guide/mod.rs `AliasBin`): a column's
+// Guided sampling rows are alias tables (src/guide/sampler.rs `AliasBin`): a column's
 // 16-bit threshold over ALIAS_THRESHOLD_ONE is the chance it keeps its own bin;
 // UNLEARNED in a row's columns marks a row with nothing to sample.
 #define ALIAS_THRESHOLD_ONE 65535
@@ -418,7 +418,7 @@ struct TriangleNormals {
 };
 
 // Two children of an interior node of the BVH, with their boxes, so that one
-// node read gives both boxes (src/math/bvh.rs `BvhNode`). child: BVH_LEAF | first
+// node read gives both boxes (src/layout.rs `GpuBvhNode`). child: BVH_LEAF | first
 // ref for a leaf (count refs), else a node index (count 0).
 struct BvhNode {
     vec3 a_lo;
@@ -489,7 +489,7 @@ struct RenderParams {
     uint guide_cells;
     float guide_floor;       // exploration floor of the guided distribution
     uint guide_vertices;     // guided sampling at a path's first this many vertices
-    uint occluding_quads;    // shadow rays test the first this many quads (src/prepared.rs `occluding_order`)
+    uint occluding_quads;    // shadow rays test the first this many quads (src/prepared/analysis.rs `occluding_order`)
     uint scene_kinds;        // SCENE_KIND_* bits: the material and light kinds the scene has
     uint num_triangles;
     uint bvh_nodes;          // nodes of the BVH; 0 where the kernel walks the primitives itself

@@ -80,7 +80,7 @@ Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
 }
 
 // The first CONST_SPHERES spheres and CONST_QUADS quads, as far as the hit
-// tests read them, in a uniform buffer (src/prepared.rs `scene_constants`).
+// tests read them, in a uniform buffer (src/prepared/mod.rs `scene_constants`).
 // Every lane of a warp reads the same primitive at once, and the kernel is
 // specialized to the scene, so the loops' lengths are known when the driver
 // compiles: the constant cache serves these warp-uniform reads without staging
@@ -97,9 +97,9 @@ layout(std140, set = 0, binding = BINDING_SCENE_CONSTANTS) uniform SceneConstant
 layout(constant_id = SPEC_NUM_SPHERES) const uint SCENE_SPHERES = 0u;
 layout(constant_id = SPEC_NUM_QUADS) const uint SCENE_QUADS = 0u;
 // params.occluding_quads: the quads a shadow ray tests come first; the rest bound
-// the scene and cannot block one (src/prepared.rs `occluding_order`).
+// the scene and cannot block one (src/prepared/analysis.rs `occluding_order`).
 layout(constant_id = SPEC_OCCLUDING_QUADS) const uint OCCLUDING_QUADS = 0u;
-// src/math/geometry.rs `Room`: the box whose faces are walls, and the quad that
+// src/layout.rs `Room`: the box whose faces are walls, and the quad that
 // covers each face (NO_QUAD where it is open). Those quads are the scene's last
 // ROOM_QUADS, and the closest-hit walk leaves them to room_hit.
 layout(constant_id = SPEC_ROOM_QUADS) const uint ROOM_QUADS = 0u;
@@ -141,7 +141,7 @@ SPEC_SPHERE_DECL(0) SPEC_SPHERE_DECL(1) SPEC_SPHERE_DECL(2) SPEC_SPHERE_DECL(3)
 SPEC_SPHERE_DECL(4) SPEC_SPHERE_DECL(5) SPEC_SPHERE_DECL(6) SPEC_SPHERE_DECL(7)
 SPEC_SPHERE_DECL(8) SPEC_SPHERE_DECL(9) SPEC_SPHERE_DECL(10) SPEC_SPHERE_DECL(11)
 SPEC_SPHERE_DECL(12) SPEC_SPHERE_DECL(13) SPEC_SPHERE_DECL(14) SPEC_SPHERE_DECL(15)
-// Bit i: the sphere in slot i is compact (src/prepared.rs `GpuSphere::compact`),
+// Bit i: the sphere in slot i is compact (src/layout.rs `GpuSphere::compact`),
 // an integer the host works out, which the driver folds (common.glsl).
 layout(constant_id = SPEC_COMPACT_SPHERES) const uint COMPACT_SPHERES = 0u;
 
@@ -280,7 +280,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
     return true;
 }
 
-// Bit i: the quad (sphere) in slot i is a light (src/prepared.rs
+// Bit i: the quad (sphere) in slot i is a light (src/prepared/mod.rs
 // `geometry_specialization`).
 layout(constant_id = SPEC_LIGHT_QUADS) const uint LIGHT_QUAD_SLOTS = 0u;
 layout(constant_id = SPEC_LIGHT_SPHERES) const uint LIGHT_SPHERE_SLOTS = 0u;

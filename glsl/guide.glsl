@@ -15,7 +15,7 @@
 layout(std430, set = 0, binding = BINDING_Q) readonly buffer QTable { float q_table[]; };
 layout(std430, set = 0, binding = BINDING_FRAME_SUMS) buffer FrameSums { float frame_sums[]; };
 layout(std430, set = 0, binding = BINDING_FRAME_COUNTS) buffer FrameCounts { uint frame_counts[]; };
-// Per bin of each sampling row: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
+// Per bin of each sampling row: (threshold << 16 | alias, density bits); src/guide/sampler.rs `AliasBin`.
 layout(std430, set = 0, binding = BINDING_SAMPLER) readonly buffer Sampler { uvec2 sampler_table[]; };
 // Per sampling row: its guided fraction (the cell's times its evidence weight), 0 where
 // it is unlearned; src/guide/table.rs `QTable::fractions`.
@@ -49,7 +49,7 @@ const bool GUIDE_ADAPTIVE = (FLAGS & FLAG_ADAPTIVE_GRID) != 0u;
 #define GUIDE_ENTRIES (params.guide_cells * params.guide_bins)
 #endif
 
-// src/guide/mod.rs `Bins::column`: the sector of atan2(y, x) in [0, 2 pi), found
+// src/guide/bins.rs `Bins::column`: the sector of atan2(y, x) in [0, 2 pi), found
 // without the arctangent where the columns are a multiple of 4: (x, y) turned
 // back by whole quarter turns into the first quadrant, the sector within it
 // counted by the sides of its inner edges. With the table's shape specialized
@@ -96,7 +96,7 @@ vec3 bin_sample(uint b, vec2 u) {
     return vec3(r * cos(phi), r * sin(phi), z);
 }
 
-// src/guide/mod.rs `normal_class`: the signed axis closest to a unit normal.
+// src/guide/bins.rs `normal_class`: the signed axis closest to a unit normal.
 // The component is picked by selects: n[axis] with axis unknown made the
 // driver keep n in local memory (16 bytes per invocation, NVIDIA 580).
 uint normal_class(vec3 n) {
@@ -130,7 +130,7 @@ uint cell_index(vec3 p) {
     return cell;
 }
 
-// src/guide/mod.rs `guided_direction`: the column of the row's alias table
+// src/guide/sampler.rs `guided_direction`: the column of the row's alias table
 // from uc, the bin by the column's threshold, the direction uniform inside the
 // bin (also returned, in `b`). Its density is `guided_pdf`, a function of the
 // direction alone: `bin_pdf` of the bin, which the caller has without
@@ -148,7 +148,7 @@ vec3 guided_direction(uint row, float uc, vec2 u, out uint b) {
 // The guided density in bin b of a sampling row.
 float bin_pdf(uint row, uint b) { return uintBitsToFloat(sampler_table[row + b].y); }
 
-// src/guide/mod.rs `mixture_pdf`: the one-sample mixture's density, guided
+// src/guide/sampler.rs `mixture_pdf`: the one-sample mixture's density, guided
 // sampling with probability g_frac, the BSDF otherwise.
 float mixture_pdf(float g_frac, float pdf_bsdf, float pdf_guided) { return (1.0 - g_frac) * pdf_bsdf + g_frac * pdf_guided; }
 

@@ -1,6 +1,6 @@
 #version 460
-// Between frames, with guiding, after the frames that src/guide/mod.rs
-// `RecordSchedule::learns_after` names (src/guide/mod.rs `QTable::learn`):
+// Between frames, with guiding, after the frames that src/guide/record.rs
+// `RecordSchedule::learns_after` names (src/guide/table.rs `QTable::learn`):
 // phase 0, one invocation per entry: folds the Q-learning targets recorded since
 // the last fold into the table, Q <- Q + w (S / c - Q) with w = batch_rate(n, c)
 // (learning rate 1 / i^omega for the i-th target; the running mean at omega = 1),
@@ -29,7 +29,7 @@ layout(std430, set = 0, binding = 0) buffer QTable { float q_table[]; };
 layout(std430, set = 0, binding = 1) buffer Visits { uint visits[]; };
 layout(std430, set = 0, binding = 2) buffer FrameSums { float frame_sums[]; };
 layout(std430, set = 0, binding = 3) buffer FrameCounts { uint frame_counts[]; };
-// Per bin: (threshold << 16 | alias, density bits); src/guide/mod.rs `AliasBin`.
+// Per bin: (threshold << 16 | alias, density bits); src/guide/sampler.rs `AliasBin`.
 layout(std430, set = 0, binding = 4) buffer Sampler { uvec2 sampler_table[]; };
 // Per sampling row: its guided fraction, 0 where unlearned (`QTable::fractions`).
 layout(std430, set = 0, binding = 5) buffer Fractions { float row_fractions[]; };
@@ -54,7 +54,7 @@ layout(push_constant) uniform Push {
     uint adaptive;        // the grid's cells split (FLAG_ADAPTIVE_GRID)
 } push;
 
-// src/guide/mod.rs `batch_rate`: the weight with which c targets move an entry
+// src/guide/table.rs `batch_rate`: the weight with which c targets move an entry
 // that has taken n towards their mean.
 float batch_rate(float n, float k) {
     if (n <= 0.0) return 1.0;
@@ -67,10 +67,10 @@ float batch_rate(float n, float k) {
     return s < 1e-3 ? s * (1.0 - 0.5 * s) : 1.0 - exp(-s);
 }
 
-// src/guide/mod.rs `logit`.
+// src/guide/fraction.rs `logit`.
 float logit(float p) { return log(p / (1.0 - p)); }
 
-// src/guide/mod.rs `FractionState::fraction`.
+// src/guide/fraction.rs `FractionState::fraction`.
 float cell_fraction(vec4 s) {
     float l = logit(push.start_fraction) + s.x;
     return clamp(1.0 / (1.0 + exp(-l)), FRACTION_MIN, 1.0 - FRACTION_MIN);
@@ -82,7 +82,7 @@ float evidence_weight(float n) {
     return n / (n + float(FRACTION_EVIDENCE_PER_BIN) * float(push.bins));
 }
 
-// src/guide/mod.rs `FractionState::step`.
+// src/guide/fraction.rs `FractionState::step`.
 vec4 fraction_step(vec4 s, float gradient) {
     if (isnan(gradient) || isinf(gradient)) return s;
     s.w += 1.0;
@@ -97,7 +97,7 @@ vec4 fraction_step(vec4 s, float gradient) {
     return s;
 }
 
-// src/guide/mod.rs `Bins::center` and `bin_cosine` for the axis of `class_`.
+// src/guide/bins.rs `Bins::center` and `bin_cosine` for the axis of `class_`.
 float bin_cosine(uint b, uint class_) {
     uint row = b / push.cols;
     uint col = b % push.cols;
@@ -132,7 +132,7 @@ void set_weight(uint b, float w) { set_bin(b, uvec2(get_bin(b).x, floatBitsToUin
 void set_column(uint b, uint c) { set_bin(b, uvec2(c, get_bin(b).y)); }
 
 // First column at or after `from` not yet set whose scaled weight is small
-// (below 1) or large; n where there is none. src/guide/mod.rs `build_alias_row`.
+// (below 1) or large; n where there is none. src/guide/sampler.rs `build_alias_row`.
 uint open_column(uint from, uint n, bool small) {
     for (uint i = from; i < n; ++i) {
         uvec2 e = get_bin(i);
@@ -142,7 +142,7 @@ uint open_column(uint from, uint n, bool small) {
 }
 
 // Vose's construction in place over the weights in the density slots, then
-// each bin's density read back from the table (src/guide/mod.rs `build_alias_row`).
+// each bin's density read back from the table (src/guide/sampler.rs `build_alias_row`).
 void build_alias_row(uint n, float total) {
     float scale = float(n) / total;
     for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * scale);

@@ -54,7 +54,7 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // accumulation replaces;
 // table_frames: frames the table learned from before this render (a loaded field);
 // rng_frame: the frame index of the random numbers: frame, plus a part's offset on
-// the image's frames (src/render/dispatch.rs `rng_frame`), so that parts draw disjoint samples.
+// the image's frames (src/math/sampler.rs `rng_frame`), so that parts draw disjoint samples.
 layout(push_constant) uniform Push {
     uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames; uint rng_frame;
 } push;
@@ -71,7 +71,7 @@ uint pixel_row(uint g) {
 
 // src/film.rs `accumulate`. The first frame of an accumulation writes over what
 // the buffer holds; after the learning frames, it keeps their mean3 sum in sum.w
-// (src/cpu/mod.rs `roulette_estimate` reads it).
+// (src/guide/roulette.rs `roulette_estimate` reads it).
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
     uint n = push.accum_frames;
@@ -162,10 +162,10 @@ float survival_probability(float expected, float pixel_estimate) {
 }
 
 // The scene has glossy materials, and none wide enough to take guided directions
-// (src/guide/mod.rs `glossy_share`, `SCENE_KIND_GUIDED_GLOSSY`).
+// (src/guide/sampler.rs `glossy_share`, `SCENE_KIND_GUIDED_GLOSSY`).
 const bool GLOSSY_UNGUIDED = (SCENE_KINDS & ((1u << MAT_GLOSSY) | (1u << SCENE_KIND_GUIDED_GLOSSY))) == (1u << MAT_GLOSSY);
 
-// src/guide/mod.rs `glossy_share`; 0 throughout where GLOSSY_UNGUIDED.
+// src/guide/sampler.rs `glossy_share`; 0 throughout where GLOSSY_UNGUIDED.
 float glossy_share(float alpha) {
     float s = 4.0 * alpha * alpha;
     return GLOSSY_UNGUIDED || s * float(GLOSSY_SHARE_MIN_INV) < 1.0 ? 0.0 : min(s, 1.0);
@@ -178,7 +178,7 @@ float conductor_share(float alpha) {
     return s * float(GLOSSY_SHARE_MIN_INV) < 1.0 ? 0.0 : min(s, 1.0);
 }
 
-// src/guide/mod.rs `lobe_share`: the share of the guided fraction at a vertex,
+// src/guide/sampler.rs `lobe_share`: the share of the guided fraction at a vertex,
 // less than 1 on glossy lobes narrower than the cosine lobe, 0 on the narrowest
 // and on every glossy lobe of a scene whose kinds say none takes any.
 float lobe_share(Bsdf b) {
@@ -189,7 +189,7 @@ float lobe_share(Bsdf b) {
 }
 // src/cpu/path.rs `record_to`: the target of the ray that left through `key`,
 // and where `factor` is not 0 its cell's fraction-gradient sample,
-// -factor * counted, summed after the table's entries (src/guide/mod.rs `FrameSums`);
+// -factor * counted, summed after the table's entries (src/guide/record.rs `FrameSums`);
 // nothing where the target is not finite (it would poison its entry for good).
 void record(uint key, float target, float counted, float factor) {
     if (isnan(target) || isinf(target)) return;
@@ -459,7 +459,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
     // frames without roulette got longer, so those keep the count apart.
     uint depth_rays = 0u;
     // Guiding's state, constant without guiding. The recording kernel traces the
-    // rows whose paths record (src/guide/mod.rs `records`), the other kernel the
+    // rows whose paths record (src/guide/record.rs `records`), the other kernel the
     // rest. A path records the targets of the rays that leave its vertices of
     // depth < RECORD_VERTICES, the ray that arrives at a vertex of depth `DEPTH`
     // having left DEPTH - 1.
@@ -574,7 +574,7 @@ void main() {
         camera_ray(px, py, u, o, d);
         float estimate = 0.0;
 #if GUIDED
-        // src/cpu/mod.rs `roulette_estimate`: the image's frames and the learning
+        // src/guide/roulette.rs `roulette_estimate`: the image's frames and the learning
         // frames' (sum.w); where accum_frames is 0, the buffer still holds the latter.
         if (push.accum_frames + push.learned_frames > 0u && push.frame + push.table_frames >= uint(LEARNED_RR_FRAMES)) {
             vec4 s = accum[pixel].sum;

@@ -78,7 +78,7 @@ bool sphere_blocks_anchored(vec3 center, vec4 anchor_radius, vec3 axis, vec3 o, 
     return segment_crosses(dot(g, g) + 2.0 * r * dot(g, axis) < 0.0, dot(ge, ge) + 2.0 * r * dot(ge, axis) < 0.0, b, t_max);
 }
 
-// compact: src/prepared.rs `GpuSphere::compact`, the sphere's axis.w != 0 or a
+// compact: src/layout.rs `GpuSphere::compact`, the sphere's axis.w != 0 or a
 // specialized slot's bit of COMPACT_SPHERES.
 bool sphere_blocks_at(vec3 center, vec4 anchor_radius, vec3 axis, bool compact, vec3 o, vec3 d, float t_max) {
     if (compact) return sphere_blocks_compact(center, anchor_radius.w, o, d, t_max);

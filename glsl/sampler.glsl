@@ -105,7 +105,7 @@ vec2 sample_2d(inout PathSampler s, uint dim) {
 
 // Where in the pixel a sample looks ([0, 1)^2): an independent sample takes its
 // own of the SAMPLES_X x SAMPLES_Y sub-squares, `stratum`, jittered
-// (src/camera.rs `pixel_jitter`); Sobol's points are stratified already.
+// (src/math/sampler.rs `pixel_jitter`); Sobol's points are stratified already.
 vec2 sample_pixel(inout PathSampler s, uvec2 stratum) {
     vec2 j = sample_2d(s, SAMPLE_CAMERA);
     return SAMPLER_SOBOL ? j : (vec2(stratum) + j) / vec2(SAMPLES_X, SAMPLES_Y);

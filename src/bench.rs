@@ -4,11 +4,9 @@
 //! Chrome trace-event file (opened by Perfetto and chrome://tracing).
 
 use crate::cpu::CpuRenderer;
-use crate::film::Film;
 use crate::gpu::GpuError;
-use crate::guide::QTable;
 use crate::render::{GpuRenderer, PassTimes};
-use crate::session::{FrameReport, Renderer};
+use crate::renderer::{forward_renderer_queries, FrameReport, Renderer};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -68,21 +66,7 @@ impl Renderer for Profiled {
             variance: None,
         })
     }
-    fn image_frames(&self) -> u32 {
-        self.renderer().image_frames()
-    }
-    fn film(&self) -> Result<Film, GpuError> {
-        self.renderer().film()
-    }
-    fn device_name(&self) -> String {
-        self.renderer().device_name()
-    }
-    fn timestamps(&self) -> bool {
-        self.renderer().timestamps()
-    }
-    fn table(&self) -> Result<Option<QTable>, GpuError> {
-        self.renderer().table()
-    }
+    forward_renderer_queries!(self => self.renderer());
 }
 
 /// Median, minimum, maximum and mean of one pass over the measured frames (ms).

@@ -1,21 +1,11 @@
-//! The camera's primary rays, the same on both devices: `glsl/pathtrace.comp`
-//! `camera_ray` and the sample positions of `main`.
+//! The camera's primary rays, the same on both devices: `glsl/camera.glsl`
+//! `camera_ray`.
 
 use crate::layout::RenderParams;
-use crate::shared;
 use glam::Vec3;
 
 fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
-}
-
-/// Where in its pixel sample `sample` (0..64) of a frame looks: the pixel is cut
-/// into the 8 x 8 grid of the workgroup's samples, and each sample is jittered by
-/// `j` inside its own sub-square (stratified sampling: edges converge much faster
-/// than with 64 independent positions). `glsl/pathtrace.comp` `main`.
-pub fn pixel_jitter(sample: u32, j: [f32; 2]) -> [f32; 2] {
-    let (sx, sy) = (shared::SAMPLES_X, shared::SAMPLES_Y);
-    [((sample % sx) as f32 + j[0]) / sx as f32, ((sample / sx) as f32 + j[1]) / sy as f32]
 }
 
 /// The primary ray through pixel (x, y) jittered by `u`; `glsl/camera.glsl` `camera_ray`.

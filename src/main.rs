@@ -208,7 +208,7 @@ struct Settings {
     /// targets, within the uniform grid's memory (docs/guiding.md, "Adaptive cells")
     /// [default: the scene's `[guiding] grid`, else uniform].
     #[arg(long, value_enum)]
-    guide_grid: Option<rlpt::guide::GridKind>,
+    guide_grid: Option<rlpt::scene::GridKind>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
     /// counts the emission met with the MIS weight the image gives it and adds the light
     /// sample at the vertex met, so that guided directions seek what light sampling

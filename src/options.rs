@@ -5,7 +5,7 @@
 use crate::guide::{self, Bins, GuidingMode};
 use crate::layout::{MAX_BOUNCES, MAX_IMAGE_SIDE, MAX_SPP};
 use crate::math::sampler::SamplerKind;
-use crate::scene::Scene;
+use crate::scene::{GridKind, Scene};
 use crate::shared;
 
 /// A render option outside the values the renderers can honour: which option,
@@ -69,8 +69,8 @@ pub struct RenderOptions {
     /// frame, where that gives the image more for its time ([`guide::FrameRace`]).
     pub unguided_frames: guide::UnguidedFrames,
     /// Uniform or adaptive guiding cells, over the scene's `[guiding] grid`
-    /// (None: the scene's, else uniform; [`guide::GridKind`]).
-    pub guide_grid: Option<guide::GridKind>,
+    /// (None: the scene's, else uniform; [`GridKind`]).
+    pub guide_grid: Option<GridKind>,
     /// What Q-learning targets count of the light their rays meet where NEE is on
     /// ([`guide::QTargets`]; `FLAG_MIS_TARGETS`).
     pub q_targets: guide::QTargets,

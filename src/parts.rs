@@ -5,7 +5,7 @@
 //!
 //! Parts split the image's frames into contiguous ranges ([`Part::frames`]): the
 //! random numbers of a part's image frames are those the unsplit render draws for
-//! the same frames (`crate::render::rng_frame`), so that all parts together are
+//! the same frames (`crate::math::sampler::rng_frame`), so that all parts together are
 //! the unsplit render's samples, each once, whichever sampler makes them.
 
 use crate::image::Image;

@@ -76,6 +76,30 @@ pub trait Renderer {
     fn table(&self) -> Result<Option<QTable>, GpuError>;
 }
 
+/// In an `impl Renderer` of a renderer that wraps another, `$inner` (an
+/// expression of `$self`): the methods that ask about the image, the device and
+/// the table, answered by the wrapped renderer.
+macro_rules! forward_renderer_queries {
+    ($self:ident => $inner:expr) => {
+        fn image_frames(&$self) -> u32 {
+            $inner.image_frames()
+        }
+        fn film(&$self) -> Result<$crate::film::Film, $crate::gpu::GpuError> {
+            $inner.film()
+        }
+        fn device_name(&$self) -> String {
+            $inner.device_name()
+        }
+        fn timestamps(&$self) -> bool {
+            $inner.timestamps()
+        }
+        fn table(&$self) -> Result<Option<$crate::guide::QTable>, $crate::gpu::GpuError> {
+            $inner.table()
+        }
+    };
+}
+pub(crate) use forward_renderer_queries;
+
 /// A borrowed renderer renders as its owner: the owner keeps it for what the
 /// session does not ask (a `crate::render::MultiGpuRenderer`'s device stats).
 impl<R: Renderer + ?Sized> Renderer for &mut R {
@@ -85,19 +109,5 @@ impl<R: Renderer + ?Sized> Renderer for &mut R {
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         (**self).render_round(max, time_left_ms)
     }
-    fn image_frames(&self) -> u32 {
-        (**self).image_frames()
-    }
-    fn film(&self) -> Result<Film, GpuError> {
-        (**self).film()
-    }
-    fn device_name(&self) -> String {
-        (**self).device_name()
-    }
-    fn timestamps(&self) -> bool {
-        (**self).timestamps()
-    }
-    fn table(&self) -> Result<Option<QTable>, GpuError> {
-        (**self).table()
-    }
+    forward_renderer_queries!(self => (**self));
 }

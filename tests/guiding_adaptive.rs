@@ -6,11 +6,12 @@ mod common;
 
 use common::*;
 use rlpt::cpu::CpuRenderer;
-use rlpt::guide::{scene_hash, split_targets, Bins, GridKind, GuideField, GuidingMode, QTable};
+use rlpt::guide::{scene_hash, split_targets, Bins, GuideField, GuidingMode, QTable};
 use rlpt::math::rng::Rng;
 use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
 use rlpt::render::GpuRenderer;
+use rlpt::scene::GridKind;
 use rlpt::scene::Scene;
 
 fn adaptive(scene: &Scene, width: u32, height: u32, spp: u32) -> RenderOptions {

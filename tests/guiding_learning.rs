@@ -35,7 +35,7 @@ fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
 }
 
 /// A table larger than one dispatch of learn.comp's fold covers (LEARN_MAX_GROUPS
-/// groups, src/render/mod.rs `learn_groups`): the invocations step through the
+/// groups, src/render/learning.rs `learn_groups`): the invocations step through the
 /// rest, and the entries past the first dispatch's reach learn too (the rows'
 /// rebuild steps the same way; its reach, a million rows, is past what a test
 /// can allocate).

@@ -1,17 +1,12 @@
 //! Image files: EXR round-trips exactly, PNG within one 8-bit step of sRGB,
 //! and every failure names the path.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::cli::fresh_dir;
+use std::path::Path;
 
 use rlpt::image::{srgb_decode, srgb_encode, Image};
-
-/// A fresh, empty directory for one test.
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("image_io").join(test);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Deterministic pseudo-random numbers in [0, 1).
 fn uniform(state: &mut u64) -> f32 {
@@ -55,7 +50,7 @@ fn get_outside_panics() {
 
 #[test]
 fn exr_round_trip_is_exact() {
-    let dir = temp_dir("exr_round_trip");
+    let dir = fresh_dir("exr_round_trip");
     let mut image = test_image(37, 23, -2.0, 1000.0);
     // Awkward values: zero, negative zero, subnormal, tiny, huge, max.
     image.pixels[0] = [0.0, -0.0, f32::MIN_POSITIVE / 8.0];
@@ -75,7 +70,7 @@ fn exr_round_trip_is_exact() {
 
 #[test]
 fn exr_extension_is_case_insensitive() {
-    let dir = temp_dir("exr_upper");
+    let dir = fresh_dir("exr_upper");
     let image = test_image(4, 4, 0.0, 5.0);
     let path = dir.join("UPPER.EXR");
     image.save(&path).unwrap();
@@ -84,7 +79,7 @@ fn exr_extension_is_case_insensitive() {
 
 #[test]
 fn png_round_trip_within_one_step() {
-    let dir = temp_dir("png_round_trip");
+    let dir = fresh_dir("png_round_trip");
     let mut image = test_image(41, 19, -0.5, 1.5);
     image.pixels[0] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
     image.pixels[1] = [0.0, 1.0, 0.0031308];
@@ -114,7 +109,7 @@ fn png_round_trip_within_one_step() {
 #[test]
 fn png_stores_rounded_srgb_bytes() {
     // Linear 0.5 is sRGB 0.7353569, i.e. byte 187.5 -> 188; 0.2140 is sRGB ~0.5 -> 128.
-    let dir = temp_dir("png_bytes");
+    let dir = fresh_dir("png_bytes");
     let mut image = Image::new(2, 1);
     image.pixels[0] = [0.5, 0.0, 1.0];
     image.pixels[1] = [srgb_decode(128.0 / 255.0), 2.0, -1.0];
@@ -127,7 +122,7 @@ fn png_stores_rounded_srgb_bytes() {
 
 #[test]
 fn saving_overwrites() {
-    let dir = temp_dir("overwrite");
+    let dir = fresh_dir("overwrite");
     let path = dir.join("twice.exr");
     test_image(8, 8, 0.0, 1.0).save(&path).unwrap();
     let second = test_image(3, 5, 2.0, 3.0);
@@ -173,7 +168,7 @@ fn srgb_encode_and_decode_are_inverse() {
 
 #[test]
 fn bad_extension_is_an_error() {
-    let dir = temp_dir("bad_extension");
+    let dir = fresh_dir("bad_extension");
     let image = Image::new(2, 2);
     for name in ["picture.jpg", "picture", "picture.png.txt"] {
         let path = dir.join(name);
@@ -187,7 +182,7 @@ fn bad_extension_is_an_error() {
 
 #[test]
 fn missing_directory_is_an_error() {
-    let dir = temp_dir("missing_dir");
+    let dir = fresh_dir("missing_dir");
     let path = dir.join("no").join("such").join("out.exr");
     let message = format!("{:#}", Image::new(2, 2).save(&path).unwrap_err());
     assert!(message.contains(&path.display().to_string()), "{message}");
@@ -197,7 +192,7 @@ fn missing_directory_is_an_error() {
 
 #[test]
 fn wrong_pixel_count_is_an_error() {
-    let dir = temp_dir("pixel_count");
+    let dir = fresh_dir("pixel_count");
     let mut image = Image::new(4, 4);
     image.pixels.pop();
     let path = dir.join("short.exr");
@@ -208,7 +203,7 @@ fn wrong_pixel_count_is_an_error() {
 
 #[test]
 fn loading_a_missing_file_names_it() {
-    let dir = temp_dir("missing_file");
+    let dir = fresh_dir("missing_file");
     for name in ["nothing.exr", "nothing.png"] {
         let path = dir.join(name);
         let message = format!("{:#}", Image::load(&path).unwrap_err());
@@ -218,7 +213,7 @@ fn loading_a_missing_file_names_it() {
 
 #[test]
 fn loading_garbage_names_the_file() {
-    let dir = temp_dir("garbage");
+    let dir = fresh_dir("garbage");
     let path = dir.join("garbage.exr");
     std::fs::write(&path, b"this is not an image").unwrap();
     let message = format!("{:#}", Image::load(&path).unwrap_err());
@@ -227,7 +222,7 @@ fn loading_garbage_names_the_file() {
 
 #[test]
 fn loading_rgba_exr_drops_alpha() {
-    let dir = temp_dir("rgba");
+    let dir = fresh_dir("rgba");
     let path = dir.join("rgba.exr");
     let data: Vec<f32> = vec![0.25, 0.5, 2.0, 0.1, 7.0, 8.0, 9.0, 1.0];
     image::Rgba32FImage::from_raw(2, 1, data).unwrap().save_with_format(&path, image::ImageFormat::OpenExr).unwrap();

@@ -5,23 +5,14 @@
 //! refusal, in `tests/mesh_load.rs`; the `[[mesh]]` tables of scenes in
 //! `tests/mesh_scene.rs`.
 
-use std::path::{Path, PathBuf};
+mod common;
 
+use std::path::Path;
+
+use common::files::assets;
 use glam::Vec3;
 use rlpt::scene::mesh::{load_mesh_file, MeshFile};
 use rlpt::scene::MaterialKind;
-
-/// `../shared/assets/` beside the repository: other people's data, never copied in.
-fn assets() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets");
-    assert!(
-        dir.is_dir(),
-        "the mesh assets are missing: expected the folder {} (the project's shared/assets/, which holds \
-         other people's meshes that the repository does not commit; see issue 36)",
-        dir.display()
-    );
-    dir
-}
 
 fn load(relative: &str) -> MeshFile {
     let path = assets().join(relative);

@@ -5,18 +5,12 @@
 
 mod common;
 
-use std::fs;
+use common::files::{base64, write};
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use rlpt::scene::mesh::{load_mesh_file, Location, MeshError};
 use rlpt::scene::MaterialKind;
-
-fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
-    let path = dir.join(name);
-    fs::write(&path, contents).unwrap();
-    path
-}
 
 /// The file must be refused with a message that starts with `{path}{at}` and
 /// holds every phrase; returns the error.
@@ -516,19 +510,4 @@ fn gltf_with_only_zero_area_triangles_is_empty() {
     let dir = common::cli::fresh_dir("gltf-empty");
     let path = write_gltf(&dir, |_, bin| bin[40..42].copy_from_slice(&1u16.to_le_bytes()), true);
     refuse(&path, ": the mesh has no triangles (its 1 triangle has zero area)", &[]);
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const TABLE: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let n = chunk.iter().enumerate().fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
-        for k in 0..=chunk.len() {
-            out.push(TABLE[(n >> (18 - 6 * k) & 63) as usize] as char);
-        }
-    }
-    while !out.len().is_multiple_of(4) {
-        out.push('=');
-    }
-    out
 }

@@ -176,8 +176,7 @@ fn smooth_normals_by_the_inverse_transpose_or_computed() {
 #[test]
 fn parse_finds_files_from_the_current_directory() {
     // `cargo test` runs in the package's root, beside which ../shared/assets lies.
-    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets");
-    assert!(assets.is_dir(), "the mesh assets are missing: expected {}", assets.display());
+    common::files::assets();
     let text = format!("{CAMERA}[[mesh]]\nfile = \"../shared/assets/cornell_box_mcguire/CornellBox-Original.obj\"\n");
     let scene = Scene::parse(&text, "cornell.toml").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.meshes[0].triangles.len(), 36);

@@ -6,10 +6,11 @@
 mod common;
 use common::*;
 use rlpt::film::Film;
-use rlpt::guide::{GridKind, GuidingMode};
+use rlpt::guide::GuidingMode;
 use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
 use rlpt::render::{GpuRenderer, GpuSet, MultiGpuRenderer, ROUND_FRAMES_PER_DEVICE};
+use rlpt::scene::GridKind;
 use rlpt::scene::Scene;
 use rlpt::session::{Budget, Renderer, Session, Stop};
 use std::sync::atomic::AtomicBool;

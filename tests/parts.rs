@@ -5,18 +5,14 @@
 mod common;
 
 use common::cli::{rlpt, tmp, Checked};
+use common::scene;
 use rlpt::cpu::CpuRenderer;
 use rlpt::film::Film;
 use rlpt::guide::scene_hash;
 use rlpt::image::Image;
 use rlpt::parts::{merge, settings_hash, Part, PartImage, PartInfo};
 use rlpt::prepared::PreparedScene;
-use rlpt::scene::Scene;
 use std::path::{Path, PathBuf};
-
-fn scene(name: &str) -> Scene {
-    Scene::load(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).expect("shipped scene loads")
-}
 
 fn prepared(width: u32, height: u32, seed: u32) -> PreparedScene {
     let s = scene("cornell-box.toml");

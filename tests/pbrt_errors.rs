@@ -5,7 +5,9 @@
 mod common;
 mod pbrt_support;
 
-use pbrt_support::{dir, refuse, write, TRIANGLE};
+use common::cli::fresh_dir;
+use common::files::write;
+use pbrt_support::{refuse, TRIANGLE};
 use rlpt::scene::Scene;
 
 #[test]
@@ -85,13 +87,13 @@ fn missing_files_are_named_as_written_and_as_resolved() {
         "{e}"
     );
     // An error inside an included file names that file.
-    let d = dir("inner");
+    let d = fresh_dir("inner");
     write(&d, "geo.pbrt", "\n\nShape \"cube\"\n");
-    let p = write(&d, "scene.pbrt", &format!("WorldBegin\n{TRIANGLE}Include \"geo.pbrt\"\n"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\n{TRIANGLE}Include \"geo.pbrt\"\n"));
     let e = Scene::load(&p).unwrap_err().to_string().replace(&d.display().to_string(), "DIR");
     assert!(e.starts_with("DIR/geo.pbrt:3:1: unknown shape \"cube\""), "{e}");
     // A PLY that does not read: the shape's place and the PLY's own error.
-    let d = dir("badply");
+    let d = fresh_dir("badply");
     write(&d, "bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\nnot-a-number\n");
     let p = write(&d, "scene.pbrt", "WorldBegin\nShape \"plymesh\" \"string filename\" \"bad.ply\"\n");
     let e = Scene::load(&p).unwrap_err().to_string().replace(&d.display().to_string(), "DIR");
@@ -100,8 +102,8 @@ fn missing_files_are_named_as_written_and_as_resolved() {
 
 #[test]
 fn cli_info_prints_the_mapping_and_strict_refuses() {
-    let d = dir("cli");
-    let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
+    let d = fresh_dir("cli");
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();
         c.arg("info").arg(&p);
@@ -129,9 +131,8 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
 
 #[test]
 fn cli_render_prints_the_notes_and_strict_renders_nothing() {
-    let d = dir("cli-render");
-    let p =
-        write(&d, "scene.pbrt", &format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
+    let d = fresh_dir("cli-render");
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
     let out = d.join("out.png");
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();

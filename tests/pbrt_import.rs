@@ -2,10 +2,13 @@
 //! own, read into the `Scene` the renderers draw. Without a `Camera`, pbrt's
 //! camera space is its world, and rlpt's space is that mirrored in x.
 
+mod common;
 mod pbrt_support;
 
+use common::cli::fresh_dir;
+use common::files::write;
 use glam::{DMat4, DVec3, Vec3};
-use pbrt_support::{close, dir, load, note, write, TRIANGLE};
+use pbrt_support::{close, load, note, TRIANGLE};
 use rlpt::scene::{MaterialKind, Scene};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -102,7 +105,7 @@ fn transforms_attributes_and_coordinate_systems() {
 
 #[test]
 fn include_and_import_read_files_relative_to_the_scene() {
-    let d = dir("include");
+    let d = fresh_dir("include");
     write(&d, "parts/geo.pbrt", TRIANGLE);
     write(&d, "parts/more.pbrt", "Translate 0 0 1\nInclude \"parts/geo.pbrt\"\n");
     let p = write(&d, "scene.pbrt", "WorldBegin\nInclude \"parts/geo.pbrt\"\nImport \"parts/more.pbrt\"\n");
@@ -229,7 +232,7 @@ fn approximated_materials_are_noted_once_with_their_line() {
 
 #[test]
 fn shapes_trianglemesh_bilinearmesh_sphere_plymesh_and_instances() {
-    let d = dir("shapes");
+    let d = fresh_dir("shapes");
     write(
         &d,
         "quad.ply",
@@ -334,7 +337,7 @@ fn infinite_light_images_render_as_images_turned_by_their_transform() {
     use rlpt::math::envmap::env_lookup;
     use rlpt::options::RenderOptions;
     use rlpt::prepared::PreparedScene;
-    let d = dir("envimage");
+    let d = fresh_dir("envimage");
     let (w, h) = (16u32, 8u32);
     let bright = (5u32, 2u32);
     let img = image::Rgb32FImage::from_fn(w, h, |x, y| {
@@ -357,7 +360,7 @@ fn infinite_light_images_render_as_images_turned_by_their_transform() {
         let p = write(
             &d,
             "scene.pbrt",
-            &format!(
+            format!(
                 "WorldBegin\nAttributeBegin\n{transform}LightSource \"infinite\" \"string filename\" \"sky.exr\" \"rgb L\" [2 2 2]\nAttributeEnd\n{TRIANGLE}"
             ),
         );
@@ -403,7 +406,7 @@ fn srgb_to_linear(c: f64) -> f64 {
 
 #[test]
 fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
-    let d = dir("texture");
+    let d = fresh_dir("texture");
     // A 2x2 8-bit image: its mean is taken after sRGB decoding, as pbrt reads it.
     let px = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [128, 128, 128]];
     let img = image::RgbImage::from_fn(2, 2, |x, y| image::Rgb(px[(y * 2 + x) as usize]));
@@ -413,7 +416,7 @@ fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
     let p = write(
         &d,
         "scene.pbrt",
-        &format!(
+        format!(
             "WorldBegin\nTexture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"tex.png\"\n\
              Texture \"u\" \"spectrum\" \"imagemap\" \"string filename\" \"tga/other.tga\"\n\
              Material \"diffuse\" \"texture reflectance\" \"t\"\n{TRIANGLE}\
@@ -449,19 +452,19 @@ fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
 
 #[test]
 fn strict_refuses_what_would_be_noted() {
-    let d = dir("strict");
-    let p = write(&d, "scene.pbrt", &format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
+    let d = fresh_dir("strict");
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
     assert!(Scene::load(&p).is_ok());
     let e = Scene::load_with(&p, true).unwrap_err().to_string();
     assert!(e.contains("scene.pbrt:2:1: ") && e.contains("a smooth coat (alpha 0)") && e.contains("--strict"), "{e}");
     // Render settings rlpt takes from its own options stay notes.
-    let p = write(&d, "ok.pbrt", &format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
+    let p = write(&d, "ok.pbrt", format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
     assert!(Scene::load_with(&p, true).is_ok());
 }
 
 #[test]
 fn strict_refuses_a_toml_scene_whose_mesh_file_is_noted() {
-    let d = dir("strict-toml");
+    let d = fresh_dir("strict-toml");
     write(&d, "m.mtl", "newmtl wood\nKd 0.5 0.5 0.5\nmap_Kd wood.png\n");
     write(&d, "m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl wood\nf 1 2 3\n");
     let p = write(

@@ -7,12 +7,11 @@ mod common;
 
 use common::*;
 use rlpt::scene::Scene;
-use std::path::Path;
 
 /// Renders `file` on both devices; returns the number of image textures the
 /// render read.
 fn render_both(file: &str, width: u32, height: u32, spp: u32) -> usize {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets").join(file);
+    let path = common::files::assets().join(file);
     let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
     let o = options(&scene, width, height, spp);
     let textures = rlpt::prepared::PreparedScene::new(&scene, &o).unwrap().textures.len();

@@ -5,22 +5,11 @@
 mod common;
 mod pbrt_support;
 
-use std::path::{Path, PathBuf};
-
+use common::cli::fresh_dir;
+use common::files::{assets, write};
 use glam::Vec3;
-use pbrt_support::{dir, note, write};
+use pbrt_support::note;
 use rlpt::scene::{MaterialKind, Scene};
-
-fn assets() -> PathBuf {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets");
-    assert!(
-        dir.is_dir(),
-        "the shared assets are missing: expected the folder {} (the project's shared/assets/, which the \
-         repository does not commit)",
-        dir.display()
-    );
-    dir
-}
 
 fn triangles(s: &Scene) -> usize {
     s.meshes.iter().map(|m| m.triangles.len()).sum()
@@ -87,7 +76,7 @@ fn halves(film: &rlpt::film::Film) -> (f64, f64) {
 
 #[test]
 fn left_in_pbrt_is_left_in_rlpt_on_cpu_and_gpu() {
-    let d = dir("orientation");
+    let d = fresh_dir("orientation");
     let p = write(&d, "scene.pbrt", LEFT_LAMP);
     let s = Scene::load(&p).unwrap();
     let opts = common::options(&s, 32, 16, 128);

@@ -399,7 +399,7 @@ fn guiding_table_is_read() {
             bounds_min: Some(Vec3::new(-1.0, -2.5, 0.0)),
             bounds_max: Some(Vec3::new(100.0, 3.0, 0.25)),
             resolution: Some([8, 16, 32]),
-            grid: Some(rlpt::guide::GridKind::Adaptive),
+            grid: Some(rlpt::scene::GridKind::Adaptive),
         }
     );
     // The rest of the scene is what it was without the table.

@@ -2,18 +2,12 @@
 //! and line:column of malformed input; the convergence plot is a 900x600 PNG
 //! with a curve per run, and refuses runs without relMSE and non-PNG outputs.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::cli::fresh_dir;
 
 use rlpt::plot::{plot_convergence, run_colour, Metric, PLOT_HEIGHT, PLOT_WIDTH};
 use rlpt::stats::{FrameStats, RenderStats};
-
-/// A fresh, empty directory for one test.
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("stats_plot").join(test);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A run whose relMSE falls as `constant / t`, with a little deterministic
 /// wobble, over `frames` frames of `frame_ms` each.
@@ -54,7 +48,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
 
 #[test]
 fn json_round_trip() {
-    let dir = temp_dir("round_trip");
+    let dir = fresh_dir("round_trip");
     let path = dir.join("stats.json");
     let mut stats = synthetic_run("door.toml guiding=sphere nee=on", 0.02, 12.5, 5);
     // The CPU renderer's shape: no GPU time, and a frame without relMSE.
@@ -77,7 +71,7 @@ fn json_round_trip() {
 
 #[test]
 fn malformed_file_names_path_and_position() {
-    let dir = temp_dir("malformed");
+    let dir = fresh_dir("malformed");
     let path = dir.join("broken.json");
     std::fs::write(&path, "{\n  \"label\": \"x\",\n  \"scene\": oops\n}\n").unwrap();
     let message = format!("{:#}", RenderStats::load(&path).unwrap_err());
@@ -97,7 +91,7 @@ fn malformed_file_names_path_and_position() {
 
 #[test]
 fn plot_of_two_runs_shows_both() {
-    let dir = temp_dir("two_runs");
+    let dir = fresh_dir("two_runs");
     let out = dir.join("convergence.png");
     let runs = [
         synthetic_run("door.toml guiding=off nee=on", 0.5, 20.0, 200),
@@ -121,7 +115,7 @@ fn plot_of_two_runs_shows_both() {
 
 #[test]
 fn run_without_rel_mse_is_an_error_naming_it() {
-    let dir = temp_dir("no_rel_mse");
+    let dir = fresh_dir("no_rel_mse");
     let out = dir.join("convergence.png");
     let mut blind = synthetic_run("cornell.toml guiding=off nee=off", 0.3, 10.0, 10);
     for frame in &mut blind.frames {
@@ -136,7 +130,7 @@ fn run_without_rel_mse_is_an_error_naming_it() {
 
 #[test]
 fn frames_without_rel_mse_or_positive_values_are_skipped() {
-    let dir = temp_dir("skipped");
+    let dir = fresh_dir("skipped");
     let out = dir.join("convergence.png");
     let mut run = synthetic_run("partial", 0.1, 10.0, 20);
     run.frames[0].rel_mse = None;
@@ -149,7 +143,7 @@ fn frames_without_rel_mse_or_positive_values_are_skipped() {
 
 #[test]
 fn non_png_output_is_refused() {
-    let dir = temp_dir("not_png");
+    let dir = fresh_dir("not_png");
     let runs = [synthetic_run("a", 0.1, 10.0, 10)];
     for name in ["convergence.jpg", "convergence", "convergence.png.txt"] {
         let out = dir.join(name);
@@ -189,7 +183,7 @@ fn plot_notes_name_dropped_points_and_mixed_runs() {
 /// reference's variance is an error that says how to record it.
 #[test]
 fn the_debiased_relmse_plots_and_says_what_it_needs() {
-    let dir = temp_dir("debiased");
+    let dir = fresh_dir("debiased");
     let out = dir.join("debiased.png");
     let mut run = synthetic_run("door.toml guiding=sphere nee=on", 0.08, 24.0, 60);
     for (i, f) in run.frames.iter_mut().enumerate() {

@@ -6,35 +6,16 @@
 
 mod common;
 
+use common::cli::fresh_dir;
+use common::files::{base64, png_bytes, srgb};
 use common::*;
 use glam::{Vec2, Vec3};
 use rlpt::prepared::PreparedScene;
 use rlpt::scene::texture::{find, Channel, Factor, Remap, TextureUse};
 use rlpt::scene::{Material, Scene};
-use std::path::PathBuf;
-
-/// A fresh directory for one test's files.
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rlpt-texture-import-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// An RGBA8 PNG of `w` x `h` texels, rows from the top, encoded.
-fn png_bytes(w: u32, h: u32, texel: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
-    let img = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba(texel(x, y)));
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-    out.into_inner()
-}
 
 fn grey(g: u8) -> [u8; 4] {
     [g, g, g, 255]
-}
-
-fn srgb(b: u8) -> f32 {
-    rlpt::scene::texture::srgb_to_linear(b as f32 / 255.0)
 }
 
 fn material<'a>(s: &'a Scene, name: &str) -> &'a Material {
@@ -60,7 +41,7 @@ fn pbrt_v3_roughness(v: f32) -> f32 {
 
 #[test]
 fn pbrt_float_imagemaps_are_roughness_textures_remapped_as_pbrt_does() {
-    let d = dir("float");
+    let d = fresh_dir("float");
     let greys = [10u8, 64, 128, 255];
     std::fs::write(d.join("rough.png"), png_bytes(4, 1, |x, _| grey(greys[x as usize]))).unwrap();
     let pbrt = format!(
@@ -134,7 +115,7 @@ fn lit_sphere(roughness: &str, texture: &str) -> String {
 
 #[test]
 fn a_pbrt_roughness_texture_renders_alike_on_gpu_and_cpu_and_a_constant_one_as_its_constant() {
-    let d = dir("render");
+    let d = fresh_dir("render");
     // A ramp in u (phi around the sphere), linear: roughness from 0.03 to 0.6.
     std::fs::write(d.join("ramp.png"), png_bytes(16, 2, |x, _| grey(8 + 15 * x as u8))).unwrap();
     std::fs::write(d.join("flat.png"), png_bytes(4, 4, |_, _| grey(40))).unwrap();
@@ -163,7 +144,7 @@ fn a_pbrt_roughness_texture_renders_alike_on_gpu_and_cpu_and_a_constant_one_as_i
 
 #[test]
 fn pbrt_sphere_uvs_are_phi_over_phimax_and_theta_over_its_range_in_object_space() {
-    let d = dir("sphere-uv");
+    let d = fresh_dir("sphere-uv");
     std::fs::write(d.join("c.png"), png_bytes(2, 2, |x, y| grey(((x + y) % 2 * 255) as u8))).unwrap();
     // Sphere 0: rotated 90 degrees about x (object +z is world -y, object +y world +z).
     // Sphere 1: phimax 180, z from -0.5 to 1 of radius 1 (rendered whole, noted).
@@ -214,19 +195,6 @@ fn pbrt_sphere_uvs_are_phi_over_phimax_and_theta_over_its_range_in_object_space(
         let du = (uv.x - want.x).rem_euclid(1.0);
         assert!(du.min(1.0 - du) < 1e-5 && (uv.y - want.y).abs() < 1e-5, "TOML sphere at {n}: {uv} vs {want}");
     }
-}
-
-/// Standard base64 (with padding), for a `data:` uri.
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in bytes.chunks(3) {
-        let n = (c[0] as u32) << 16 | (*c.get(1).unwrap_or(&0) as u32) << 8 | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            s.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
-        }
-    }
-    s
 }
 
 /// A `.glb` of the quad [-1, 1]^2 (z = 0, UVs at its corners): a metal whose
@@ -285,7 +253,7 @@ fn glb(colour: &[u8], roughness: &[u8]) -> Vec<u8> {
 #[test]
 fn gltf_images_embedded_in_a_glb_or_a_data_uri_are_read_as_textures_alike_on_gpu_and_cpu() {
     assert_eq!(base64(b"hello"), "aGVsbG8=");
-    let d = dir("glb");
+    let d = fresh_dir("glb");
     let (a, b) = ([250u8, 180, 40, 255], [40u8, 120, 250, 255]);
     let colour = png_bytes(4, 4, |x, y| if (x + y) % 2 == 0 { a } else { b });
     // Roughness in green (glTF's channel): a ramp across u; red and blue say otherwise.
@@ -325,7 +293,7 @@ fn gltf_images_embedded_in_a_glb_or_a_data_uri_are_read_as_textures_alike_on_gpu
 
 #[test]
 fn a_conductor_albedo_texture_tints_its_fresnel_alike_on_gpu_and_cpu() {
-    let d = dir("conductor");
+    let d = fresh_dir("conductor");
     let (a, b) = ([255u8, 200, 64, 255], [32u8, 128, 255, 255]);
     std::fs::write(d.join("tint.png"), png_bytes(8, 8, |x, y| if (x + y) % 2 == 0 { a } else { b })).unwrap();
     // A mirror conductor facing the camera under a uniform sky of 1: each pixel

@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::cli::fresh_dir;
+use common::files::{png_bytes, srgb};
 use common::*;
 use glam::Vec2;
 use rlpt::math::texture::texture_lookup;
@@ -12,18 +14,9 @@ use rlpt::prepared::PreparedScene;
 use rlpt::scene::Scene;
 use std::path::{Path, PathBuf};
 
-/// A fresh directory for one test's files.
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rlpt-textures-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 /// Writes an RGBA8 PNG of `w` x `h` texels, rows from the top.
 fn png(path: &Path, w: u32, h: u32, texel: impl Fn(u32, u32) -> [u8; 4]) {
-    let img = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba(texel(x, y)));
-    img.save(path).unwrap();
+    std::fs::write(path, png_bytes(w, h, texel)).unwrap();
 }
 
 /// The TOML of a camera one unit in front of the quad [-1, 1]^2 (z = 0) with a
@@ -64,13 +57,9 @@ fn write_scene(d: &Path, text: &str) -> PathBuf {
     p
 }
 
-fn srgb(b: u8) -> f32 {
-    rlpt::scene::texture::srgb_to_linear(b as f32 / 255.0)
-}
-
 #[test]
 fn bilinear_lookup_and_srgb_decode_match_hand_computed_values() {
-    let d = dir("lookup");
+    let d = fresh_dir("lookup");
     // 2 x 2 texels: (0,0) top-left 255 red, (1,0) 0, (0,1) 128, (1,1) 64 (bottom row).
     let grey = [[255u8, 0], [128, 64]];
     png(&d.join("t.png"), 2, 2, |x, y| {
@@ -124,7 +113,7 @@ fn checker(path: &Path, n: u32, a: [u8; 4], b: [u8; 4]) {
 
 #[test]
 fn checker_quad_in_a_furnace_renders_its_mean_albedo_alike_on_gpu_and_cpu() {
-    let d = dir("furnace");
+    let d = fresh_dir("furnace");
     let (a, b) = ([255u8, 200, 64, 255], [32u8, 128, 255, 255]);
     checker(&d.join("checker.png"), 8, a, b);
     let scene = Scene::load(write_scene(
@@ -199,7 +188,7 @@ fn assert_corner_uvs(scene: &Scene, what: &str) {
 
 #[test]
 fn uvs_are_read_from_obj_ply_gltf_and_pbrt_files() {
-    let d = dir("uvs");
+    let d = fresh_dir("uvs");
     checker(&d.join("checker.png"), 4, [255, 255, 255, 255], [0, 0, 0, 255]);
     // OBJ: v/vt corners, the vt order differing from the v order.
     std::fs::write(
@@ -266,7 +255,7 @@ fn uvs_are_read_from_obj_ply_gltf_and_pbrt_files() {
 
 #[test]
 fn a_textured_obj_mesh_renders_as_the_textured_quad_on_gpu_and_cpu() {
-    let d = dir("obj-render");
+    let d = fresh_dir("obj-render");
     let (a, b) = ([230u8, 60, 20, 255], [20u8, 90, 200, 255]);
     checker(&d.join("checker.png"), 8, a, b);
     std::fs::write(
@@ -287,7 +276,7 @@ fn a_textured_obj_mesh_renders_as_the_textured_quad_on_gpu_and_cpu() {
 
 #[test]
 fn a_missing_or_unreadable_texture_is_refused_with_its_path_as_written_and_resolved() {
-    let d = dir("errors");
+    let d = fresh_dir("errors");
     let material = |file: &str| {
         format!(
             "[[material]]\nname = \"tex\"\ntype = \"diffuse\"\nalbedo = [1.0, 1.0, 1.0]\nalbedo_texture = \"{file}\""
@@ -310,7 +299,7 @@ fn a_missing_or_unreadable_texture_is_refused_with_its_path_as_written_and_resol
 
 #[test]
 fn a_mesh_without_uvs_takes_the_textures_mean_with_a_note() {
-    let d = dir("no-uvs");
+    let d = fresh_dir("no-uvs");
     let (a, b) = ([255u8, 255, 255, 255], [0u8, 0, 0, 255]);
     checker(&d.join("checker.png"), 2, a, b);
     std::fs::write(d.join("q.obj"), "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n").unwrap();
@@ -324,7 +313,7 @@ fn a_mesh_without_uvs_takes_the_textures_mean_with_a_note() {
 
 #[test]
 fn a_glossy_sphere_with_colour_and_roughness_textures_renders_alike_on_gpu_and_cpu() {
-    let d = dir("sphere");
+    let d = fresh_dir("sphere");
     checker(&d.join("checker.png"), 8, [250, 180, 40, 255], [40, 120, 250, 255]);
     // Roughness: a grey ramp across u, read linearly.
     png(&d.join("rough.png"), 16, 1, |x, _| {

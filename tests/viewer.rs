@@ -4,6 +4,7 @@
 
 mod common;
 
+use common::cli::{rlpt, tmp, Checked};
 use common::*;
 use rlpt::image::Image;
 use std::io::{BufRead, BufReader};
@@ -48,31 +49,13 @@ fn view(args: &[&str]) -> Output {
 /// `view` with environment variables `env` set (test hooks).
 fn view_with(args: &[&str], env: &[(&str, &str)]) -> Output {
     let x = Xvfb::start();
-    let out = Command::new(env!("CARGO_BIN_EXE_rlpt"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
+    rlpt()
         .arg("view")
         .args(args)
         .envs(env.iter().copied())
         .env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")
-        .env("RLPT_VALIDATION", "1")
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .expect("rlpt runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    // Each message is printed as "vulkan validation (...)"; those at the context's
-    // destruction also end the run with "the Vulkan validation layer reported N problem(s)".
-    assert!(
-        !stderr.contains("vulkan validation") && !stderr.contains("validation layer reported"),
-        "the validation layer spoke:\n{stderr}"
-    );
-    out
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-viewer-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+        .checked_output()
 }
 
 /// The PNG bytes the viewer would show for linear value `l` (clamped, sRGB, 8 bits).
@@ -184,11 +167,6 @@ fn guided_view_runs_clean() {
 
 #[test]
 fn bad_view_arguments_are_sentences() {
-    let rlpt = || {
-        let mut c = Command::new(env!("CARGO_BIN_EXE_rlpt"));
-        c.current_dir(env!("CARGO_MANIFEST_DIR")).env("XDG_RUNTIME_DIR", std::env::temp_dir());
-        c
-    };
     // A directory named like a PNG: refused before the window opens, as the CLI's outputs are.
     let dir = std::env::temp_dir().join("rlpt-view-shot-dir.png");
     std::fs::create_dir_all(&dir).unwrap();
@@ -204,7 +182,7 @@ fn bad_view_arguments_are_sentences() {
         (vec!["--gpus", "0,x"], "`x` is not a device index"),
         (vec!["--gpu", "0", "--gpus", "0"], "both pick GPUs"),
     ] {
-        let o = rlpt().arg("view").arg("scenes/smallpt.toml").args(&args).output().unwrap();
+        let o = rlpt().arg("view").arg("scenes/smallpt.toml").args(&args).checked_output();
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{args:?} was accepted");
         assert!(stderr.contains(expect), "{args:?}: {stderr}");
@@ -214,8 +192,7 @@ fn bad_view_arguments_are_sentences() {
     let o = rlpt()
         .args(["view", "scenes/door.toml", "--gpus", "0,0", "--guiding", "sphere", "--unguided-frames", "auto"])
         .env("RLPT_TEST_DUPLICATE_GPUS", "1")
-        .output()
-        .unwrap();
+        .checked_output();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && stderr.contains("chooses each frame's kernel on one GPU"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
@@ -224,8 +201,7 @@ fn bad_view_arguments_are_sentences() {
         .args(["view", "scenes/smallpt.toml"])
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .unwrap();
+        .checked_output();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(stderr.contains("cannot open a window") && stderr.contains("DISPLAY"), "{stderr}");
@@ -238,15 +214,13 @@ fn bad_view_arguments_are_sentences() {
 #[test]
 fn the_viewer_starts_from_a_saved_field() {
     let (field, img) = (tmp("door.qtab"), tmp("field-render.png"));
-    let render = Command::new(env!("CARGO_BIN_EXE_rlpt"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
+    let render = rlpt()
         .args(["render", "scenes/door.toml", "--width", "24", "--height", "16", "--spp", "128"])
         .args(["--guiding", "sphere", "--device", "cpu", "-o"])
         .arg(&img)
         .arg("--guide-out")
         .arg(&field)
-        .output()
-        .unwrap();
+        .checked_output();
     assert!(render.status.success(), "{}", String::from_utf8_lossy(&render.stderr));
     let shot = tmp("field-view.png");
     let f = field.to_str().unwrap();

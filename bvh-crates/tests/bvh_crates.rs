@@ -12,7 +12,7 @@ mod bvh_support;
 
 use bvh_support::*;
 use rayon::prelude::*;
-use rlpt::layout::{prim_ref, GpuBvhNode, GpuTriangle, RenderParams, Room, SceneArrays};
+use rlpt::layout::{prim_ref, GpuBvhNode, SceneArrays};
 use rlpt::math::bvh::{self, closest_hit, occluded, PrimBox};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
@@ -236,32 +236,6 @@ fn rays(tris: &[[Vec3; 3]], n: usize) -> Rays {
     Rays { outside, inside }
 }
 
-/// A scene of the triangles alone; the tree is put in by `with_tree`.
-fn triangle_scene(tris: &[[Vec3; 3]]) -> SceneArrays {
-    let triangles = tris
-        .iter()
-        .map(|[a, b, c]| GpuTriangle { v0: (*a).into(), v1: (*b).into(), v2: (*c).into(), ..Default::default() })
-        .collect();
-    SceneArrays {
-        params: RenderParams::default(),
-        materials: vec![],
-        spheres: vec![],
-        quads: vec![],
-        lights: vec![],
-        triangles,
-        triangle_normals: vec![],
-        bvh_nodes: vec![],
-        prim_refs: vec![],
-        room: Room::NONE,
-        env_texels: vec![],
-        env_cdf: vec![],
-        textures: vec![],
-        texels: vec![],
-        triangle_uvs: vec![],
-        sphere_uvs: vec![],
-    }
-}
-
 fn with_tree(s: &mut SceneArrays, t: &Tree) {
     s.bvh_nodes.clone_from(&t.nodes);
     s.prim_refs.clone_from(&t.prim_refs);
@@ -384,9 +358,9 @@ fn compare_bvh_builders() {
             built.push((name, wall, cpu, tree));
         }
         let rays = rays(tris, rays_per_kind);
-        let mut reference = triangle_scene(tris);
+        let mut reference = triangle_arrays(tris.iter().copied().map(gpu_triangle).collect());
         with_tree(&mut reference, &built[0].3);
-        let mut s = triangle_scene(tris);
+        let mut s = triangle_arrays(tris.iter().copied().map(gpu_triangle).collect());
         let mut rates = vec![[0.0f64; 4]; built.len()];
         let mut walkable = vec![true; built.len()];
         for (k, (name, _, _, tree)) in built.iter().enumerate() {

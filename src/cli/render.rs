@@ -168,7 +168,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let mut guide_in = None;
     if let Some(path) = &args.guide_in {
         prepared.start_from(GuideField::load(path)?, path, &opts)?;
-        use rlpt::guide::GridKind;
+        use rlpt::scene::GridKind;
         let grid = prepared.guide.map(|g| if g.grid.adaptive() { GridKind::Adaptive } else { GridKind::Uniform });
         if let (Some(asked), Some(has)) = (opts.guide_grid, grid) {
             if asked != has {

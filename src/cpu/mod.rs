@@ -90,7 +90,7 @@ pub struct CpuRenderer {
     /// Frames traced so far (decorrelates random numbers; not reset with the film).
     frames_traced: u32,
     /// Added to the random numbers' frame index on the image's frames
-    /// (`crate::render::rng_frame`).
+    /// (`crate::math::sampler::rng_frame`).
     frame_offset: u32,
     /// The learning frames left out of the image once it starts (0 until then, and
     /// after `reset_film`): learned roulette's estimate still counts them.
@@ -140,7 +140,7 @@ impl CpuRenderer {
     }
 
     /// Sets the random numbers' frame offset of the image's frames
-    /// (`crate::render::rng_frame`), before the first frame: a part of a split
+    /// (`crate::math::sampler::rng_frame`), before the first frame: a part of a split
     /// render (`crate::parts`).
     pub fn set_frame_offset(&mut self, offset: u32) {
         assert_eq!(self.frames_traced, 0, "the frame offset is set before the first frame");
@@ -173,7 +173,7 @@ impl CpuRenderer {
             self.film.frames = 0;
         }
         let (accum_frames, learned_frames) = (self.film.frames, self.learned_frames);
-        let rng_frame = crate::render::rng_frame(self.frames_traced, learning_frames, self.frame_offset);
+        let rng_frame = crate::math::sampler::rng_frame(self.frames_traced, learning_frames, self.frame_offset);
         // A loaded field has learned: learned roulette need not wait for it.
         let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
         let scene = &self.scene;

@@ -2,29 +2,7 @@
 //! of the scene that bounds it; `glsl/guide.glsl` `cell_index` is the GPU twin.
 
 use super::*;
-
-/// Whether the grid's cells split where paths teach them (`--guide-grid`,
-/// `[guiding] grid`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum GridKind {
-    /// Cells of one size.
-    #[default]
-    #[value(help = "cells of one size")]
-    Uniform,
-    /// Half the cells along each axis, each splitting into 8 (three times at most)
-    /// where paths record many targets, in the table of the uniform grid.
-    #[value(help = "coarser cells that split where paths record many targets, in the same memory")]
-    Adaptive,
-}
-
-impl GridKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            GridKind::Uniform => "uniform",
-            GridKind::Adaptive => "adaptive",
-        }
-    }
-}
+use crate::scene::GridKind;
 
 /// The voxel grid whose cells are the states.
 #[derive(Clone, Copy, Debug, PartialEq)]

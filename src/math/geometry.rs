@@ -423,7 +423,7 @@ pub fn meets_light(scene: &SceneArrays, o: Vec3, d: Vec3) -> bool {
 
 /// The sphere and the quad a shadow ray skips, from the primitive reference
 /// [`LightSample::skip`]: `shared::NO_SPHERE` / `shared::NO_QUAD` where it is of
-/// another kind. `glsl/geometry.glsl` `skip_sphere_quad`.
+/// another kind. `glsl/geometry.glsl` `occluded` computes the same inline.
 pub fn skip_sphere_quad(skip: u32) -> (u32, u32) {
     let (kind, i) = prim_kind_index(skip);
     match kind {

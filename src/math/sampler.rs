@@ -141,14 +141,36 @@ impl PathSampler {
 
     /// Where in pixel sample `sample` of a frame looks ([0, 1)^2): independent
     /// samples take their own of the 8 x 8 sub-squares, jittered
-    /// ([`crate::camera::pixel_jitter`]); Sobol's points are stratified already.
+    /// ([`pixel_jitter`]); Sobol's points are stratified already.
     /// `glsl/sampler.glsl` `sample_pixel`.
     pub fn sample_pixel(&mut self, sample: u32) -> [f32; 2] {
         let j = self.sample_2d(shared::SAMPLE_CAMERA);
         match self.kind {
-            SamplerKind::Independent => crate::camera::pixel_jitter(sample, j),
+            SamplerKind::Independent => pixel_jitter(sample, j),
             SamplerKind::Sobol => j,
         }
+    }
+}
+
+/// Where in its pixel sample `sample` (0..64) of a frame looks: the pixel is cut
+/// into the 8 x 8 grid of the workgroup's samples, and each sample is jittered by
+/// `j` inside its own sub-square (stratified sampling: edges converge much faster
+/// than with 64 independent positions). `glsl/sampler.glsl` `sample_pixel`.
+pub fn pixel_jitter(sample: u32, j: [f32; 2]) -> [f32; 2] {
+    let (sx, sy) = (shared::SAMPLES_X, shared::SAMPLES_Y);
+    [((sample % sx) as f32 + j[0]) / sx as f32, ((sample / sx) as f32 + j[1]) / sy as f32]
+}
+
+/// The frame index of the random numbers of the frame traced after `traced`
+/// frames: the learning frames keep theirs, so that every part of a split render
+/// learns the table an unsplit render would; the image's frames add `offset`, the
+/// part's first frame (`crate::parts::Part::frames`), so that parts draw disjoint
+/// samples. Recording and learned roulette go by `traced` alone.
+pub fn rng_frame(traced: u32, learning_frames: u32, offset: u32) -> u32 {
+    if traced < learning_frames {
+        traced
+    } else {
+        traced + offset
     }
 }
 

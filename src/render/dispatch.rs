@@ -1,6 +1,5 @@
 //! How a frame's work is dispatched: which pixel rows each dispatch of
-//! `pathtrace.comp` traces, by which kernel, and the workgroup's shape; the
-//! frame index of the random numbers.
+//! `pathtrace.comp` traces, by which kernel, and the workgroup's shape.
 
 use crate::guide::RecordSchedule;
 use crate::shared;
@@ -15,19 +14,6 @@ pub struct RowDispatch {
     pub rows: u32,
     /// Workgroup rows to dispatch.
     pub groups_y: u32,
-}
-
-/// The frame index of the random numbers of the frame traced after `traced`
-/// frames: the learning frames keep theirs, so that every part of a split render
-/// learns the table an unsplit render would; the image's frames add `offset`, the
-/// part's first frame (`crate::parts::Part::frames`), so that parts draw disjoint
-/// samples. Recording and learned roulette go by `traced` alone.
-pub fn rng_frame(traced: u32, learning_frames: u32, offset: u32) -> u32 {
-    if traced < learning_frames {
-        traced
-    } else {
-        traced + offset
-    }
 }
 
 /// The dispatches that trace frame `frame` (frames traced before it) of an image

@@ -4,6 +4,7 @@
 //! `render_frame_profiled`).
 
 use super::*;
+use crate::math::sampler::rng_frame;
 
 impl GpuRenderer {
     /// The kernel's push constants for the next frame (`rows` left 0, `cmd_trace`

@@ -4,7 +4,7 @@
 //! viewer what it changes between frames (camera, NEE, restarts) on every device.
 
 use super::*;
-use crate::renderer::{FrameReport, Renderer, RoundReport};
+use crate::renderer::{forward_renderer_queries, FrameReport, Renderer, RoundReport};
 
 /// A renderer on one GPU or on several; see the module's description.
 pub enum GpuSet {
@@ -122,19 +122,5 @@ impl Renderer for GpuSet {
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         self.renderer_mut().render_round(max, time_left_ms)
     }
-    fn image_frames(&self) -> u32 {
-        self.renderer().image_frames()
-    }
-    fn film(&self) -> Result<Film, GpuError> {
-        self.renderer().film()
-    }
-    fn device_name(&self) -> String {
-        self.renderer().device_name()
-    }
-    fn timestamps(&self) -> bool {
-        self.renderer().timestamps()
-    }
-    fn table(&self) -> Result<Option<QTable>, GpuError> {
-        self.renderer().table()
-    }
+    forward_renderer_queries!(self => self.renderer());
 }

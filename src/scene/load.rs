@@ -16,7 +16,7 @@ use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
 use super::mesh::MeshError;
-use super::{Camera, GuidingSettings, Material, MaterialKind, Quad, RenderSettings, Scene, Sphere};
+use super::{Camera, GridKind, GuidingSettings, Material, MaterialKind, Quad, RenderSettings, Scene, Sphere};
 
 mod material;
 mod mesh_table;
@@ -528,8 +528,8 @@ fn parse_guiding(t: &Table<'_, '_, '_>) -> Result<GuidingSettings, SceneError> {
     if let Some(v) = t.get("grid") {
         let expected = "\"uniform\" or \"adaptive\"";
         g.grid = Some(match t.string("grid", v, expected)? {
-            "uniform" => crate::guide::GridKind::Uniform,
-            "adaptive" => crate::guide::GridKind::Adaptive,
+            "uniform" => GridKind::Uniform,
+            "adaptive" => GridKind::Adaptive,
             other => {
                 return Err(t.error_at(v.span(), format!("key `grid` must be {expected}, found \"{other}\"")));
             }

@@ -210,6 +210,29 @@ pub struct Mesh {
     pub uvs: Option<Vec<Vec2>>,
 }
 
+/// Whether the guiding grid's cells (`crate::guide::Grid`) split where paths
+/// teach them (`--guide-grid`, `[guiding] grid`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum GridKind {
+    /// Cells of one size.
+    #[default]
+    #[value(help = "cells of one size")]
+    Uniform,
+    /// Half the cells along each axis, each splitting into 8 (three times at most)
+    /// where paths record many targets, in the table of the uniform grid.
+    #[value(help = "coarser cells that split where paths record many targets, in the same memory")]
+    Adaptive,
+}
+
+impl GridKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            GridKind::Uniform => "uniform",
+            GridKind::Adaptive => "adaptive",
+        }
+    }
+}
+
 /// The optional `[guiding]` table: where the guiding grid lies and how fine it is.
 /// Every field is optional; `None` means "choose automatically" (see `rlpt::guide`).
 ///
@@ -224,7 +247,7 @@ pub struct GuidingSettings {
     pub resolution: Option<[u32; 3]>,
     /// Uniform or adaptive cells (`grid = "adaptive"`); the command line's
     /// `--guide-grid` overrides it.
-    pub grid: Option<crate::guide::GridKind>,
+    pub grid: Option<GridKind>,
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -1,10 +1,12 @@
-//! What the BVH tests share (tests/bvh.rs, tests/bvh_gpu.rs): a test-only PLY
-//! reader, the bunny and a mixed scene prepared as the renderers prepare them,
-//! random rays in bundles, the brute-force reference, and a closed icosphere
+//! What the BVH tests share (tests/bvh.rs, tests/bvh_gpu.rs,
+//! bvh-crates/tests/bvh_crates.rs): a test-only PLY reader, the bunny and a mixed
+//! scene prepared as the renderers prepare them, scenes of bare triangles, random
+//! rays in bundles, the brute-force reference, and a closed icosphere
 //! (tests/mesh_render.rs too).
 #![allow(dead_code)]
 
-use rlpt::layout::{prim_kind_index, prim_ref, SceneArrays};
+use rlpt::layout::{prim_kind_index, prim_ref, GpuTriangle, RenderParams, Room, SceneArrays};
+use rlpt::math::bvh::{self, PrimBox};
 use rlpt::math::geometry::{intersect_quad, intersect_sphere, sphere_blocks};
 use rlpt::math::rng::Rng;
 use rlpt::math::triangle::intersect_triangle;
@@ -229,6 +231,56 @@ pub fn mixed() -> PreparedScene {
         scene.quads.push(Quad { origin, edge_u, edge_v, material: 0 });
     }
     prepare(&scene)
+}
+
+/// The layout's triangle of corners `a`, `b`, `c` (material, light and normals 0).
+pub fn gpu_triangle([a, b, c]: [Vec3; 3]) -> GpuTriangle {
+    GpuTriangle { v0: a.into(), v1: b.into(), v2: c.into(), ..Default::default() }
+}
+
+/// `n` random triangles of about `size` around points of [0, 10]^3.
+pub fn random_triangles(n: usize, seed: u32, size: f32) -> Vec<GpuTriangle> {
+    let mut rng = Rng::new(seed, 0, 0, 0);
+    let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    (0..n)
+        .map(|_| {
+            let c = r3() * 10.0;
+            gpu_triangle([c, c + (r3() - 0.5) * size, c + (r3() - 0.5) * size])
+        })
+        .collect()
+}
+
+/// The builder's input for `triangles`: triangle i's reference and box.
+pub fn triangle_boxes(triangles: &[GpuTriangle]) -> Vec<PrimBox> {
+    triangles.iter().enumerate().map(|(i, t)| PrimBox::triangle(i as u32, t)).collect()
+}
+
+/// A scene of `triangles` alone, without a tree (the caller puts one in).
+pub fn triangle_arrays(triangles: Vec<GpuTriangle>) -> SceneArrays {
+    SceneArrays {
+        params: RenderParams::default(),
+        materials: vec![],
+        spheres: vec![],
+        quads: vec![],
+        lights: vec![],
+        triangles,
+        triangle_normals: vec![],
+        bvh_nodes: vec![],
+        prim_refs: vec![],
+        room: Room::NONE,
+        env_texels: vec![],
+        env_cdf: vec![],
+        textures: vec![],
+        texels: vec![],
+        triangle_uvs: vec![],
+        sphere_uvs: vec![],
+    }
+}
+
+/// A scene of `triangles` alone over rlpt's BVH of them.
+pub fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
+    let built = bvh::build(&triangle_boxes(&triangles));
+    SceneArrays { bvh_nodes: built.nodes, prim_refs: built.prim_refs, ..triangle_arrays(triangles) }
 }
 
 /// The box around the scene: the union of the root's two boxes.

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod cli;
+pub mod files;
 pub mod guiding;
 pub mod scene_pieces;
 

@@ -1,41 +1,25 @@
 //! Helpers of the pbrt import tests: scenes written into a directory of the
-//! test's own, loaded or refused.
+//! test's own (`common::cli::fresh_dir`, `common::files::write`), loaded or
+//! refused. The including test declares `mod common`.
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
-
+use super::common::cli::fresh_dir;
+use super::common::files::write;
 use rlpt::scene::Scene;
-
-/// A fresh directory for one test.
-pub fn dir(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rlpt-pbrt-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    if let Some(parent) = p.parent() {
-        std::fs::create_dir_all(parent).unwrap();
-    }
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 /// A triangle shape for scenes that need some geometry.
 pub const TRIANGLE: &str = "Shape \"trianglemesh\" \"point3 P\" [0 0 5  1 0 5  0 1 5] \"integer indices\" [0 1 2]\n";
 
 /// Loads `text` as `scene.pbrt` in a directory of its own.
 pub fn load(test: &str, text: &str) -> Scene {
-    let d = dir(test);
+    let d = fresh_dir(test);
     let p = write(&d, "scene.pbrt", text);
     Scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The refusal of `text`, with the scene path replaced by `scene.pbrt`.
 pub fn refuse(test: &str, text: &str, strict: bool) -> String {
-    let d = dir(test);
+    let d = fresh_dir(test);
     let p = write(&d, "scene.pbrt", text);
     match Scene::load_with(&p, strict) {
         Ok(_) => panic!("{test}: the scene loaded; expected a refusal"),
