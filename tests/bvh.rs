@@ -231,11 +231,7 @@ fn measure_build_and_walk() {
     let boxes = |tris: &[[Vec3; 3]]| -> Vec<PrimBox> {
         tris.iter()
             .enumerate()
-            .map(|(i, [a, b, c])| PrimBox {
-                prim: prim_ref(shared::PRIM_TRIANGLE, i as u32),
-                lo: a.min(*b).min(*c),
-                hi: a.max(*b).max(*c),
-            })
+            .map(|(i, t)| PrimBox::from_vertices(prim_ref(shared::PRIM_TRIANGLE, i as u32), *t))
             .collect()
     };
     let bunny_tris = ply_triangles(&read_ply(&asset("stanford_bunny/bun_zipper.ply")));
