@@ -263,12 +263,15 @@ fn rays(tris: &[[Vec3; 3]], n: usize) -> Rays {
     Rays { outside, inside }
 }
 
+/// A ray: origin, unit direction and the end of its shadow segment.
+type Ray = (Vec3, Vec3, f32);
+
 /// Rays as a render of the BMW shoots them (issue 36's camera: from (-11, 0.8, 5)
 /// towards (-2, -0.5, 0), up +y, 30 degrees vertically, 1400x1000): `n` camera
 /// rays through random pixels, and from each hit a diffuse bounce (cosine about the
 /// normal on the ray's side, leaving the surface by 1e-4 of the hit's scale) with
 /// its sky shadow ray (the same direction, unbounded). Rays, then bounces.
-fn render_rays(s: &SceneArrays, n: usize) -> (Vec<(Vec3, Vec3, f32)>, Vec<(Vec3, Vec3, f32)>) {
+fn render_rays(s: &SceneArrays, n: usize) -> (Vec<Ray>, Vec<Ray>) {
     let (eye, at) = (Vec3::new(-11.0, 0.8, 5.0), Vec3::new(-2.0, -0.5, 0.0));
     let w = (at - eye).normalize();
     let u = w.cross(Vec3::Y).normalize();
@@ -396,7 +399,7 @@ fn walk_rates(s: &SceneArrays, rays: &[(Vec3, Vec3, f32)]) -> [f64; 2] {
 /// Builds each tree of the bunny and the BMW M6 (median of 5 builds; 3 where a
 /// build takes over a second; wall and CPU time), checks it gives rlpt's tree's
 /// answers, and prints its shape, SAH cost and walk rates (per CPU second of one
-/// thread, the best of 3 passes, the trees interleaved).
+/// thread, the best of 5 passes, the trees interleaved).
 #[test]
 #[ignore]
 fn compare_bvh_builders() {
@@ -492,7 +495,7 @@ fn compare_bvh_builders() {
                 ties + ties_in
             );
         }
-        for _ in 0..3 {
+        for _ in 0..5 {
             for (k, (_, _, _, tree)) in built.iter().enumerate() {
                 if !walkable[k] {
                     continue;
