@@ -61,7 +61,7 @@
 // BvhNode child words: bit 31 set for a leaf, whose first reference in
 // prim_refs is the rest and whose count is the child's count word; else the
 // index of an interior node. The traversal's stack holds at most BVH_STACK
-// entries; the builder keeps the depth below it (src/math/bvh.rs).
+// entries; the builder keeps the depth below it (src/math/bvh/build.rs).
 #define BVH_LEAF 2147483648
 #define BVH_STACK 64
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,

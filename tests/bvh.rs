@@ -14,7 +14,7 @@ mod bvh_support;
 use bvh_support::*;
 use rayon::prelude::*;
 use rlpt::layout::SceneArrays;
-use rlpt::math::bvh::{self, closest_hit, occluded, PrimBox};
+use rlpt::math::bvh::{self, closest_hit, occluded};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
 use rlpt::shared;
@@ -128,130 +128,6 @@ fn the_bundles_reference_is_all_of_brute_force() {
             .sum();
         assert!(hits > 100, "{hits} hits");
     }
-}
-
-// The builder's trees, and the walks over them against brute force on bare triangles.
-
-/// Checks the structure: every reference once, every box holding what lies
-/// below it, the depth as reported and within the stack.
-fn check(bvh: &bvh::Bvh, prims: &[PrimBox]) {
-    let mut seen = vec![0u32; prims.len()];
-    let by_ref: std::collections::HashMap<u32, &PrimBox> = prims.iter().map(|p| (p.prim, p)).collect();
-    let inside = |lo: [f32; 3], hi: [f32; 3], p: &PrimBox| (0..3).all(|k| lo[k] <= p.lo[k] && p.hi[k] <= hi[k]);
-    // (node, depth, the box it was reached through)
-    let mut todo = vec![(0u32, 1u32)];
-    let mut max_depth = 0;
-    let mut reached = 0;
-    while let Some((node, depth)) = todo.pop() {
-        reached += 1;
-        max_depth = max_depth.max(depth);
-        let n = &bvh.nodes[node as usize];
-        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
-            if child & shared::BVH_LEAF != 0 {
-                let first = (child & !shared::BVH_LEAF) as usize;
-                for &r in &bvh.prim_refs[first..first + count as usize] {
-                    let p = by_ref[&r];
-                    assert!(inside(lo, hi, p), "leaf box holds its primitive");
-                    seen[prims.iter().position(|q| q.prim == r).unwrap()] += 1;
-                }
-            } else {
-                assert_eq!(count, 0);
-                // The child's own children lie in this box.
-                let c = &bvh.nodes[child as usize];
-                for (l, h) in [(c.a_lo, c.a_hi), (c.b_lo, c.b_hi)] {
-                    if c.a_count + c.b_count > 0 || c.a_child & shared::BVH_LEAF == 0 {
-                        assert!((0..3).all(|k| lo[k] <= l[k] && h[k] <= hi[k]) || l == h, "nested boxes");
-                    }
-                }
-                todo.push((child, depth + 1));
-            }
-        }
-    }
-    assert_eq!(reached, bvh.nodes.len(), "every node reached once");
-    assert!(seen.iter().all(|&s| s == 1), "every primitive in one leaf");
-    assert_eq!(bvh.prim_refs.len(), prims.len());
-    assert_eq!(max_depth, bvh.depth);
-    assert!(bvh.depth <= bvh::MAX_DEPTH);
-}
-
-#[test]
-fn builds_valid_trees_for_empty_single_coincident_and_random_inputs() {
-    let empty = bvh::build(&[]);
-    assert!(empty.nodes.is_empty() && empty.prim_refs.is_empty() && empty.depth == 0);
-
-    let one = triangle_boxes(&random_triangles(1, 1, 1.0));
-    let b = bvh::build(&one);
-    assert_eq!(b.nodes.len(), 1);
-    assert_eq!((b.nodes[0].a_child, b.nodes[0].a_count), (shared::BVH_LEAF, 1));
-    assert_eq!(b.nodes[0].b_count, 0);
-    check(&b, &one);
-
-    // Many copies of one triangle: their centroids coincide, one leaf holds them.
-    let t = random_triangles(1, 2, 1.0)[0];
-    let same: Vec<_> = triangle_boxes(&vec![t; 40]);
-    let b = bvh::build(&same);
-    check(&b, &same);
-    assert_eq!(b.nodes.len(), 1);
-
-    for n in [2, 3, 5, 17, 1000, 70_000] {
-        let prims = triangle_boxes(&random_triangles(n, n as u32, 0.3));
-        let b = bvh::build(&prims);
-        check(&b, &prims);
-        let max_leaf = b.nodes.iter().flat_map(|n| [n.a_count, n.b_count]).max().unwrap();
-        assert!(max_leaf as usize <= bvh::MAX_LEAF, "{n}: a leaf of {max_leaf}");
-    }
-}
-
-#[test]
-fn depth_stays_within_the_stack_on_a_skewed_input() {
-    // Triangles at x = 1.01^k - 1: the SAH peels a few off the far end at each level.
-    let tris: Vec<_> = (0..3000)
-        .map(|k| {
-            let x = 1.01f32.powi(k) - 1.0;
-            gpu_triangle([Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1e-3 * (x + 1.0), 1.0, 0.0), Vec3::new(x, 0.0, 1.0)])
-        })
-        .collect();
-    let prims = triangle_boxes(&tris);
-    let b = bvh::build(&prims);
-    check(&b, &prims);
-    let s = triangle_scene(tris);
-    let all = all_prims(&s);
-    let mut rng = Rng::new(5, 0, 0, 0);
-    for _ in 0..2000 {
-        let o = Vec3::new(rng.next_f32() * 30.0, rng.next_f32(), -1.0);
-        let d = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 1.0).normalize();
-        assert_eq!(closest_hit(&s, o, d, f32::INFINITY), brute_closest(&s, &all, o, d, f32::INFINITY));
-    }
-}
-
-#[test]
-fn walks_find_what_brute_force_finds_axis_parallel_rays_included() {
-    let s = triangle_scene(random_triangles(3000, 9, 1.0));
-    let all = all_prims(&s);
-    let mut rng = Rng::new(7, 0, 0, 0);
-    let (mut hits, mut ties) = (0, 0);
-    for i in 0..20_000 {
-        let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 14.0 - 2.0;
-        let mut d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
-        // Directions with zero components: the slab test's 0 * inf.
-        if i % 4 == 0 {
-            d[i % 3] = 0.0;
-        }
-        if i % 8 == 0 {
-            d[(i + 1) % 3] = 0.0;
-        }
-        let d = d.normalize();
-        let (got, want) = (closest_hit(&s, o, d, f32::INFINITY), brute_closest(&s, &all, o, d, f32::INFINITY));
-        assert_eq!(got.map(|g| g.0), want.map(|w| w.0), "ray {o} {d}");
-        ties += (got != want) as u32;
-        hits += got.is_some() as u32;
-        let t_max = want.map_or(5.0, |w| w.0 * 1.5);
-        assert_eq!(occluded(&s, o, d, t_max, shared::NO_PRIM), want.is_some_and(|w| w.0 < t_max));
-        if let Some((t, r)) = want {
-            assert!(!occluded(&s, o, d, t * 0.999, shared::NO_PRIM) || brute_occluded(&s, &all, o, d, t * 0.999, r));
-        }
-    }
-    assert!(hits > 3000 && ties < 5, "{hits} hits, {ties} ties");
 }
 
 #[test]

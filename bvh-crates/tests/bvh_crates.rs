@@ -79,17 +79,14 @@ fn lay_out(root: [(Vec3, Vec3, Child); 2], expand: &dyn Fn(usize) -> [(Vec3, Vec
     tree
 }
 
-fn rlpt_tree(tris: &[[Vec3; 3]]) -> Tree {
+/// rlpt's tree, with spatial splits (`bvh::build`) or without.
+fn rlpt_tree(tris: &[[Vec3; 3]], spatial_splits: bool) -> Tree {
     let prims: Vec<PrimBox> = tris
         .iter()
         .enumerate()
-        .map(|(i, [a, b, c])| PrimBox {
-            prim: prim_ref(shared::PRIM_TRIANGLE, i as u32),
-            lo: a.min(*b).min(*c),
-            hi: a.max(*b).max(*c),
-        })
+        .map(|(i, t)| PrimBox::from_vertices(prim_ref(shared::PRIM_TRIANGLE, i as u32), *t))
         .collect();
-    let b = bvh::build(&prims);
+    let b = bvh::build_with(&prims, spatial_splits);
     Tree { nodes: b.nodes, prim_refs: b.prim_refs }
 }
 
@@ -203,6 +200,36 @@ fn shape(t: &Tree) -> Shape {
     s
 }
 
+/// The SAH cost as `shape` sums it, split by the level of the node (the root's 1)
+/// whose visit or leaf tests it counts: where in the tree the cost lies.
+fn sah_by_level(t: &Tree) -> String {
+    let area = |lo: [f32; 3], hi: [f32; 3]| {
+        let e: [f64; 3] = std::array::from_fn(|k| (hi[k] - lo[k]).max(0.0) as f64);
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    };
+    let r = &t.nodes[0];
+    let root =
+        area(std::array::from_fn(|k| r.a_lo[k].min(r.b_lo[k])), std::array::from_fn(|k| r.a_hi[k].max(r.b_hi[k])));
+    // Per level: node visits and leaf tests.
+    let mut levels = vec![[0.0f64; 2]; 1];
+    let mut todo = vec![(0u32, root, 0usize)];
+    while let Some((i, a, level)) = todo.pop() {
+        if levels.len() <= level + 1 {
+            levels.resize(level + 2, [0.0; 2]);
+        }
+        levels[level][0] += a / root;
+        let n = &t.nodes[i as usize];
+        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
+            if child & shared::BVH_LEAF != 0 {
+                levels[level + 1][1] += count as f64 * area(lo, hi) / root;
+            } else {
+                todo.push((child, area(lo, hi), level + 1));
+            }
+        }
+    }
+    levels.iter().enumerate().map(|(l, [n, p])| format!("{}:{n:.2}+{p:.2}", l + 1)).collect::<Vec<_>>().join(" ")
+}
+
 /// Rays through a mesh, as `measure_build_and_walk` in tests/bvh.rs shoots them:
 /// from points around it (a sphere of its box's diagonal) towards random points of
 /// its box, "outside" (camera-like, most hit), and from random points inside its
@@ -234,6 +261,46 @@ fn rays(tris: &[[Vec3; 3]], n: usize) -> Rays {
         })
         .collect();
     Rays { outside, inside }
+}
+
+/// A ray: origin, unit direction and the end of its shadow segment.
+type Ray = (Vec3, Vec3, f32);
+
+/// Rays as a render of the BMW shoots them (issue 36's camera: from (-11, 0.8, 5)
+/// towards (-2, -0.5, 0), up +y, 30 degrees vertically, 1400x1000): `n` camera
+/// rays through random pixels, and from each hit a diffuse bounce (cosine about the
+/// normal on the ray's side, leaving the surface by 1e-4 of the hit's scale) with
+/// its sky shadow ray (the same direction, unbounded). Rays, then bounces.
+fn render_rays(s: &SceneArrays, n: usize) -> (Vec<Ray>, Vec<Ray>) {
+    let (eye, at) = (Vec3::new(-11.0, 0.8, 5.0), Vec3::new(-2.0, -0.5, 0.0));
+    let w = (at - eye).normalize();
+    let u = w.cross(Vec3::Y).normalize();
+    let v = u.cross(w);
+    let tan = (15.0f32).to_radians().tan();
+    let mut rng = Rng::new(9, 36, 0, 0);
+    let camera: Vec<_> = (0..n)
+        .map(|_| {
+            let (x, y) = (rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 2.0 - 1.0);
+            (eye, (w + u * (x * tan * 1.4) + v * (y * tan)).normalize(), f32::INFINITY)
+        })
+        .collect();
+    let bounces = camera
+        .iter()
+        .filter_map(|&(o, d, _)| {
+            let (t, r) = closest_hit(s, o, d, f32::INFINITY)?;
+            let [a, b, c] = s.triangles[(r & shared::PRIM_INDEX_MASK) as usize].vertices();
+            let mut nrm = (b - a).cross(c - a).normalize();
+            if nrm.dot(d) > 0.0 {
+                nrm = -nrm;
+            }
+            let p = o + d * t;
+            let local = rlpt::math::sampling::cosine_hemisphere([rng.next_f32(), rng.next_f32()]);
+            let tu = if nrm.x.abs() > 0.9 { Vec3::Y } else { Vec3::X }.cross(nrm).normalize();
+            let dir = (tu * local.x + nrm.cross(tu) * local.y + nrm * local.z).normalize();
+            Some((p + nrm * (1e-4 * p.abs().max_element().max(1.0)), dir, f32::INFINITY))
+        })
+        .collect();
+    (camera, bounces)
 }
 
 fn with_tree(s: &mut SceneArrays, t: &Tree) {
@@ -306,7 +373,7 @@ fn walk_rates(s: &SceneArrays, rays: &[(Vec3, Vec3, f32)]) -> [f64; 2] {
 /// Builds each tree of the bunny and the BMW M6 (median of 5 builds; 3 where a
 /// build takes over a second; wall and CPU time), checks it gives rlpt's tree's
 /// answers, and prints its shape, SAH cost and walk rates (per CPU second of one
-/// thread, the best of 3 passes, the trees interleaved).
+/// thread, the best of 5 passes, the trees interleaved).
 #[test]
 #[ignore]
 fn compare_bvh_builders() {
@@ -335,7 +402,8 @@ fn compare_bvh_builders() {
             tris.iter().map(|[a, b, c]| BvhShape { lo: a.min(*b).min(*c), hi: a.max(*b).max(*c), node: 0 }).collect();
         type Builder<'a> = (&'a str, Box<dyn FnMut() -> Tree + 'a>);
         let builders: Vec<Builder> = vec![
-            ("rlpt binned SAH", Box::new(|| rlpt_tree(tris))),
+            ("rlpt binned SAH, spatial splits", Box::new(|| rlpt_tree(tris, true))),
+            ("rlpt binned SAH, object splits only", Box::new(|| rlpt_tree(tris, false))),
             (
                 "obvhs very_fast_build",
                 Box::new(|| obvhs_tree(&obvhs_tris, ob(obvhs::BvhBuildParams::very_fast_build()))),
@@ -348,8 +416,17 @@ fn compare_bvh_builders() {
             ),
             ("bvh binned SAH", Box::new(|| bvh_crate_tree(&mut shapes))),
         ];
+        // RLPT_BVH_BUILDERS=rlpt,medium keeps the builders whose names hold one of
+        // the words (rlpt's first, the reference, always).
+        let keep = std::env::var("RLPT_BVH_BUILDERS").ok();
+        let kept = |k: usize, name: &str| {
+            k == 0 || keep.as_deref().is_none_or(|w| w.split(',').any(|w| name.contains(w.trim())))
+        };
         let mut built = Vec::new();
-        for (name, mut build) in builders {
+        for (k, (name, mut build)) in builders.into_iter().enumerate() {
+            if !kept(k, name) {
+                continue;
+            }
             // The first build warms the thread pool and the allocator up.
             let t = Instant::now();
             let _ = build();
@@ -362,6 +439,9 @@ fn compare_bvh_builders() {
         with_tree(&mut reference, &built[0].3);
         let mut s = triangle_arrays(tris.iter().copied().map(gpu_triangle).collect());
         let mut rates = vec![[0.0f64; 4]; built.len()];
+        // The BMW's render rays (camera closest, bounce closest, bounce occluded).
+        let render = (scene == "BMW M6").then(|| render_rays(&reference, rays_per_kind));
+        let mut render_rates = vec![[0.0f64; 3]; built.len()];
         let mut walkable = vec![true; built.len()];
         for (k, (name, _, _, tree)) in built.iter().enumerate() {
             let depth = shape(tree).depth;
@@ -389,7 +469,7 @@ fn compare_bvh_builders() {
                 ties + ties_in
             );
         }
-        for _ in 0..3 {
+        for _ in 0..5 {
             for (k, (_, _, _, tree)) in built.iter().enumerate() {
                 if !walkable[k] {
                     continue;
@@ -400,12 +480,24 @@ fn compare_bvh_builders() {
                 for (best, r) in rates[k].iter_mut().zip([c_out, c_in, o_out, o_in]) {
                     *best = best.max(r);
                 }
+                if let Some((camera, bounces)) = &render {
+                    let [c_cam, _] = walk_rates(&s, camera);
+                    let [c_b, o_b] = walk_rates(&s, bounces);
+                    for (best, r) in render_rates[k].iter_mut().zip([c_cam, c_b, o_b]) {
+                        *best = best.max(r);
+                    }
+                }
             }
         }
         eprintln!("\n{scene}: {} triangles", tris.len());
         eprintln!("| builder | build s (CPU s) | nodes | leaves | refs | depth | SAH cost | closest outside | closest inside | occluded outside | occluded inside |");
         eprintln!("|---|---|---|---|---|---|---|---|---|---|---|");
         let base = rates[0];
+        if std::env::var_os("RLPT_BVH_LEVELS").is_some() {
+            for (name, _, _, tree) in &built {
+                eprintln!("{scene}, {name}: SAH cost by level: {}", sah_by_level(tree));
+            }
+        }
         for (k, (name, wall, cpu, tree)) in built.iter().enumerate() {
             let sh = shape(tree);
             let r: Vec<String> = (0..4)
@@ -426,6 +518,18 @@ fn compare_bvh_builders() {
                 sh.sah,
                 r.join(" | ")
             );
+        }
+        if render.is_some() {
+            eprintln!("\n{scene}, render rays (camera closest, bounce closest, bounce sky shadow), Mrays per CPU s:");
+            for (k, (name, ..)) in built.iter().enumerate() {
+                let r: Vec<String> = (0..3)
+                    .map(|i| {
+                        let (x, b) = (render_rates[k][i], render_rates[0][i]);
+                        format!("{x:.2} ({:+.0} %)", 100.0 * (x / b - 1.0))
+                    })
+                    .collect();
+                eprintln!("| {name} | {} |", r.join(" | "));
+            }
         }
         eprintln!();
     }

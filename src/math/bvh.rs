@@ -1,5 +1,5 @@
-//! The BVH over every primitive of a scene: built here on the CPU (binned SAH),
-//! walked by [`closest_hit`] and [`occluded`] here and by their twins in
+//! The BVH over every primitive of a scene: built on the CPU (`build.rs`: binned
+//! SAH with spatial splits), walked by [`closest_hit`] and [`occluded`] here and by their twins in
 //! `glsl/bvh.glsl` (`bvh_closest`, `bvh_occluded`), the same walk and the same tests.
 //!
 //! Each node holds both children's boxes (`GpuBvhNode`), so one read of 64 bytes
@@ -12,7 +12,12 @@ use super::triangle::TriangleRay;
 use super::Vec3;
 use crate::layout::{prim_kind_index, prim_ref, GpuBvhNode, GpuQuad, GpuSphere, GpuTriangle, SceneArrays};
 use crate::shared;
-use rayon::prelude::*;
+use build::Tree;
+pub use build::{MAX_DEPTH, MAX_LEAF};
+
+mod build;
+#[cfg(test)]
+mod tests;
 
 /// A primitive to build over: its reference (`crate::layout::prim_ref`) and its box.
 #[derive(Clone, Copy, Debug)]
@@ -20,13 +25,16 @@ pub struct PrimBox {
     pub prim: u32,
     pub lo: Vec3,
     pub hi: Vec3,
+    /// A triangle's vertices, which spatial splits clip; `None` for spheres and
+    /// quads, which they leave whole.
+    pub tri: Option<[Vec3; 3]>,
 }
 
 impl PrimBox {
     /// Sphere `i`'s box: centre -+ radius.
     pub fn sphere(i: u32, s: &GpuSphere) -> PrimBox {
         let (c, r) = (Vec3::new(s.center_radius[0], s.center_radius[1], s.center_radius[2]), s.center_radius[3]);
-        PrimBox { prim: prim_ref(shared::PRIM_SPHERE, i), lo: c - r, hi: c + r }
+        PrimBox { prim: prim_ref(shared::PRIM_SPHERE, i), lo: c - r, hi: c + r, tri: None }
     }
 
     /// Quad `i`'s box: around its four corners.
@@ -36,13 +44,17 @@ impl PrimBox {
         let corners = [o, o + u, o + v, o + u + v];
         let lo = corners.iter().fold(Vec3::INFINITY, |a, &c| a.min(c));
         let hi = corners.iter().fold(Vec3::NEG_INFINITY, |a, &c| a.max(c));
-        PrimBox { prim: prim_ref(shared::PRIM_QUAD, i), lo, hi }
+        PrimBox { prim: prim_ref(shared::PRIM_QUAD, i), lo, hi, tri: None }
     }
 
     /// Triangle `i`'s box: around its three vertices.
     pub fn triangle(i: u32, t: &GpuTriangle) -> PrimBox {
-        let [a, b, c] = t.vertices();
-        PrimBox { prim: prim_ref(shared::PRIM_TRIANGLE, i), lo: a.min(b).min(c), hi: a.max(b).max(c) }
+        PrimBox::from_vertices(prim_ref(shared::PRIM_TRIANGLE, i), t.vertices())
+    }
+
+    /// The triangle `prim` (a reference) of vertices `v`.
+    pub fn from_vertices(prim: u32, v: [Vec3; 3]) -> PrimBox {
+        PrimBox { prim, lo: v[0].min(v[1]).min(v[2]), hi: v[0].max(v[1]).max(v[2]), tri: Some(v) }
     }
 }
 
@@ -57,19 +69,6 @@ pub struct Bvh {
     pub depth: u32,
 }
 
-/// SAH bins per axis, over the centroids' bounds.
-const BINS: usize = 32;
-/// SAH costs of a node visit (one read, two box tests) and of a primitive test.
-const COST_NODE: f32 = 1.0;
-const COST_PRIM: f32 = 1.0;
-/// Leaves of up to this many primitives where the SAH prefers them to a split.
-pub const MAX_LEAF: usize = 4;
-/// The most nodes on a path; kept below `BVH_STACK` with room to spare.
-pub const MAX_DEPTH: u32 = shared::BVH_STACK - 8;
-/// Subtrees of at least this many primitives are built in parallel, and nodes of
-/// at least `PAR_BINNING` bin and bound their primitives in parallel.
-const PAR_SUBTREE: usize = 2048;
-const PAR_BINNING: usize = 1 << 16;
 /// Every box written to a node grows by this much of its largest coordinate:
 /// a few ulps, so that the f32 boxes the caller rounded (a sphere's centre +- radius,
 /// a quad's corners) and the primitive tests' own rounding stay inside it.
@@ -104,184 +103,17 @@ impl Aabb {
         self.grow(b);
         self
     }
+    /// The box both boxes hold (empty where they do not meet).
+    fn intersect(&self, b: &Aabb) -> Aabb {
+        Aabb { lo: self.lo.max(b.lo), hi: self.hi.min(b.hi) }
+    }
+    fn is_empty(&self) -> bool {
+        self.lo.cmpgt(self.hi).any()
+    }
     /// Half the surface area (0 for an empty box).
     fn half_area(&self) -> f32 {
         let e = (self.hi - self.lo).max(Vec3::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
-    }
-}
-
-/// A primitive during the build: its box, its centroid (times 2) and reference.
-#[derive(Clone, Copy)]
-struct Item {
-    b: Aabb,
-    c: Vec3,
-    prim: u32,
-}
-
-/// The build's tree before it is laid out: a leaf (a range of the items) or two children.
-enum Tree {
-    Leaf { first: u32, count: u32 },
-    Inner(Box<[(Aabb, Tree); 2]>),
-}
-
-#[derive(Clone, Copy)]
-struct Bin {
-    b: Aabb,
-    n: u32,
-}
-
-type Bins = [[Bin; BINS]; 3];
-const EMPTY_BIN: Bin = Bin { b: Aabb::EMPTY, n: 0 };
-
-/// The bin of centroid `c` along `axis`, from the centroids' bounds.
-fn bin_of(c: Vec3, axis: usize, c_lo: Vec3, scale: Vec3) -> usize {
-    (((c[axis] - c_lo[axis]) * scale[axis]) as usize).min(BINS - 1)
-}
-
-fn bin_items(items: &[Item], c_lo: Vec3, scale: Vec3) -> Box<Bins> {
-    let bin_seq = |items: &[Item]| {
-        let mut bins = Box::new([[EMPTY_BIN; BINS]; 3]);
-        for it in items {
-            for (axis, axis_bins) in bins.iter_mut().enumerate() {
-                let bin = &mut axis_bins[bin_of(it.c, axis, c_lo, scale)];
-                bin.b.grow(&it.b);
-                bin.n += 1;
-            }
-        }
-        bins
-    };
-    if items.len() < PAR_BINNING {
-        return bin_seq(items);
-    }
-    items.par_chunks(PAR_BINNING / 4).map(bin_seq).reduce_with(merge_bins).expect("items")
-}
-
-fn merge_bins(mut a: Box<Bins>, b: Box<Bins>) -> Box<Bins> {
-    for (aa, ba) in a.iter_mut().zip(b.iter()) {
-        for (x, y) in aa.iter_mut().zip(ba.iter()) {
-            x.b.grow(&y.b);
-            x.n += y.n;
-        }
-    }
-    a
-}
-
-/// The bounds of the items' centroids.
-fn centroid_bounds(items: &[Item]) -> Aabb {
-    let seq = |items: &[Item]| {
-        let mut b = Aabb::EMPTY;
-        items.iter().for_each(|it| b.grow_point(it.c));
-        b
-    };
-    if items.len() < PAR_BINNING {
-        return seq(items);
-    }
-    items.par_chunks(PAR_BINNING / 4).map(seq).reduce_with(|a, b| a.union(&b)).expect("items")
-}
-
-/// The best binned SAH split: (cost, axis, last bin on the left, left box, right box).
-fn best_split(bins: &Bins) -> Option<(f32, usize, usize, Aabb, Aabb)> {
-    let mut best: Option<(f32, usize, usize, Aabb, Aabb)> = None;
-    for (axis, bins) in bins.iter().enumerate() {
-        // Right-to-left sweep: the count and box right of a split after bin i.
-        let mut right = [(0u32, Aabb::EMPTY); BINS];
-        let (mut b, mut n) = (Aabb::EMPTY, 0u32);
-        for i in (1..BINS).rev() {
-            b.grow(&bins[i].b);
-            n += bins[i].n;
-            right[i - 1] = (n, b);
-        }
-        let (mut b, mut n) = (Aabb::EMPTY, 0u32);
-        for i in 0..BINS - 1 {
-            b.grow(&bins[i].b);
-            n += bins[i].n;
-            let (rn, rb) = right[i];
-            if n == 0 || rn == 0 {
-                continue;
-            }
-            let cost = n as f32 * b.half_area() + rn as f32 * rb.half_area();
-            if best.as_ref().is_none_or(|x| cost < x.0) {
-                best = Some((cost, axis, i, b, rb));
-            }
-        }
-    }
-    best
-}
-
-/// Builds the subtree of `items`, which start at `first` in the final order and
-/// lie in `bounds`; its node is at level `depth` (the root's is 1).
-fn build_node(items: &mut [Item], first: usize, bounds: Aabb, depth: u32) -> Tree {
-    let n = items.len();
-    let leaf = Tree::Leaf { first: first as u32, count: n as u32 };
-    if n <= 1 {
-        return leaf;
-    }
-    let cb = centroid_bounds(items);
-    let extent = cb.hi - cb.lo;
-    if extent.max_element() <= 0.0 {
-        return leaf; // centroids coincide: no split separates them
-    }
-    // Levels a balanced split of the rest needs; past the budget, split at the median.
-    let balanced_levels = usize::BITS - (n.div_ceil(MAX_LEAF) - 1).leading_zeros();
-    let (mid, lbox, rbox) = if depth + balanced_levels + 1 >= MAX_DEPTH {
-        if n <= MAX_LEAF {
-            return leaf;
-        }
-        median_split(items, extent)
-    } else {
-        let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), BINS as f32 / extent, Vec3::ZERO) * (1.0 - 1e-6);
-        let bins = bin_items(items, cb.lo, scale);
-        let Some((cost, axis, split, lbox, rbox)) = best_split(&bins) else {
-            let (mid, l, r) = median_split(items, extent);
-            return inner(items, first, depth, mid, l, r);
-        };
-        let split_cost = COST_NODE + COST_PRIM * cost / bounds.half_area().max(f32::MIN_POSITIVE);
-        if n <= MAX_LEAF && n as f32 * COST_PRIM <= split_cost {
-            return leaf;
-        }
-        let mid = partition(items, |it| bin_of(it.c, axis, cb.lo, scale) <= split);
-        (mid, lbox, rbox)
-    };
-    inner(items, first, depth, mid, lbox, rbox)
-}
-
-fn inner(items: &mut [Item], first: usize, depth: u32, mid: usize, lbox: Aabb, rbox: Aabb) -> Tree {
-    let (l, r) = items.split_at_mut(mid);
-    let (lt, rt) = if l.len().min(r.len()) >= PAR_SUBTREE {
-        rayon::join(|| build_node(l, first, lbox, depth + 1), || build_node(r, first + mid, rbox, depth + 1))
-    } else {
-        (build_node(l, first, lbox, depth + 1), build_node(r, first + mid, rbox, depth + 1))
-    };
-    Tree::Inner(Box::new([(lbox, lt), (rbox, rt)]))
-}
-
-/// Splits at the median centroid along the axis of the largest centroid extent.
-fn median_split(items: &mut [Item], extent: Vec3) -> (usize, Aabb, Aabb) {
-    let axis = extent.max_position();
-    let mid = items.len() / 2;
-    items.select_nth_unstable_by(mid, |a, b| a.c[axis].total_cmp(&b.c[axis]));
-    let bound = |items: &[Item]| items.iter().fold(Aabb::EMPTY, |a, it| a.union(&it.b));
-    (mid, bound(&items[..mid]), bound(&items[mid..]))
-}
-
-/// Moves the items for which `left` holds to the front; returns how many.
-fn partition(items: &mut [Item], left: impl Fn(&Item) -> bool) -> usize {
-    let mut i = 0;
-    let mut j = items.len();
-    loop {
-        while i < j && left(&items[i]) {
-            i += 1;
-        }
-        while i < j && !left(&items[j - 1]) {
-            j -= 1;
-        }
-        if i >= j {
-            return i;
-        }
-        items.swap(i, j - 1);
-        i += 1;
-        j -= 1;
     }
 }
 
@@ -291,18 +123,22 @@ fn padded(b: &Aabb) -> ([f32; 3], [f32; 3]) {
     ((b.lo - pad).into(), (b.hi + pad).into())
 }
 
-/// Lays the tree out depth first (a node's first child right after it); returns
-/// the node's index and the depth below it.
-fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>) -> (u32, u32) {
+/// Lays the tree out depth first (a node's first child right after it, a leaf's
+/// references appended as it is met); returns the node's index and the depth below it.
+fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>, refs: &mut Vec<u32>) -> (u32, u32) {
     let index = nodes.len() as u32;
     nodes.push(GpuBvhNode::default());
     let mut words = [(0u32, 0u32); 2];
     let mut depth = 1;
     for (k, (_, tree)) in children.iter().enumerate() {
         words[k] = match tree {
-            Tree::Leaf { first, count } => (shared::BVH_LEAF | first, *count),
+            Tree::Leaf(prims) => {
+                let first = refs.len() as u32;
+                refs.extend_from_slice(prims);
+                (shared::BVH_LEAF | first, prims.len() as u32)
+            }
             Tree::Inner(c) => {
-                let (child, d) = lay_out(c, nodes);
+                let (child, d) = lay_out(c, nodes, refs);
                 depth = depth.max(d + 1);
                 (child, 0)
             }
@@ -322,30 +158,33 @@ fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>) -> (u32, u
     (index, depth)
 }
 
-/// Builds the BVH over `prims` by binned SAH (`BINS` bins on the centroids'
-/// bounds, leaves of up to `MAX_LEAF` where the SAH prefers them, more only where
-/// the centroids coincide), subtrees in parallel. Its depth stays at most
-/// `BVH_STACK - 8`: near that, nodes split at the median. No primitives, no nodes;
-/// one leaf (a single primitive, or a few the SAH keeps together) becomes a root
-/// whose second child is an empty leaf.
+/// Builds the BVH over `prims` (`build.rs`): binned SAH over the centroids and,
+/// where the children of the best object split overlap, over spatial planes that
+/// clip the triangles, within a budget of added references (a triangle may then
+/// lie in several leaves, at most once in each); leaves of up to `MAX_LEAF` where
+/// the SAH prefers them, more only where the centroids coincide; subtrees in
+/// parallel. Its depth stays at most `BVH_STACK - 8`: near that, nodes split at
+/// the median. No primitives, no nodes; one leaf (a single primitive, or a few the
+/// SAH keeps together) becomes a root whose second child is an empty leaf.
 pub fn build(prims: &[PrimBox]) -> Bvh {
+    build_with(prims, true)
+}
+
+/// [`build`], with or without spatial splits (without, every primitive is in one leaf).
+pub fn build_with(prims: &[PrimBox], spatial_splits: bool) -> Bvh {
     if prims.is_empty() {
         return Bvh::default();
     }
-    let mut items: Vec<Item> =
-        prims.par_iter().map(|p| Item { b: Aabb { lo: p.lo, hi: p.hi }, c: p.lo + p.hi, prim: p.prim }).collect();
-    let bounds =
-        items.par_iter().fold(|| Aabb::EMPTY, |a, it| a.union(&it.b)).reduce(|| Aabb::EMPTY, |a, b| a.union(&b));
-    let tree = build_node(&mut items, 0, bounds, 1);
+    let (tree, bounds) = build::build_tree(prims, spatial_splits);
     let children = match tree {
         Tree::Inner(c) => c,
         // The root as a leaf: the second child holds nothing (count 0; its box, a
         // point, costs a ray that meets it no primitive test).
-        leaf => Box::new([(bounds, leaf), (Aabb { lo: bounds.lo, hi: bounds.lo }, Tree::Leaf { first: 0, count: 0 })]),
+        leaf => Box::new([(bounds, leaf), (Aabb { lo: bounds.lo, hi: bounds.lo }, Tree::Leaf(vec![]))]),
     };
     let mut nodes = Vec::with_capacity(2 * prims.len() / MAX_LEAF.max(2) + 1);
-    let (_, depth) = lay_out(&children, &mut nodes);
-    let prim_refs = items.iter().map(|it| it.prim).collect();
+    let mut prim_refs = Vec::with_capacity(prims.len());
+    let (_, depth) = lay_out(&children, &mut nodes, &mut prim_refs);
     Bvh { nodes, prim_refs, depth }
 }
 
