@@ -85,6 +85,9 @@ pub struct RenderOptions {
     pub counters: Counters,
     /// The paths' random numbers (`FLAG_SOBOL`): independent or Owen-scrambled Sobol.
     pub sampler: SamplerKind,
+    /// Guided directions at glossy vertices from the product of Q and the lobe
+    /// (`FLAG_GLOSSY_PRODUCT`, `guide::product_sums`); else the share of the row's.
+    pub glossy_product: bool,
 }
 
 /// What the GPU kernel counts per frame; what it does not count it is compiled
@@ -131,6 +134,7 @@ impl RenderOptions {
             guided_vertices: None,
             counters: Counters::Off,
             sampler: SamplerKind::Independent,
+            glossy_product: guide::DEFAULT_GLOSSY_PRODUCT,
         }
     }
 

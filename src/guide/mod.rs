@@ -73,6 +73,7 @@ mod field;
 mod fraction;
 mod grid;
 mod race;
+mod product;
 mod record;
 mod roulette;
 mod sampler;
@@ -83,6 +84,7 @@ pub use bins::*;
 pub use field::*;
 pub use fraction::*;
 pub use grid::*;
+pub use product::*;
 pub use race::*;
 pub use record::*;
 pub use roulette::*;
@@ -298,6 +300,10 @@ pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
 /// and a sharper guided distribution pays: 0.1 had less error at equal time than
 /// 0.25 and 0.5 on most shipped scenes (docs/guiding.md, "Defaults").
 pub const DEFAULT_FLOOR: f32 = 0.1;
+
+/// Whether glossy vertices draw guided directions from the product of Q and the
+/// lobe by default (`--glossy-product`; docs/guiding.md, "Glossy lobes").
+pub const DEFAULT_GLOSSY_PRODUCT: bool = true;
 
 /// The largest exploration floor taken ([`check_floor`]): a bin's weight is then
 /// all but its cell's mean, guided sampling all but the cosine's, and a larger
