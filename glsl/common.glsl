@@ -274,8 +274,10 @@
 #define GLOSSY_SHARE_MIN_INV 16
 // The product with a glossy lobe (src/guide/product.rs): a window of at most
 // PRODUCT_MAX_BINS bins within PRODUCT_RADIUS_PER_ALPHA * alpha radians of the
-// lobe's centre, for lobes of alpha at least PRODUCT_MIN_ALPHA.
+// lobe's centre, for lobes of alpha at least PRODUCT_MIN_ALPHA whose cap fits
+// in PRODUCT_WINDOW_BINS bins.
 #define PRODUCT_MAX_BINS 64
+#define PRODUCT_WINDOW_BINS 48
 #define PRODUCT_RADIUS_PER_ALPHA 4.0
 #define PRODUCT_MIN_ALPHA 0.01
 // Learned roulette starts once the table has learned from this many frames (and

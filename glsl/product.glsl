@@ -24,10 +24,12 @@ struct Product {
 };
 
 // src/guide/product.rs `product_applies`: GGX reflection lobes from
-// PRODUCT_MIN_ALPHA up to the cosine lobe's width.
+// PRODUCT_MIN_ALPHA up to the cosine lobe's width whose window's cap fits in
+// PRODUCT_WINDOW_BINS bins.
 bool product_applies(Bsdf b) {
+    float r = PRODUCT_RADIUS_PER_ALPHA * b.alpha;
     return (is_kind(b, MAT_GLOSSY) || is_kind(b, MAT_CONDUCTOR)) && b.alpha >= PRODUCT_MIN_ALPHA &&
-           4.0 * b.alpha * b.alpha < 1.0;
+           4.0 * b.alpha * b.alpha < 1.0 && PI * r * r <= float(PRODUCT_WINDOW_BINS) * (4.0 * PI / float(GUIDE_BINS));
 }
 
 // src/guide/product.rs `window_columns`: the window's first column in a bin row

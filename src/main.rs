@@ -224,7 +224,7 @@ struct Settings {
     /// Guided directions at glossy vertices (GGX lobes narrower than the cosine's):
     /// `on` draws them in proportion to Q times the lobe over the bins around its
     /// centre; `off` from the cell's cosine-weighted row, at a share of the guided
-    /// fraction that shrinks with the lobe (docs/guiding.md, "Glossy lobes") [default: on].
+    /// fraction that shrinks with the lobe (docs/guiding.md, "Glossy lobes") [default: off].
     #[arg(long, value_enum)]
     glossy_product: Option<OnOff>,
 }

@@ -155,6 +155,12 @@ impl RenderOptions {
         (self.guiding != GuidingMode::Off && self.nee).then_some(self.q_targets.name())
     }
 
+    /// Whether glossy vertices draw from the product with their lobe, as reports
+    /// record it: None without guiding.
+    pub fn glossy_product_if_guided(&self) -> Option<bool> {
+        (self.guiding != GuidingMode::Off).then_some(self.glossy_product)
+    }
+
     /// The guided fraction as reports name it: `learned`, the fixed number, or
     /// None without guiding.
     pub fn guided_fraction_name(&self) -> Option<String> {

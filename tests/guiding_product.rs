@@ -9,13 +9,14 @@ use common::guiding::*;
 use common::*;
 use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
 use rlpt::guide::{
-    lobe_window, product_bin, product_pdf, product_sums, window_columns, window_contains, window_sums, Bins, GuidingMode,
-    LobeWindow, Product, ProductVertex,
+    lobe_window, product_applies, product_bin, product_pdf, product_sums, window_columns, window_contains, window_sums,
+    Bins, GuidingMode, LobeWindow, Product, ProductVertex,
 };
+use rlpt::math::bsdf::Bsdf;
 use rlpt::math::rng::Rng;
 use rlpt::math::{Frame, Vec3};
 use rlpt::prepared::PreparedScene;
-use rlpt::scene::Scene;
+use rlpt::scene::{MaterialKind, Scene};
 use rlpt_chi2::{chi2_sphere, sidak, Chi2Options, Zoom};
 
 /// A Q row with structure: a few bright bins, many dim, some zero.
@@ -125,6 +126,28 @@ fn product_sampler_follows_its_pdf() {
     }
 }
 
+/// The product applies to GGX lobes (glossy, rough conductor) from alpha 0.01
+/// up to where the window's cap outgrows `PRODUCT_WINDOW_BINS` bins (alpha 0.122
+/// at 20x40, 0.306 at 8x16), and never to lobes as wide as the cosine's.
+#[test]
+fn the_product_applies_to_lobes_its_window_holds() {
+    let (fine, coarse) = (Bins::SPHERE_ROULETTE_DEFAULT, Bins::SPHERE_DEFAULT);
+    let glossy = |alpha: f32| Bsdf::new(MaterialKind::Glossy, Vec3::splat(0.8), alpha, 1.5);
+    for (alpha, at_fine, at_coarse) in
+        [(0.005, false, false), (0.01, true, true), (0.09, true, true), (0.12, true, true), (0.125, false, true)]
+    {
+        assert_eq!(product_applies(&glossy(alpha), &fine), at_fine, "alpha {alpha}, 20x40");
+        assert_eq!(product_applies(&glossy(alpha), &coarse), at_coarse, "alpha {alpha}, 8x16");
+    }
+    assert!(product_applies(&glossy(0.3), &coarse) && !product_applies(&glossy(0.31), &coarse));
+    let wide = Bins { rows: 1, cols: 2 };
+    assert!(product_applies(&glossy(0.49), &wide) && !product_applies(&glossy(0.5), &wide));
+    assert!(product_applies(&Bsdf::conductor(Vec3::ONE, Vec3::ONE, 0.09), &fine));
+    for kind in [MaterialKind::Diffuse, MaterialKind::Coated, MaterialKind::RoughDielectric] {
+        assert!(!product_applies(&Bsdf::new(kind, Vec3::splat(0.8), 0.09, 1.5), &fine), "{kind:?}");
+    }
+}
+
 /// A window whose Q is zero everywhere has nothing to sample: its sum is 0 and
 /// so is its density (the vertex then samples the BSDF alone).
 #[test]
@@ -191,8 +214,10 @@ fn glsl_product_matches_rust() {
     )
     .unwrap();
     p.bind(&[&params, &q_buf, &input, &output]);
-    ctx.run_commands("probe product", |cmd| p.cmd_dispatch(cmd, [(n as u32).div_ceil(64), 1, 1], &(n as u32).to_le_bytes()))
-        .unwrap();
+    ctx.run_commands("probe product", |cmd| {
+        p.cmd_dispatch(cmd, [(n as u32).div_ceil(64), 1, 1], &(n as u32).to_le_bytes())
+    })
+    .unwrap();
     let out: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &output));
     let close = |a: f32, b: f32, tol: f32| (a - b).abs() <= tol * a.abs().max(b.abs()) + 1e-30;
     let count = |w: &LobeWindow| (w.r0..=w.r1).map(|r| window_columns(&bins, w, r).1).sum::<u32>();
@@ -205,7 +230,9 @@ fn glsl_product_matches_rust() {
         let rows = a[2].to_bits();
         let gpu = LobeWindow { zm: c[0], phi_m: c[1], cos_r: c[2], r0: rows & 0xffff, r1: rows >> 16 };
         assert!(
-            (gpu.zm - cpu.zm).abs() < 1e-5 && (gpu.phi_m - cpu.phi_m).abs() < 1e-4 && (gpu.cos_r - cpu.cos_r).abs() < 1e-5,
+            (gpu.zm - cpu.zm).abs() < 1e-5
+                && (gpu.phi_m - cpu.phi_m).abs() < 1e-4
+                && (gpu.cos_r - cpu.cos_r).abs() < 1e-5,
             "case {i}: windows {gpu:?} (GPU) and {cpu:?} (CPU)"
         );
         // Its bins may differ where those roundings cross a bin's edge, rarely.

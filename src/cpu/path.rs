@@ -294,8 +294,9 @@ fn guide_vertex<'g>(
 /// `glsl/pathtrace.comp` `mixture_fraction`.
 fn mixture_fraction(guide: Option<Guide>, s: &PathSettings, depth: u32, bsdf: &Bsdf, row_fraction: f32) -> f32 {
     match guide {
-        Some(_) if depth < s.guided_vertices && !bsdf.is_delta() => {
-            row_fraction * if s.product && guide::product_applies(bsdf) { 1.0 } else { guide::lobe_share(bsdf) }
+        Some(g) if depth < s.guided_vertices && !bsdf.is_delta() => {
+            let product = s.product && guide::product_applies(bsdf, &g.cfg.bins);
+            row_fraction * if product { 1.0 } else { guide::lobe_share(bsdf) }
         }
         _ => 0.0,
     }
@@ -314,7 +315,7 @@ fn glossy_product<'g>(
     cell_key: u32,
     g_frac: &mut f32,
 ) -> Option<(guide::ProductVertex<'g>, guide::Product)> {
-    let g = guide.filter(|_| s.product && *g_frac > 0.0 && guide::product_applies(bsdf))?;
+    let g = guide.filter(|g| s.product && *g_frac > 0.0 && guide::product_applies(bsdf, &g.cfg.bins))?;
     let q = &g.q[cell_key as usize..(cell_key + s.bins_per_cell) as usize];
     let v = guide::ProductVertex { frame, wo, alpha: bsdf.alpha, q };
     let p = guide::product_sums(&g.cfg.bins, &v, g.cfg.floor);

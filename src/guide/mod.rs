@@ -72,8 +72,8 @@ mod bins;
 mod field;
 mod fraction;
 mod grid;
-mod race;
 mod product;
+mod race;
 mod record;
 mod roulette;
 mod sampler;
@@ -303,7 +303,7 @@ pub const DEFAULT_FLOOR: f32 = 0.1;
 
 /// Whether glossy vertices draw guided directions from the product of Q and the
 /// lobe by default (`--glossy-product`; docs/guiding.md, "Glossy lobes").
-pub const DEFAULT_GLOSSY_PRODUCT: bool = true;
+pub const DEFAULT_GLOSSY_PRODUCT: bool = false;
 
 /// The largest exploration floor taken ([`check_floor`]): a bin's weight is then
 /// all but its cell's mean, guided sampling all but the cosine's, and a larger

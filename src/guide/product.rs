@@ -10,19 +10,28 @@ use crate::math::bsdf::{ggx_d, ggx_g2, Bsdf};
 /// vertex of BSDF `b` from the product ([`product_sums`]) instead of the cell's
 /// sampling row times [`lobe_share`]: GGX reflection lobes of alpha from
 /// `PRODUCT_MIN_ALPHA` (narrower ones fit inside a bin, where a bin's uniform
-/// directions miss them) up to the cosine lobe's width (4 alpha^2 < 1; wider
-/// lobes take the whole fraction from the row already). `glsl/product.glsl`
-/// `product_applies`.
-pub fn product_applies(b: &Bsdf) -> bool {
+/// directions miss them) up to the cosine lobe's width (4 alpha^2 < 1, wider
+/// lobes take the whole fraction from the row already), and only where the
+/// window's cap of radius `PRODUCT_RADIUS_PER_ALPHA` alpha fits in
+/// `PRODUCT_WINDOW_BINS` of `bins` (a window cut short by `PRODUCT_MAX_BINS`
+/// missed most of a wide lobe: docs/guiding.md, "Glossy lobes").
+/// `glsl/product.glsl` `product_applies`.
+pub fn product_applies(b: &Bsdf, bins: &Bins) -> bool {
+    let r = shared::PRODUCT_RADIUS_PER_ALPHA * b.alpha;
+    product_lobe(b) && PI * r * r <= shared::PRODUCT_WINDOW_BINS as f32 * bins.solid_angle()
+}
+
+/// The lobes the product may apply to whatever the bins ([`product_applies`]).
+fn product_lobe(b: &Bsdf) -> bool {
     matches!(b.kind, crate::scene::MaterialKind::Glossy | crate::scene::MaterialKind::Conductor)
         && b.alpha >= shared::PRODUCT_MIN_ALPHA
         && 4.0 * b.alpha * b.alpha < 1.0
 }
 
-/// Whether a material has a lobe [`product_applies`] to, from its kernel record
-/// (the host sets `FLAG_GLOSSY_PRODUCT` only where one has).
+/// Whether a material has a lobe the product may apply to, whatever the bins,
+/// from its kernel record (the host sets `FLAG_GLOSSY_PRODUCT` only where one has).
 pub fn product_material(m: &GpuMaterial) -> bool {
-    product_applies(&m.bsdf())
+    product_lobe(&m.bsdf())
 }
 
 /// The window of bins around a lobe's centre `m` (a unit direction): rows

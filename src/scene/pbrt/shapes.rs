@@ -433,7 +433,8 @@ impl Importer {
                     )
                 };
                 let image = (ty != "float" && as_read && !invert).then(|| read.clone());
-                let float_image = (ty == "float").then_some(FloatImage { image: read, srgb: float_srgb, scale, invert });
+                let float_image =
+                    (ty == "float").then_some(FloatImage { image: read, srgb: float_srgb, scale, invert });
                 if ty != "float" && image.is_none() {
                     let why = if invert {
                         "\"invert\" on a colour image".to_string()
