@@ -54,7 +54,8 @@
 //!
 //! One file a concept, each naming its GPU twin: `grid` (states), `bins`
 //! (actions and orientation classes), `sampler` (alias rows, the mixture, the lobe's
-//! share; `glsl/guide.glsl`), `table` (learning; `glsl/learn.comp`), `record` (the
+//! share; `glsl/guide.glsl`), `product` (Q times a glossy lobe;
+//! `glsl/product.glsl`), `table` (learning; `glsl/learn.comp`), `record` (the
 //! recording schedule and frame sums; `glsl/record.glsl`), `fraction` (the learned
 //! guided fraction) and `roulette`; this file holds the modes, the configuration
 //! and the defaults. The method's reasons and measured effects are in
