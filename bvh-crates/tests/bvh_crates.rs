@@ -258,6 +258,7 @@ fn triangle_scene(tris: &[[Vec3; 3]]) -> SceneArrays {
         textures: vec![],
         texels: vec![],
         triangle_uvs: vec![],
+        sphere_uvs: vec![],
     }
 }
 
