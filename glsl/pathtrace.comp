@@ -288,8 +288,9 @@ Product vertex_product;
 // that mixes (vertex_product); where its weights sum to zero the vertex samples
 // the BSDF alone (g_frac 0).
 void glossy_product(Bsdf bsdf, mat3 frame, vec3 wo_local, uint qrow, inout float g_frac) {
+    if (!GLOSSY_PRODUCT) return;
     vertex_product.sum_w = 0.0;
-    if (GLOSSY_PRODUCT && g_frac > 0.0 && product_applies(bsdf)) {
+    if (g_frac > 0.0 && product_applies(bsdf)) {
         vertex_product = product_sums(frame, wo_local, bsdf.alpha, qrow, params.guide_floor);
         if (!(vertex_product.sum_w > 0.0)) g_frac = 0.0;
     }
