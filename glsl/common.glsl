@@ -109,6 +109,10 @@
 // The guiding grid's cells subdivide where paths record many targets
 // (src/guide/tree.rs, guide.glsl `cell_index`, learn.comp `refine`).
 #define FLAG_ADAPTIVE_GRID 1024
+// Guided directions at glossy vertices are drawn from the product of Q and the
+// lobe (product.glsl, src/guide/product.rs); set only where a material's lobe
+// takes it and `--glossy-product on`.
+#define FLAG_GLOSSY_PRODUCT 2048
 
 // The samplers' dimension layout (sampler.glsl, docs/sampling.md): the camera's
 // jitter takes dimensions 0 and 1; the vertex of depth d takes SAMPLER_BOUNCE_DIMS
@@ -273,6 +277,14 @@
 // Glossy lobes whose share of the guided fraction (4 alpha^2) is below
 // 1 / GLOSSY_SHARE_MIN_INV take none (src/guide/sampler.rs `glossy_share`).
 #define GLOSSY_SHARE_MIN_INV 16
+// The product with a glossy lobe (src/guide/product.rs): a window of at most
+// PRODUCT_MAX_BINS bins within PRODUCT_RADIUS_PER_ALPHA * alpha radians of the
+// lobe's centre, for lobes of alpha at least PRODUCT_MIN_ALPHA whose cap fits
+// in PRODUCT_WINDOW_BINS bins.
+#define PRODUCT_MAX_BINS 64
+#define PRODUCT_WINDOW_BINS 48
+#define PRODUCT_RADIUS_PER_ALPHA 4.0
+#define PRODUCT_MIN_ALPHA 0.01
 // Learned roulette starts once the table has learned from this many frames (and
 // the pixel has an estimate); plain throughput roulette before
 // (src/guide/roulette.rs `roulette_estimate`): a table of one frame is too noisy, and

@@ -18,6 +18,7 @@
 layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
 #ifdef RLPT_GUIDING
 #include "guide.glsl"
+#include "product.glsl"
 #endif
 
 layout(constant_id = SPEC_MAX_BOUNCES) const uint MAX_BOUNCES = 0u;
@@ -268,15 +269,44 @@ float guide_vertex(vec3 p, vec3 n, uint depth, bool learn, bool rr, out uint qro
     return fraction;
 }
 
+// Glossy vertices draw their guided directions from the product of Q and the
+// lobe (product.glsl): set only where a material's lobe takes it.
+const bool GLOSSY_PRODUCT = (FLAGS & FLAG_GLOSSY_PRODUCT) != 0u;
+
 // src/cpu/path.rs `mixture_fraction`: the probability of guided sampling at a
-// vertex, the row's fraction times the lobe's share; 0 at delta vertices and
-// past the guided vertices.
+// vertex, the row's fraction times the lobe's share, the whole fraction where
+// the product draws the guided directions; 0 at delta vertices and past the
+// guided vertices.
 float mixture_fraction(bool guide, uint depth, Bsdf bsdf, float fraction) {
     float g_frac = 0.0;
     if (guide && depth < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
-        g_frac = fraction * lobe_share(bsdf);
+        g_frac = fraction * (GLOSSY_PRODUCT && product_applies(bsdf) ? 1.0 : lobe_share(bsdf));
     }
     return g_frac;
+}
+
+// The vertex's product with its lobe (glossy_product), read by light_sample and
+// choose_direction; sum_w 0 where the vertex has none. A private variable rather
+// than a parameter, so that the unguided kernel's stages stay as they were.
+Product vertex_product;
+
+// src/cpu/path.rs `glossy_product`: the product's window sums at a glossy vertex
+// that mixes (vertex_product); where its weights sum to zero the vertex samples
+// the BSDF alone (g_frac 0).
+void glossy_product(Bsdf bsdf, mat3 frame, vec3 wo_local, uint qrow, inout float g_frac) {
+    if (!GLOSSY_PRODUCT) return;
+    vertex_product.sum_w = 0.0;
+    if (g_frac > 0.0 && product_applies(bsdf)) {
+        vertex_product = product_sums(frame, wo_local, bsdf.alpha, qrow, params.guide_floor);
+        if (!(vertex_product.sum_w > 0.0)) g_frac = 0.0;
+    }
+}
+
+// src/cpu/path.rs `guided_bin_pdf`: the guided density of bin b, the product's
+// where it draws the guided directions, else the sampling row's.
+float guided_bin_pdf(mat3 frame, vec3 wo_local, Bsdf bsdf, uint row, uint b) {
+    if (GLOSSY_PRODUCT && vertex_product.sum_w > 0.0) return product_pdf(frame, wo_local, bsdf.alpha, vertex_product, b);
+    return bin_pdf(row, b);
 }
 
 // src/cpu/path.rs `record_end`: keeps the target of the ray that ends the path
@@ -371,7 +401,7 @@ float light_sample(Hit hit, Bsdf bsdf, vec3 n, vec3 ns, mat3 frame, vec3 wo_loca
             if (!occluded(origin, dir, len, ls.skip)) {
                 float pdf_mix = pdf_bsdf;
 #if GUIDED
-                if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_pdf(row, ls.wi));
+                if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_bin_pdf(frame, wo_local, bsdf, row, bin_index(ls.wi)));
 #endif
                 float w = mis_weight(ls.pdf, pdf_mix, power);
                 radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
@@ -401,7 +431,12 @@ bool choose_direction(Bsdf bsdf, mat3 frame, vec3 wo_local, vec3 n, vec3 ns, flo
     factor = 0.0;
 #if GUIDED
     if (u_mix < g_frac) {
-        wi = guided_direction(row, uc, u, wi_bin);
+        if (GLOSSY_PRODUCT && vertex_product.sum_w > 0.0) {
+            wi_bin = product_bin(frame, wo_local, bsdf.alpha, vertex_product, uc);
+            wi = bin_sample(wi_bin, u);
+        } else {
+            wi = guided_direction(row, uc, u, wi_bin);
+        }
         ok = true;
     } else
 #endif
@@ -428,7 +463,7 @@ bool choose_direction(Bsdf bsdf, mat3 frame, vec3 wo_local, vec3 n, vec3 ns, flo
         vec3 wi_local = to_local(frame, wi);
         float pdf_bsdf;
         vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-        float pdf_guided = bin_pdf(row, wi_bin);
+        float pdf_guided = guided_bin_pdf(frame, wo_local, bsdf, row, wi_bin);
         pdf = mixture_pdf(g_frac, pdf_bsdf, pdf_guided);
         ok = pdf > 0.0 && max_component(f) > 0.0;
         weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
@@ -504,6 +539,9 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
             break;
         }
         float g_frac = mixture_fraction(guide, DEPTH, bsdf, fraction);
+#if GUIDED
+        glossy_product(bsdf, frame, wo_local, qrow, g_frac);
+#endif
         bool last = DEPTH >= MAX_BOUNCES;
 
         float u_sel = sample_1d(rng, bounce_dim(DEPTH, SAMPLE_LIGHT_SELECT));

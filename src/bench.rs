@@ -173,6 +173,9 @@ pub struct BenchSetup {
     pub nee: bool,
     /// The paths' random numbers (`math::sampler::SamplerKind::name`).
     pub sampler: String,
+    /// Whether glossy vertices drew from the product with their lobe (`--glossy-product`); None without guiding.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glossy_product: Option<bool>,
     pub warmup_frames: u32,
 }
 

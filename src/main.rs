@@ -221,6 +221,12 @@ struct Settings {
     /// (docs/sampling.md).
     #[arg(long, value_enum, default_value_t = SamplerKind::Independent)]
     sampler: SamplerKind,
+    /// Guided directions at glossy vertices (GGX lobes narrower than the cosine's):
+    /// `on` draws them in proportion to Q times the lobe over the bins around its
+    /// centre; `off` from the cell's cosine-weighted row, at a share of the guided
+    /// fraction that shrinks with the lobe (docs/guiding.md, "Glossy lobes") [default: off].
+    #[arg(long, value_enum)]
+    glossy_product: Option<OnOff>,
 }
 
 impl Settings {
@@ -256,6 +262,7 @@ impl Settings {
         opts.guide_grid = self.guide_grid;
         opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
         opts.sampler = self.sampler;
+        opts.glossy_product = self.glossy_product.map_or(rlpt::guide::DEFAULT_GLOSSY_PRODUCT, |g| g == OnOff::On);
         opts
     }
 
@@ -281,6 +288,7 @@ impl Settings {
                 ("--unguided-frames", self.unguided_frames.is_some()),
                 ("--guide-grid", self.guide_grid.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
+                ("--glossy-product", self.glossy_product.is_some()),
             ];
             for (flag, _) in given.iter().filter(|(_, g)| *g) {
                 notes.push(format!("{flag} is a setting of learned guiding; ignored with --guiding off"));

@@ -85,6 +85,9 @@ pub struct RenderOptions {
     pub counters: Counters,
     /// The paths' random numbers (`FLAG_SOBOL`): independent or Owen-scrambled Sobol.
     pub sampler: SamplerKind,
+    /// Guided directions at glossy vertices from the product of Q and the lobe
+    /// (`FLAG_GLOSSY_PRODUCT`, `guide::product_sums`); else the share of the row's.
+    pub glossy_product: bool,
 }
 
 /// What the GPU kernel counts per frame; what it does not count it is compiled
@@ -131,6 +134,7 @@ impl RenderOptions {
             guided_vertices: None,
             counters: Counters::Off,
             sampler: SamplerKind::Independent,
+            glossy_product: guide::DEFAULT_GLOSSY_PRODUCT,
         }
     }
 
@@ -149,6 +153,12 @@ impl RenderOptions {
     /// without guiding, and without NEE, where the two are the same.
     pub fn q_targets_if_guided(&self) -> Option<&'static str> {
         (self.guiding != GuidingMode::Off && self.nee).then_some(self.q_targets.name())
+    }
+
+    /// Whether glossy vertices draw from the product with their lobe, as reports
+    /// record it: None without guiding.
+    pub fn glossy_product_if_guided(&self) -> Option<bool> {
+        (self.guiding != GuidingMode::Off).then_some(self.glossy_product)
     }
 
     /// The guided fraction as reports name it: `learned`, the fixed number, or

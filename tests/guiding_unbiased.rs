@@ -91,6 +91,8 @@ fn glossy_vertices_mix_a_share_of_the_fraction_without_bias() {
     let base = options(&scene, 36, 24, 1024);
     let off = render_gpu(&ctx, &scene, &base);
     let mut o = guided(&base, GuidingMode::Sphere);
+    // The share of the row's fraction, not the product with the lobe (tests/guiding_product.rs).
+    o.glossy_product = false;
     o.seed = 31;
     let z = assert_films_agree(&render_gpu(&ctx, &scene, &o), &off, 6, K, "glossy seed-exp1: GPU guided vs off");
     eprintln!("glossy seed-exp1, GPU guided: worst block {z:.2} sigma");

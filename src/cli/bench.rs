@@ -182,6 +182,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
         q_targets: opts.q_targets_if_guided().map(String::from),
         nee: opts.nee,
         sampler: opts.sampler.name().to_string(),
+        glossy_product: opts.glossy_product_if_guided(),
         warmup_frames: args.warmup,
     };
     let report = rlpt::bench::BenchReport::new(setup, &times, pipelines);
@@ -247,6 +248,7 @@ fn bench_gpus(
         q_targets: None,
         nee: s.nee == OnOff::On,
         sampler: s.sampler.name().to_string(),
+        glossy_product: None,
         warmup_frames: args.warmup,
     };
     let report = rlpt::bench::MultiBenchReport {

@@ -207,7 +207,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let device_name = renderer.device_name();
     let mut stats = RenderStats {
         label: format!(
-            "{} guiding={}{}{}{}{} nee={}{}",
+            "{} guiding={}{}{}{}{}{} nee={}{}",
             file_name(&args.scene),
             opts.guiding.name(),
             opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
@@ -218,6 +218,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
                 .filter(|&f| f != rlpt::guide::DEFAULT_FLOOR)
                 .map_or(String::new(), |f| format!(" floor={f}")),
             opts.q_targets_if_guided().filter(|&t| t != "mis").map_or(String::new(), |t| format!(" targets={t}")),
+            opts.glossy_product_if_guided()
+                .filter(|&g| g != rlpt::guide::DEFAULT_GLOSSY_PRODUCT)
+                .map_or(String::new(), |g| format!(" glossy-product={}", if g { "on" } else { "off" })),
             opts.nee,
             if opts.sampler == SamplerKind::Sobol { " sampler=sobol" } else { "" }
         ),

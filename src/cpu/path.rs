@@ -32,6 +32,9 @@ struct PathSettings {
     guided_vertices: u32,
     record_vertices: u32,
     bins_per_cell: u32,
+    /// Glossy vertices draw guided directions from the product with their lobe
+    /// (`shared::FLAG_GLOSSY_PRODUCT`, [`guide::product_applies`]).
+    product: bool,
 }
 
 /// The path so far: what it carries, and how the ray being traced left its last vertex.
@@ -72,6 +75,9 @@ struct Vertex<'a> {
     row_fraction: f32,
     /// The probability of guided sampling here ([`mixture_fraction`]).
     g_frac: f32,
+    /// Where guided directions come from the product with the lobe: the vertex as
+    /// it reads it and its window's sums ([`glossy_product`]).
+    product: Option<(guide::ProductVertex<'a>, guide::Product)>,
 }
 
 /// A direction leaving a vertex: BSDF x cos / density (`weight`), the density,
@@ -113,6 +119,7 @@ pub fn trace_path(
         guided_vertices: guide::guided_vertices(p),
         record_vertices: guide::record_vertices(p),
         bins_per_cell: guide.map_or(1, |g| g.cfg.bins.count()),
+        product: guide.is_some() && p.flags & shared::FLAG_GLOSSY_PRODUCT != 0,
     };
     let mut path = PathState {
         radiance: Vec3::ZERO,
@@ -162,8 +169,9 @@ pub fn trace_path(
             }
             break;
         }
-        let g_frac = mixture_fraction(guide, &s, depth, &bsdf, row_fraction);
-        let v = Vertex { hit, bsdf, n, ns, frame, wo_local, cell_key, sampler, row_fraction, g_frac };
+        let mut g_frac = mixture_fraction(guide, &s, depth, &bsdf, row_fraction);
+        let product = glossy_product(guide, &s, &bsdf, frame, wo_local, cell_key, &mut g_frac);
+        let v = Vertex { hit, bsdf, n, ns, frame, wo_local, cell_key, sampler, row_fraction, g_frac, product };
         let last = depth >= p.max_bounces;
 
         let u_sel = rng.sample_1d(bounce_dim(depth, shared::SAMPLE_LIGHT_SELECT));
@@ -280,12 +288,49 @@ fn guide_vertex<'g>(
 }
 
 /// Probability of guided sampling at a vertex: the row's fraction (0 where
-/// nothing is learned) times the lobe's share (less on narrow glossy lobes);
-/// zero at delta vertices and past the guided vertices. `glsl/pathtrace.comp` `mixture_fraction`.
+/// nothing is learned) times the lobe's share (less on narrow glossy lobes),
+/// the whole fraction where the product with the lobe draws the guided
+/// directions; zero at delta vertices and past the guided vertices.
+/// `glsl/pathtrace.comp` `mixture_fraction`.
 fn mixture_fraction(guide: Option<Guide>, s: &PathSettings, depth: u32, bsdf: &Bsdf, row_fraction: f32) -> f32 {
     match guide {
-        Some(_) if depth < s.guided_vertices && !bsdf.is_delta() => row_fraction * guide::lobe_share(bsdf),
+        Some(g) if depth < s.guided_vertices && !bsdf.is_delta() => {
+            let product = s.product && guide::product_applies(bsdf, &g.cfg.bins);
+            row_fraction * if product { 1.0 } else { guide::lobe_share(bsdf) }
+        }
         _ => 0.0,
+    }
+}
+
+/// The product with the lobe at a glossy vertex that mixes: its window's sums
+/// (`guide::product_sums`), or None where the product does not apply; where the
+/// window's weights sum to zero the vertex samples the BSDF alone (`g_frac` 0).
+/// `glsl/pathtrace.comp` `glossy_product`.
+fn glossy_product<'g>(
+    guide: Option<Guide<'g>>,
+    s: &PathSettings,
+    bsdf: &Bsdf,
+    frame: Frame,
+    wo: Vec3,
+    cell_key: u32,
+    g_frac: &mut f32,
+) -> Option<(guide::ProductVertex<'g>, guide::Product)> {
+    let g = guide.filter(|g| s.product && *g_frac > 0.0 && guide::product_applies(bsdf, &g.cfg.bins))?;
+    let q = &g.q[cell_key as usize..(cell_key + s.bins_per_cell) as usize];
+    let v = guide::ProductVertex { frame, wo, alpha: bsdf.alpha, q };
+    let p = guide::product_sums(&g.cfg.bins, &v, g.cfg.floor);
+    if !(p.sum_w > 0.0) {
+        *g_frac = 0.0;
+    }
+    Some((v, p))
+}
+
+/// The guided density of bin `bin` at a vertex that mixes: the product's where it
+/// draws the guided directions, else the sampling row's.
+fn guided_bin_pdf(guide: Option<Guide>, v: &Vertex, bin: u32) -> f32 {
+    match (guide, &v.product) {
+        (Some(g), Some((pv, p))) => guide::product_pdf(&g.cfg.bins, pv, p, bin),
+        _ => guide::bin_pdf(v.sampler, bin),
     }
 }
 
@@ -318,7 +363,7 @@ fn light_sample(
                 // MIS against the mixture's density where the vertex mixes
                 // (see `mixture_sample`).
                 let pdf = if v.g_frac > 0.0 {
-                    guide::mixture_pdf(v.g_frac, pb, guide::bin_pdf(v.sampler, bin_of(guide, ls.wi)))
+                    guide::mixture_pdf(v.g_frac, pb, guided_bin_pdf(guide, v, bin_of(guide, ls.wi)))
                 } else {
                     pb
                 };
@@ -351,14 +396,20 @@ fn choose_direction(
     let sampled = if u_mix < v.g_frac {
         // A guided direction: its weight and density are those of the mixture.
         let g = guide.expect("g_frac > 0 only with guiding");
-        let (wi, bin) = guide::guided_direction_bin(&g.cfg.bins, v.sampler, uc, u);
-        mixture_sample(s, v, wi, bin)
+        let (wi, bin) = match &v.product {
+            Some((pv, p)) => {
+                let bin = guide::product_bin(&g.cfg.bins, pv, p, uc);
+                (g.cfg.bins.sample(bin, u), bin)
+            }
+            None => guide::guided_direction_bin(&g.cfg.bins, v.sampler, uc, u),
+        };
+        mixture_sample(guide, s, v, wi, bin)
     } else {
         match bsdf_sample(&v.bsdf, v.wo_local, uc, u) {
             // A BSDF direction at a vertex that mixes: the same evaluation.
             Some(b) if v.g_frac > 0.0 && !b.delta => {
                 let wi = v.frame.to_world(b.wi).normalize();
-                mixture_sample(s, v, wi, bin_of(guide, wi))
+                mixture_sample(guide, s, v, wi, bin_of(guide, wi))
             }
             Some(b) => {
                 let wi = v.frame.to_world(b.wi).normalize();
@@ -388,10 +439,10 @@ fn choose_direction(
 /// place is unbiased too and cheaper, but hands the light guided directions
 /// find to light sampling, which loses badly where light sampling finds a lamp
 /// worse (docs/guiding.md, "The mixture").
-fn mixture_sample(s: &PathSettings, v: &Vertex, wi: Vec3, bin: u32) -> Option<Direction> {
+fn mixture_sample(guide: Option<Guide>, s: &PathSettings, v: &Vertex, wi: Vec3, bin: u32) -> Option<Direction> {
     let wi_local = v.frame.to_local(wi);
     let (f, pb) = bsdf_eval_pdf(&v.bsdf, v.wo_local, wi_local);
-    let pg = guide::bin_pdf(v.sampler, bin);
+    let pg = guided_bin_pdf(guide, v, bin);
     let pdf = guide::mixture_pdf(v.g_frac, pb, pg);
     (pdf > 0.0 && f.max_element() > 0.0).then(|| {
         let weight = f * (wi_local.z.abs() / pdf);

@@ -54,7 +54,8 @@
 //!
 //! One file a concept, each naming its GPU twin: `grid` (states), `bins`
 //! (actions and orientation classes), `sampler` (alias rows, the mixture, the lobe's
-//! share; `glsl/guide.glsl`), `table` (learning; `glsl/learn.comp`), `record` (the
+//! share; `glsl/guide.glsl`), `product` (Q times a glossy lobe;
+//! `glsl/product.glsl`), `table` (learning; `glsl/learn.comp`), `record` (the
 //! recording schedule and frame sums; `glsl/record.glsl`), `fraction` (the learned
 //! guided fraction) and `roulette`; this file holds the modes, the configuration
 //! and the defaults. The method's reasons and measured effects are in
@@ -72,6 +73,7 @@ mod bins;
 mod field;
 mod fraction;
 mod grid;
+mod product;
 mod race;
 mod record;
 mod roulette;
@@ -83,6 +85,7 @@ pub use bins::*;
 pub use field::*;
 pub use fraction::*;
 pub use grid::*;
+pub use product::*;
 pub use race::*;
 pub use record::*;
 pub use roulette::*;
@@ -298,6 +301,10 @@ pub const DEFAULT_RATE_EXPONENT: f32 = 1.0;
 /// and a sharper guided distribution pays: 0.1 had less error at equal time than
 /// 0.25 and 0.5 on most shipped scenes (docs/guiding.md, "Defaults").
 pub const DEFAULT_FLOOR: f32 = 0.1;
+
+/// Whether glossy vertices draw guided directions from the product of Q and the
+/// lobe by default (`--glossy-product`; docs/guiding.md, "Glossy lobes").
+pub const DEFAULT_GLOSSY_PRODUCT: bool = false;
 
 /// The largest exploration floor taken ([`check_floor`]): a bin's weight is then
 /// all but its cell's mean, guided sampling all but the cosine's, and a larger

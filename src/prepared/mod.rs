@@ -293,6 +293,12 @@ impl PreparedScene {
         if opts.sampler == SamplerKind::Sobol {
             flags |= shared::FLAG_SOBOL;
         }
+        let product = opts.glossy_product
+            && opts.guiding != GuidingMode::Off
+            && materials.iter().any(crate::guide::product_material);
+        if product {
+            flags |= shared::FLAG_GLOSSY_PRODUCT;
+        }
         match opts.counters {
             Counters::Off => {}
             Counters::ZeroPaths => flags |= shared::FLAG_COUNTERS,
@@ -325,7 +331,8 @@ impl PreparedScene {
             guide_floor: 0.0,
             guide_vertices: 0,
             occluding_quads,
-            scene_kinds: scene_kinds(&materials, &lights, &textures),
+            // The product's glossy vertices mix: their kernel keeps the mixture's GGX evaluation.
+            scene_kinds: scene_kinds(&materials, &lights, &textures) | (product as u32) << shared::SCENE_KIND_GUIDED_GLOSSY,
             num_triangles: triangles.len() as u32,
             bvh_nodes: 0,
             env_width: env.as_ref().map_or(0, |(m, _)| m.width),
