@@ -332,7 +332,8 @@ impl PreparedScene {
             guide_vertices: 0,
             occluding_quads,
             // The product's glossy vertices mix: their kernel keeps the mixture's GGX evaluation.
-            scene_kinds: scene_kinds(&materials, &lights, &textures) | (product as u32) << shared::SCENE_KIND_GUIDED_GLOSSY,
+            scene_kinds: scene_kinds(&materials, &lights, &textures)
+                | (product as u32) << shared::SCENE_KIND_GUIDED_GLOSSY,
             num_triangles: triangles.len() as u32,
             bvh_nodes: 0,
             env_width: env.as_ref().map_or(0, |(m, _)| m.width),

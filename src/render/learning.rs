@@ -52,7 +52,8 @@ impl Exchange {
     pub(super) fn new(ctx: &Arc<Context>, l: &Learning) -> Result<Exchange, GpuError> {
         let sizes = [l.sums.size, l.counts.size, l.rows_read.size];
         let names = ["frame sums", "frame counts", "rows read"];
-        let readback = [0, 1, 2].map(|i| Buffer::new(ctx, &format!("{} readback", names[i]), sizes[i], BufferUsage::Readback));
+        let readback =
+            [0, 1, 2].map(|i| Buffer::new(ctx, &format!("{} readback", names[i]), sizes[i], BufferUsage::Readback));
         let upload = [0, 1, 2].map(|i| {
             Buffer::new(ctx, &format!("{} upload", names[i]), sizes[i], BufferUsage::Upload { uniform: false })
         });

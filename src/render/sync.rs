@@ -60,7 +60,11 @@ impl GpuRenderer {
     /// the queue has no timestamps).
     pub fn learn_from(&mut self, sums: &FrameSums) -> Result<f64, GpuError> {
         let Some(l) = &mut self.learning else { return Ok(0.0) };
-        assert_eq!(4 * (sums.sums.len() + sums.gradients.len()) as u64, l.sums.size, "frame sums of this table's shape");
+        assert_eq!(
+            4 * (sums.sums.len() + sums.gradients.len()) as u64,
+            l.sums.size,
+            "frame sums of this table's shape"
+        );
         if l.exchange.is_none() {
             l.exchange = Some(Exchange::new(&self.ctx, l)?);
         }
