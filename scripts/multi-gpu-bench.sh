@@ -24,6 +24,8 @@
 #             relMSE round by round); summary-equal-time.json has the last relMSE
 #             of each and its ratio to 1 GPU's.
 #
+# $SCENES (default scenes) is the folder of door.toml and bmw-m6.toml: on a
+# machine without ../shared, a copy whose bmw-m6.toml points at its geometry.
 # The BMW scene needs its geometry (scenes/bmw-m6.toml says where); it is left
 # out, with a note, where the geometry is missing. Run from the repository root.
 set -euo pipefail
@@ -56,10 +58,11 @@ gpus() {
 }
 
 scenes=(door)
-if "$rlpt" info scenes/bmw-m6.toml >/dev/null 2>&1; then
+SCENES=${SCENES:-scenes}
+if "$rlpt" info "$SCENES/bmw-m6.toml" >/dev/null 2>&1; then
     scenes+=(bmw-m6)
 else
-    echo "note: scenes/bmw-m6.toml's geometry is missing (scripts/make_bmw_scene.py): measuring door alone" >&2
+    echo "note: $SCENES/bmw-m6.toml's geometry is missing (scripts/make_bmw_scene.py): measuring door alone" >&2
 fi
 
 bench() {
@@ -67,7 +70,7 @@ bench() {
         for guiding in off sphere; do
             for n in "${counts[@]}"; do
                 echo "bench $scene guiding $guiding on $n GPU(s)" >&2
-                "$rlpt" bench "scenes/$scene.toml" "${size[@]}" --guiding "$guiding" --gpus "$(gpus "$n")" \
+                "$rlpt" bench "$SCENES/$scene.toml" "${size[@]}" --guiding "$guiding" --gpus "$(gpus "$n")" \
                     --warmup "$WARMUP" --frames "$FRAMES" --json "$out/bench-$scene-$guiding-g$n.json"
             done
         done
@@ -102,12 +105,12 @@ equal_time() {
     for scene in "${scenes[@]}"; do
         ref="$out/ref-$scene.exr"
         echo "reference of $scene: $REF_TIME s on all $total GPU(s)" >&2
-        "$rlpt" render "scenes/$scene.toml" "${size[@]}" -o "$ref" --variance "$out/ref-$scene.var.exr" \
+        "$rlpt" render "$SCENES/$scene.toml" "${size[@]}" -o "$ref" --variance "$out/ref-$scene.var.exr" \
             --spp 100000000 --time "$REF_TIME" --seed 7 --gpus "$(gpus "$total")"
         for guiding in off sphere; do
             for n in "${counts[@]}"; do
                 echo "equal time: $scene guiding $guiding, $TIME s on $n GPU(s)" >&2
-                "$rlpt" render "scenes/$scene.toml" "${size[@]}" -o "$out/eq-$scene-$guiding-g$n.exr" \
+                "$rlpt" render "$SCENES/$scene.toml" "${size[@]}" -o "$out/eq-$scene-$guiding-g$n.exr" \
                     --guiding "$guiding" --spp 100000000 --time "$TIME" --gpus "$(gpus "$n")" \
                     --reference "$ref" --reference-variance "$out/ref-$scene.var.exr" \
                     --stats "$out/stats-$scene-$guiding-g$n.json"

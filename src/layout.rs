@@ -385,3 +385,28 @@ pub struct SceneArrays {
     /// Per sphere its UV frame, where the scene has textures; else empty.
     pub sphere_uvs: Vec<GpuSphereUv>,
 }
+
+impl SceneArrays {
+    /// Arrays holding `triangles` alone: no tree (the caller puts one in),
+    /// materials, lights or room. Tests and the builder comparison start from it.
+    pub fn of_triangles(triangles: Vec<GpuTriangle>) -> SceneArrays {
+        SceneArrays {
+            params: RenderParams::default(),
+            materials: vec![],
+            spheres: vec![],
+            quads: vec![],
+            lights: vec![],
+            triangles,
+            triangle_normals: vec![],
+            bvh_nodes: vec![],
+            prim_refs: vec![],
+            room: Room::NONE,
+            env_texels: vec![],
+            env_cdf: vec![],
+            textures: vec![],
+            texels: vec![],
+            triangle_uvs: vec![],
+            sphere_uvs: vec![],
+        }
+    }
+}

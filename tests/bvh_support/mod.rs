@@ -5,7 +5,7 @@
 //! (tests/mesh_render.rs too).
 #![allow(dead_code)]
 
-use rlpt::layout::{prim_kind_index, prim_ref, GpuTriangle, RenderParams, Room, SceneArrays};
+use rlpt::layout::{prim_kind_index, prim_ref, GpuTriangle, SceneArrays};
 use rlpt::math::bvh::{self, PrimBox};
 use rlpt::math::geometry::{intersect_quad, intersect_sphere, sphere_blocks};
 use rlpt::math::rng::Rng;
@@ -257,24 +257,7 @@ pub fn triangle_boxes(triangles: &[GpuTriangle]) -> Vec<PrimBox> {
 
 /// A scene of `triangles` alone, without a tree (the caller puts one in).
 pub fn triangle_arrays(triangles: Vec<GpuTriangle>) -> SceneArrays {
-    SceneArrays {
-        params: RenderParams::default(),
-        materials: vec![],
-        spheres: vec![],
-        quads: vec![],
-        lights: vec![],
-        triangles,
-        triangle_normals: vec![],
-        bvh_nodes: vec![],
-        prim_refs: vec![],
-        room: Room::NONE,
-        env_texels: vec![],
-        env_cdf: vec![],
-        textures: vec![],
-        texels: vec![],
-        triangle_uvs: vec![],
-        sphere_uvs: vec![],
-    }
+    SceneArrays::of_triangles(triangles)
 }
 
 /// A scene of `triangles` alone over rlpt's BVH of them.

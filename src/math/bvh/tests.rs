@@ -2,7 +2,7 @@
 
 use super::build::MAX_DEPTH;
 use super::*;
-use crate::layout::{prim_ref, GpuTriangle, RenderParams, Room};
+use crate::layout::{prim_ref, GpuTriangle};
 use crate::math::rng::Rng;
 use crate::math::triangle::intersect_triangle;
 
@@ -12,24 +12,7 @@ fn tri_boxes(tris: &[GpuTriangle]) -> Vec<PrimBox> {
 
 fn scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
     let bvh = build(&tri_boxes(&triangles));
-    SceneArrays {
-        params: RenderParams::default(),
-        materials: vec![],
-        spheres: vec![],
-        quads: vec![],
-        lights: vec![],
-        triangles,
-        triangle_normals: vec![],
-        bvh_nodes: bvh.nodes,
-        prim_refs: bvh.prim_refs,
-        room: Room::NONE,
-        env_texels: vec![],
-        env_cdf: vec![],
-        textures: vec![],
-        texels: vec![],
-        triangle_uvs: vec![],
-        sphere_uvs: vec![],
-    }
+    SceneArrays { bvh_nodes: bvh.nodes, prim_refs: bvh.prim_refs, ..SceneArrays::of_triangles(triangles) }
 }
 
 fn tri(a: Vec3, b: Vec3, c: Vec3) -> GpuTriangle {
