@@ -577,7 +577,7 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         d = wi;
         depth_rays += 1u;
         // src/cpu/path.rs `roulette`, written here rather than as a function: as
-        // one (its sampler passed inout) it made unguided frames 0.7 % longer.
+        // one (its sampler passed inout) it made unguided frames longer.
         if (rr && DEPTH >= params.rr_depth) {
             float q = min(max_component(beta), 0.95);
 #if GUIDED
