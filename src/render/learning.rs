@@ -37,7 +37,7 @@ pub(super) struct Learning {
     pub(super) schedule: RecordSchedule,
     /// Host-visible copies of `sums`, `counts` and `rows_read`, kept from the
     /// first exchange of a render on several devices (`GpuRenderer::frame_sums`,
-    /// `learn_from`) rather than made for each.
+    /// `learn_from`; `make_exchange`) rather than made for each.
     pub(super) exchange: Option<Exchange>,
 }
 
@@ -49,17 +49,28 @@ pub(super) struct Exchange {
 }
 
 impl Exchange {
-    pub(super) fn new(ctx: &Arc<Context>, l: &Learning) -> Result<Exchange, GpuError> {
-        let sizes = [l.sums.size, l.counts.size, l.rows_read.size];
-        let names = ["frame sums", "frame counts", "rows read"];
-        let readback =
-            [0, 1, 2].map(|i| Buffer::new(ctx, &format!("{} readback", names[i]), sizes[i], BufferUsage::Readback));
-        let upload = [0, 1, 2].map(|i| {
-            Buffer::new(ctx, &format!("{} upload", names[i]), sizes[i], BufferUsage::Upload { uniform: false })
-        });
-        let [r0, r1, r2] = readback;
-        let [u0, u1, u2] = upload;
-        Ok(Exchange { readback: [r0?, r1?, r2?], upload: [u0?, u1?, u2?] })
+    fn new(ctx: &Arc<Context>, l: &Learning) -> Result<Exchange, GpuError> {
+        let of = [(&l.sums, "frame sums"), (&l.counts, "frame counts"), (&l.rows_read, "rows read")];
+        let buffer = |i: usize, way: &str, usage| Buffer::new(ctx, &format!("{} {way}", of[i].1), of[i].0.size, usage);
+        let upload = BufferUsage::Upload { uniform: false };
+        Ok(Exchange {
+            readback: [
+                buffer(0, "readback", BufferUsage::Readback)?,
+                buffer(1, "readback", BufferUsage::Readback)?,
+                buffer(2, "readback", BufferUsage::Readback)?,
+            ],
+            upload: [buffer(0, "upload", upload)?, buffer(1, "upload", upload)?, buffer(2, "upload", upload)?],
+        })
+    }
+}
+
+impl Learning {
+    /// Makes the exchange buffers (`exchange`) at the first exchange.
+    pub(super) fn make_exchange(&mut self, ctx: &Arc<Context>) -> Result<(), GpuError> {
+        if self.exchange.is_none() {
+            self.exchange = Some(Exchange::new(ctx, self)?);
+        }
+        Ok(())
     }
 }
 

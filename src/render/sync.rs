@@ -5,7 +5,6 @@
 
 use super::*;
 use crate::guide::FrameSums;
-use learning::Exchange;
 
 impl GpuRenderer {
     /// Traces frame `frame` of the render (its random numbers `rng_frame(frame, ..)`,
@@ -29,26 +28,26 @@ impl GpuRenderer {
     /// last learned (None without guiding).
     pub fn frame_sums(&mut self) -> Result<Option<FrameSums>, GpuError> {
         let Some(l) = &mut self.learning else { return Ok(None) };
-        if l.exchange.is_none() {
-            l.exchange = Some(Exchange::new(&self.ctx, l)?);
-        }
-        let x = l.exchange.as_ref().expect("made above");
-        let [rs, rc, rr] = &x.readback;
+        l.make_exchange(&self.ctx)?;
+        let l = &*l;
+        let [rs, rc, rr] = &l.exchange.as_ref().expect("made above").readback;
         self.ctx.run_commands("read frame sums", |cmd| {
             self.ctx.barrier(cmd);
             l.sums.cmd_copy_to(cmd, rs);
             l.counts.cmd_copy_to(cmd, rc);
             l.rows_read.cmd_copy_to(cmd, rr);
         })?;
+        // Entries' sums and counts, then the cells' fraction gradients and their counts.
         let entries = l.entries() as usize;
-        let sums: Vec<f32> = bytemuck::pod_collect_to_vec(&rs.read()[..l.sums.size as usize]);
-        let counts: Vec<u32> = bytemuck::pod_collect_to_vec(&rc.read()[..l.counts.size as usize]);
+        let mut sums: Vec<f32> = bytemuck::pod_collect_to_vec(&rs.read()[..l.sums.size as usize]);
+        let mut counts: Vec<u32> = bytemuck::pod_collect_to_vec(&rc.read()[..l.counts.size as usize]);
         let rows_read: Vec<u32> = bytemuck::pod_collect_to_vec(&rr.read()[..l.rows_read.size as usize]);
+        let (gradients, gradient_counts) = (sums.split_off(entries), counts.split_off(entries));
         Ok(Some(FrameSums {
-            sums: sums[..entries].to_vec(),
-            counts: counts[..entries].to_vec(),
-            gradients: sums[entries..].to_vec(),
-            gradient_counts: counts[entries..].to_vec(),
+            sums,
+            counts,
+            gradients,
+            gradient_counts,
             rows_read: rows_read.into_iter().map(|r| r != 0).collect(),
         }))
     }
@@ -65,11 +64,8 @@ impl GpuRenderer {
             l.sums.size,
             "frame sums of this table's shape"
         );
-        if l.exchange.is_none() {
-            l.exchange = Some(Exchange::new(&self.ctx, l)?);
-        }
-        let x = l.exchange.as_mut().expect("made above");
-        let [us, uc, ur] = &mut x.upload;
+        l.make_exchange(&self.ctx)?;
+        let [us, uc, ur] = &mut l.exchange.as_mut().expect("made above").upload;
         let n = 4 * sums.sums.len();
         us.write_at(0, bytes(&sums.sums));
         us.write_at(n, bytes(&sums.gradients));
@@ -77,7 +73,7 @@ impl GpuRenderer {
         uc.write_at(n, bytes(&sums.gradient_counts));
         let rows_read: Vec<u32> = sums.rows_read.iter().map(|&r| r as u32).collect();
         ur.write_at(0, bytes(&rows_read));
-        let l = self.learning.as_ref().expect("guided");
+        let l = &*l;
         let x = l.exchange.as_ref().expect("made above");
         let staged = [(&x.upload[0], &l.sums), (&x.upload[1], &l.counts), (&x.upload[2], &l.rows_read)];
         let timestamps = self.ctx.info.timestamps;
