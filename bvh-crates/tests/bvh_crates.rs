@@ -170,6 +170,9 @@ struct Shape {
     refs: usize,
     depth: u32,
     sah: f64,
+    /// The SAH cost split by the level (the root's 0) of the node whose visit,
+    /// or of the leaf whose tests, it counts: node visits, then leaf tests.
+    levels: Vec<[f64; 2]>,
 }
 
 fn shape(t: &Tree) -> Shape {
@@ -180,19 +183,24 @@ fn shape(t: &Tree) -> Shape {
     let r = &t.nodes[0];
     let root =
         area(std::array::from_fn(|k| r.a_lo[k].min(r.b_lo[k])), std::array::from_fn(|k| r.a_hi[k].max(r.b_hi[k])));
-    let mut s = Shape { nodes: t.nodes.len(), leaves: 0, refs: t.prim_refs.len(), depth: 0, sah: 0.0 };
-    // (node, the area of its box, its depth)
-    let mut todo = vec![(0u32, root, 1u32)];
-    while let Some((i, a, depth)) = todo.pop() {
-        s.depth = s.depth.max(depth);
+    let mut s = Shape { nodes: t.nodes.len(), leaves: 0, refs: t.prim_refs.len(), depth: 0, sah: 0.0, levels: vec![] };
+    // (node, the area of its box, its level)
+    let mut todo = vec![(0u32, root, 0usize)];
+    while let Some((i, a, level)) = todo.pop() {
+        if s.levels.len() <= level + 1 {
+            s.levels.resize(level + 2, [0.0; 2]);
+        }
+        s.depth = s.depth.max(level as u32 + 1);
         s.sah += a;
+        s.levels[level][0] += a / root;
         let n = &t.nodes[i as usize];
         for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
             if child & shared::BVH_LEAF != 0 {
                 s.leaves += 1;
                 s.sah += count as f64 * area(lo, hi);
+                s.levels[level + 1][1] += count as f64 * area(lo, hi) / root;
             } else {
-                todo.push((child, area(lo, hi), depth + 1));
+                todo.push((child, area(lo, hi), level + 1));
             }
         }
     }
@@ -200,33 +208,10 @@ fn shape(t: &Tree) -> Shape {
     s
 }
 
-/// The SAH cost as `shape` sums it, split by the level of the node (the root's 1)
-/// whose visit or leaf tests it counts: where in the tree the cost lies.
+/// `Shape::levels` as text, "level:visits+tests" with the root's level 1: where
+/// in the tree the cost lies.
 fn sah_by_level(t: &Tree) -> String {
-    let area = |lo: [f32; 3], hi: [f32; 3]| {
-        let e: [f64; 3] = std::array::from_fn(|k| (hi[k] - lo[k]).max(0.0) as f64);
-        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
-    };
-    let r = &t.nodes[0];
-    let root =
-        area(std::array::from_fn(|k| r.a_lo[k].min(r.b_lo[k])), std::array::from_fn(|k| r.a_hi[k].max(r.b_hi[k])));
-    // Per level: node visits and leaf tests.
-    let mut levels = vec![[0.0f64; 2]; 1];
-    let mut todo = vec![(0u32, root, 0usize)];
-    while let Some((i, a, level)) = todo.pop() {
-        if levels.len() <= level + 1 {
-            levels.resize(level + 2, [0.0; 2]);
-        }
-        levels[level][0] += a / root;
-        let n = &t.nodes[i as usize];
-        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
-            if child & shared::BVH_LEAF != 0 {
-                levels[level + 1][1] += count as f64 * area(lo, hi) / root;
-            } else {
-                todo.push((child, area(lo, hi), level + 1));
-            }
-        }
-    }
+    let levels = shape(t).levels;
     levels.iter().enumerate().map(|(l, [n, p])| format!("{}:{n:.2}+{p:.2}", l + 1)).collect::<Vec<_>>().join(" ")
 }
 
@@ -435,9 +420,9 @@ fn compare_bvh_builders() {
             built.push((name, wall, cpu, tree));
         }
         let rays = rays(tris, rays_per_kind);
-        let mut reference = triangle_arrays(tris.iter().copied().map(gpu_triangle).collect());
+        let mut reference = SceneArrays::of_triangles(tris.iter().copied().map(gpu_triangle).collect());
         with_tree(&mut reference, &built[0].3);
-        let mut s = triangle_arrays(tris.iter().copied().map(gpu_triangle).collect());
+        let mut s = SceneArrays::of_triangles(tris.iter().copied().map(gpu_triangle).collect());
         let mut rates = vec![[0.0f64; 4]; built.len()];
         // The BMW's render rays (camera closest, bounce closest, bounce occluded).
         let render = (scene == "BMW M6").then(|| render_rays(&reference, rays_per_kind));

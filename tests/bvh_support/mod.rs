@@ -255,15 +255,10 @@ pub fn triangle_boxes(triangles: &[GpuTriangle]) -> Vec<PrimBox> {
     triangles.iter().enumerate().map(|(i, t)| PrimBox::triangle(i as u32, t)).collect()
 }
 
-/// A scene of `triangles` alone, without a tree (the caller puts one in).
-pub fn triangle_arrays(triangles: Vec<GpuTriangle>) -> SceneArrays {
-    SceneArrays::of_triangles(triangles)
-}
-
 /// A scene of `triangles` alone over rlpt's BVH of them.
 pub fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
     let built = bvh::build(&triangle_boxes(&triangles));
-    SceneArrays { bvh_nodes: built.nodes, prim_refs: built.prim_refs, ..triangle_arrays(triangles) }
+    SceneArrays { bvh_nodes: built.nodes, prim_refs: built.prim_refs, ..SceneArrays::of_triangles(triangles) }
 }
 
 /// The box around the scene: the union of the root's two boxes.
