@@ -196,6 +196,11 @@ struct Settings {
     /// roulette starts; 0 without].
     #[arg(long, value_name = "N", value_parser = parse_learning_frames, allow_negative_numbers = true)]
     learning_frames: Option<u32>,
+    /// The fewest frames between learning passes after the first frames, a power of two:
+    /// the pass takes as long at any image size, so small images learn less often
+    /// [default: auto: 1 from 131072 pixels up, else the fewest frames that trace as many].
+    #[arg(long, value_name = "N|auto", value_parser = parse_learning_period)]
+    learning_period: Option<LearningPeriod>,
     /// Whether a guided render's image frames may be traced unguided: `auto` traces each
     /// frame with the guided or the unguided kernel, whichever has lately given the image
     /// more for its time (a few frames go to the other, to keep measuring it and teaching
@@ -258,6 +263,7 @@ impl Settings {
         opts.learning_rate_exponent = self.learning_rate_exponent.unwrap_or(rlpt::guide::DEFAULT_RATE_EXPONENT);
         opts.guide_floor = self.exploration_floor.unwrap_or(rlpt::guide::DEFAULT_FLOOR);
         opts.learning_frames = self.learning_frames;
+        opts.learning_period = self.learning_period.and_then(|p| p.0);
         opts.unguided_frames = self.unguided_frames.unwrap_or_default();
         opts.guide_grid = self.guide_grid;
         opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
@@ -285,6 +291,7 @@ impl Settings {
                 ("--learning-rate-exponent", self.learning_rate_exponent.is_some()),
                 ("--exploration-floor", self.exploration_floor.is_some()),
                 ("--learning-frames", self.learning_frames.is_some()),
+                ("--learning-period", self.learning_period.is_some()),
                 ("--unguided-frames", self.unguided_frames.is_some()),
                 ("--guide-grid", self.guide_grid.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
@@ -369,6 +376,19 @@ fn parse_learning_frames(s: &str) -> Result<u32, String> {
     let v: u32 = s.parse().map_err(|_| format!("`{s}` is not a whole number of frames"))?;
     rlpt::guide::check_learning_frames(v).map_err(|e| format!("`{s}`: expected {e}"))?;
     Ok(v)
+}
+
+/// `--learning-period`: a number of frames, or None for `auto`.
+#[derive(Clone, Copy, Debug)]
+struct LearningPeriod(Option<u32>);
+
+fn parse_learning_period(s: &str) -> Result<LearningPeriod, String> {
+    if s == "auto" {
+        return Ok(LearningPeriod(None));
+    }
+    let v: u32 = s.parse().map_err(|_| format!("`{s}` is neither `auto` nor a whole number of frames"))?;
+    rlpt::guide::check_learning_period(v).map_err(|e| format!("`{s}`: expected {e}"))?;
+    Ok(LearningPeriod(Some(v)))
 }
 
 fn main() {

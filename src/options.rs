@@ -65,6 +65,9 @@ pub struct RenderOptions {
     /// Frames that teach the table before the image starts (see
     /// `GuideConfig::learning_frames`). None: [`guide::default_learning_frames`].
     pub learning_frames: Option<u32>,
+    /// Frames per learning pass at least (see `GuideConfig::learning_period`).
+    /// None: from the image's size (`guide::RecordSchedule::min_learning_period`).
+    pub learning_period: Option<u32>,
     /// Whether a guided render's image frames may be traced unguided, frame by
     /// frame, where that gives the image more for its time ([`guide::FrameRace`]).
     pub unguided_frames: guide::UnguidedFrames,
@@ -128,6 +131,7 @@ impl RenderOptions {
             guide_floor: guide::DEFAULT_FLOOR,
             learning_rate_exponent: guide::DEFAULT_RATE_EXPONENT,
             learning_frames: None,
+            learning_period: None,
             unguided_frames: guide::UnguidedFrames::Never,
             guide_grid: None,
             q_targets: guide::QTargets::Mis,
@@ -208,6 +212,11 @@ impl RenderOptions {
         if let Some(n) = self.learning_frames {
             if let Err(e) = guide::check_learning_frames(n) {
                 return err("learning_frames", n.to_string(), e);
+            }
+        }
+        if let Some(n) = self.learning_period {
+            if let Err(e) = guide::check_learning_period(n) {
+                return err("learning_period", n.to_string(), e);
             }
         }
         if self.guided_vertices == Some(0) {

@@ -140,6 +140,48 @@ fn assert_rows_built_from_table(t: &QTable, cfg: &GuideConfig, what: &str) {
     assert!(worst <= 1e-4, "{what}: GLSL and Rust sampling rows differ by up to {worst} in a bin's probability");
 }
 
+/// The learning period (`RecordSchedule::learning_period`): images of
+/// `LEARN_PIXEL_FRAMES` pixels and more learn once per recording cycle, smaller
+/// ones once in the fewest frames, a power of two, that trace as many pixels.
+/// Past the first frames (which learn after each) every pass ends a recording
+/// cycle, and passes come exactly once per period.
+#[test]
+fn small_images_learn_once_in_several_cycles() {
+    use rlpt::guide::{RecordSchedule, LEARN_PIXEL_FRAMES, MAX_LEARNING_PERIOD};
+    use rlpt::shared::RECORD_ALL_FRAMES;
+    let n = LEARN_PIXEL_FRAMES;
+    let min = RecordSchedule::min_learning_period;
+    assert_eq!((min(n), min(2 * n), min(n - 1), min(n / 4), min(n / 4 - 1)), (1, 1, 2, 4, 8));
+    assert_eq!((min(1), min(0)), (MAX_LEARNING_PERIOD, MAX_LEARNING_PERIOD));
+    for period in [1, 4, 32, MAX_LEARNING_PERIOD] {
+        for (pixels, entries) in [(64 * 40, 6400u64), (64 * 40, 1 << 20), (1 << 20, 4096)] {
+            let s = RecordSchedule::new(pixels, entries, period);
+            let mut since = 0; // frames since the last pass
+            for f in 0..20000u32 {
+                let (stride, learns) = (s.stride(f), s.learns_after(f));
+                since += 1;
+                if f < RECORD_ALL_FRAMES {
+                    assert!(learns, "period {period}, {pixels} px: frame {f} of the first frames does not learn");
+                } else {
+                    let expected = stride.max(period);
+                    assert_eq!(s.learning_period(f), expected, "period {period}, {pixels} px: frame {f}");
+                    assert_eq!(learns, f % expected == expected - 1, "period {period}, {pixels} px: frame {f}");
+                    if learns {
+                        assert_eq!(f % stride, stride - 1, "period {period}, {pixels} px: frame {f} ends no cycle");
+                        assert!(
+                            since <= expected,
+                            "period {period}, {pixels} px: {since} frames before frame {f}'s pass"
+                        );
+                    }
+                }
+                if learns {
+                    since = 0;
+                }
+            }
+        }
+    }
+}
+
 /// The recording schedule (`RecordSchedule`): every row records in the first
 /// frames, then one row in 4, 8 and 16, the stride doubling at the first frame
 /// that is a multiple of the new stride once the paths recorded so far reach
@@ -165,7 +207,7 @@ fn recording_stride_doubles_as_the_table_fills() {
     assert_eq!(16 * door_default, 100 * door_8x16, "door's default bins are 20x40");
     let cases = [(48 * 32, door_8x16), (480 * 320, door_8x16), (480 * 320, door_default), (640 * 480, 4096)];
     for (case, (pixels, entries)) in cases.into_iter().enumerate() {
-        let s = RecordSchedule::new(pixels, entries);
+        let s = RecordSchedule::new(pixels, entries, 1);
         let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries as f64;
         let mut recorded = 0.0; // paths per entry recorded before frame f
         let mut history = std::collections::HashMap::new(); // cycle start -> recorded before it
@@ -228,68 +270,77 @@ fn recording_stride_doubles_as_the_table_fills() {
 }
 
 /// After the first frames the GPU table learns after the last frame of each
-/// recording cycle (`RecordSchedule::learns_after`): then the targets of the
-/// whole cycle are folded in and the sampling rows built from the table as it
+/// recording cycle (`RecordSchedule::learns_after`), or with a learning period
+/// of 32 frames, of each 32-frame block: then the targets of the cycles since
+/// the last pass are folded in and the sampling rows built from the table as it
 /// stands; after the other frames the table, its visit counts and its rows are
 /// the previous frame's, bit for bit. Both ways of rendering a frame (batched and
 /// profiled); a table of one cell of 8x16 bins, so that the stride reaches 8 and
-/// 16 within the frames rendered. Every row records once per cycle, so a cycle's fold adds
-/// about as many targets as one of the first frames, where every row records
-/// (a fold that kept the last frame's targets alone would add 1/8 or 1/16 of it).
+/// 16 within the frames rendered. Every row records once per cycle, so a fold adds
+/// about as many targets per cycle as one of the first frames, where every row
+/// records (a fold that kept the last frame's targets alone would add 1/8 or 1/16
+/// of it).
 #[test]
 fn the_table_learns_on_schedule() {
     let ctx = gpu();
     let mut scene = scene("door.toml");
     scene.guiding.resolution = Some([1, 1, 1]);
-    let mut o = guided(&options(&scene, 32, 24, 64), GuidingMode::Sphere);
-    // 8x16 bins: door's default, 20x40 (door has Russian roulette), has 6.25 times
-    // the entries, and over it the stride would reach 32 only after the frames rendered.
-    o.bins = Some(Bins::SPHERE_DEFAULT);
-    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
-    let cfg = prepared.guide.unwrap();
-    let schedule = RecordSchedule::for_render(&cfg, 32, 24);
-    let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
-    let mut before: Option<QTable> = None;
-    let frames = 3 * rlpt::shared::RECORD_MAX_STRIDE;
-    assert_eq!((schedule.stride(8), schedule.stride(frames - 1)), (8, 32), "{schedule:?}");
-    let visits = |t: &QTable| t.visits.iter().map(|&v| v as u64).sum::<u64>();
-    let (mut learned, mut kept) = (0, 0);
-    let mut all_rows_frame = Vec::new(); // targets folded after each of frames 1 to 7
-    for frame in 0..frames {
-        if frame % 2 == 0 {
-            r.render_frames(1).unwrap();
-        } else {
-            r.render_frame_profiled().unwrap();
-        }
-        let t = r.table().unwrap().unwrap();
-        if schedule.learns_after(frame) {
-            assert_rows_built_from_table(&t, &cfg, &format!("after frame {frame}"));
-            if let Some(b) = &before {
-                let added = visits(&t) - visits(b);
-                if frame < rlpt::shared::RECORD_ALL_FRAMES {
-                    all_rows_frame.push(added as f64);
-                } else {
-                    let mean = all_rows_frame.iter().sum::<f64>() / all_rows_frame.len() as f64;
-                    let stride = schedule.stride(frame);
-                    assert!(
-                        (0.7..1.4).contains(&(added as f64 / mean)),
-                        "the fold after frame {frame} (stride {stride}) added {added} targets, \
-                         against {mean} after a frame where every row records"
-                    );
-                }
-                assert!(t.q != b.q, "after frame {frame} the table learned nothing");
+    // After frames 0 to 7, 15 (stride 8), 31 (16), 63 and 95 (32); with a period
+    // of 32 after frames 0 to 7, 31, 63 and 95.
+    for (period, passes) in [(1, 12), (32, 11)] {
+        let mut o = guided(&options(&scene, 32, 24, 64), GuidingMode::Sphere);
+        // 8x16 bins: door's default, 20x40 (door has Russian roulette), has 6.25 times
+        // the entries, and over it the stride would reach 32 only after the frames rendered.
+        o.bins = Some(Bins::SPHERE_DEFAULT);
+        o.learning_period = Some(period);
+        let prepared = PreparedScene::new(&scene, &o).expect("valid options");
+        let cfg = prepared.guide.unwrap();
+        let schedule = RecordSchedule::for_render(&cfg, 32, 24);
+        let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
+        let mut before: Option<QTable> = None;
+        let frames = 3 * rlpt::shared::RECORD_MAX_STRIDE;
+        assert_eq!((schedule.stride(8), schedule.stride(frames - 1)), (8, 32), "{schedule:?}");
+        let visits = |t: &QTable| t.visits.iter().map(|&v| v as u64).sum::<u64>();
+        let (mut learned, mut kept) = (0, 0);
+        let mut all_rows_frame = Vec::new(); // targets folded after each of frames 1 to 7
+        let mut cycles = 0.0; // recording cycles since the last pass
+        for frame in 0..frames {
+            if frame % 2 == 0 {
+                r.render_frames(1).unwrap();
+            } else {
+                r.render_frame_profiled().unwrap();
             }
-            learned += 1;
-        } else {
-            let b = before.as_ref().expect("the first frame learns");
-            assert!(t.rows == b.rows, "after frame {frame} the rows changed, though the table does not learn then");
-            assert!(t.q == b.q && t.visits == b.visits, "after frame {frame} the table changed");
-            kept += 1;
+            cycles += 1.0 / schedule.stride(frame) as f64;
+            let t = r.table().unwrap().unwrap();
+            let at = format!("period {period}, after frame {frame}");
+            if schedule.learns_after(frame) {
+                assert_rows_built_from_table(&t, &cfg, &at);
+                if let Some(b) = &before {
+                    let added = visits(&t) - visits(b);
+                    if frame < rlpt::shared::RECORD_ALL_FRAMES {
+                        all_rows_frame.push(added as f64);
+                    } else {
+                        let mean = all_rows_frame.iter().sum::<f64>() / all_rows_frame.len() as f64;
+                        assert!(
+                            (0.7..1.4).contains(&(added as f64 / (mean * cycles))),
+                            "{at}: the fold added {added} targets over {cycles} recording cycles, \
+                             against {mean} after a frame where every row records"
+                        );
+                    }
+                    assert!(t.q != b.q, "{at}: the table learned nothing");
+                }
+                learned += 1;
+                cycles = 0.0;
+            } else {
+                let b = before.as_ref().expect("the first frame learns");
+                assert!(t.rows == b.rows, "{at}: the rows changed, though the table does not learn then");
+                assert!(t.q == b.q && t.visits == b.visits, "{at}: the table changed");
+                kept += 1;
+            }
+            before = Some(t);
         }
-        before = Some(t);
+        assert_eq!((learned, kept), (passes, frames - passes), "period {period}: the schedule was exercised");
     }
-    // After frames 0 to 7, 15 (stride 8), 31 (16), 63 and 95 (32).
-    assert_eq!((learned, kept), (12, frames - 12), "the schedule was exercised");
     assert_no_validation_messages(&ctx);
 }
 

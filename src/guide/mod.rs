@@ -186,6 +186,9 @@ pub struct GuideConfig {
     /// Whether image frames may be traced unguided where a [`FrameRace`] finds
     /// them more efficient.
     pub unguided_frames: bool,
+    /// Frames per learning pass at least (a power of two), past the first frames;
+    /// None: from the image's size ([`RecordSchedule::min_learning_period`]).
+    pub learning_period: Option<u32>,
 }
 
 impl GuideConfig {
@@ -253,6 +256,17 @@ pub fn check_learning_frames(n: u32) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("0 to {MAX_LEARNING_FRAMES} frames: those that teach the table before the image starts"))
+    }
+}
+
+/// Whether a learning period of `n` frames can be asked for: a power of two up to
+/// [`MAX_LEARNING_PERIOD`], so that each pass ends a recording cycle. The message
+/// says what was expected (shared with the command line's parser).
+pub fn check_learning_period(n: u32) -> Result<(), String> {
+    if n.is_power_of_two() && n <= MAX_LEARNING_PERIOD {
+        Ok(())
+    } else {
+        Err(format!("a power of two from 1 to {MAX_LEARNING_PERIOD}: the fewest frames between learning passes"))
     }
 }
 

@@ -8,6 +8,15 @@ use super::*;
 /// ([`RecordSchedule`]); it doubles again at twice as many, and so on.
 pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 
+/// Pixel-frames ([`RecordSchedule::min_learning_period`]) a learning period spans at
+/// least: below this many pixels, the table learns once in several recording
+/// cycles, so that the pass, whose time does not shrink with the image, stays a
+/// small share of a small image's frames (docs/guiding.md, "Small images").
+pub const LEARN_PIXEL_FRAMES: u64 = 1 << 17;
+
+/// The longest learning period [`RecordSchedule::min_learning_period`] gives.
+pub const MAX_LEARNING_PERIOD: u32 = 1 << 10;
+
 /// Which pixel rows hand their paths' Q-learning targets to the table, frame by
 /// frame (counted from the first frame traced): all rows in the first
 /// `RECORD_ALL_FRAMES` frames, then one row in a stride, a different one each
@@ -29,12 +38,17 @@ pub struct RecordSchedule {
     /// The first frame of each doubled stride: `RECORD_ROW_STRIDE << (k + 1)` from
     /// `doublings[k]` on.
     doublings: Vec<u32>,
+    /// Frames per learning pass at least, past the first `RECORD_ALL_FRAMES`: a
+    /// power of two ([`RecordSchedule::learns_after`]).
+    min_period: u32,
 }
 
 impl RecordSchedule {
     /// The schedule of a render of `pixels` pixels (`SAMPLES_PER_FRAME` paths each
-    /// per frame) over a table of `entries` entries.
-    pub fn new(pixels: u64, entries: u64) -> RecordSchedule {
+    /// per frame) over a table of `entries` entries, learning once in `min_period`
+    /// frames at most (a power of two; 1 learns once per recording cycle).
+    pub fn new(pixels: u64, entries: u64, min_period: u32) -> RecordSchedule {
+        assert!(min_period.is_power_of_two(), "learning period {min_period}: not a power of two");
         use shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
         // In frames of every row: recorded so far, and needed for the next doubling.
         let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries.max(1) as f64;
@@ -51,12 +65,23 @@ impl RecordSchedule {
             stride *= 2;
             needed *= 2.0;
         }
-        RecordSchedule { doublings }
+        RecordSchedule { doublings, min_period }
     }
 
-    /// The schedule of a guided render of `width` x `height` pixels.
+    /// The schedule of a guided render of `width` x `height` pixels: its learning
+    /// period `cfg.learning_period`, else [`min_learning_period`](Self::min_learning_period).
     pub fn for_render(cfg: &GuideConfig, width: u32, height: u32) -> RecordSchedule {
-        RecordSchedule::new(width as u64 * height as u64, cfg.entries() as u64)
+        let pixels = width as u64 * height as u64;
+        let period = cfg.learning_period.unwrap_or_else(|| RecordSchedule::min_learning_period(pixels));
+        RecordSchedule::new(pixels, cfg.entries() as u64, period)
+    }
+
+    /// The default learning period of an image of `pixels` pixels: the fewest
+    /// frames, a power of two, that trace [`LEARN_PIXEL_FRAMES`] pixel-frames (1 for
+    /// images of that many pixels or more), at most [`MAX_LEARNING_PERIOD`].
+    pub fn min_learning_period(pixels: u64) -> u32 {
+        let frames = LEARN_PIXEL_FRAMES.div_ceil(pixels.max(1)).next_power_of_two();
+        frames.min(MAX_LEARNING_PERIOD as u64) as u32
     }
 
     /// One pixel row in this many records in frame `frame`: 1 (every row) in the
@@ -78,7 +103,8 @@ impl RecordSchedule {
     /// ([`QTable::learn`]). After each of the first `RECORD_ALL_FRAMES` frames,
     /// while the table changes fast, then after the last frame of each cycle of
     /// the recording rows, one frame in `stride`, when every row has recorded once.
-    /// In between, the targets are summed per entry, and paths read a table and
+    /// Small images learn once in several cycles, the schedule's `min_period`
+    /// frames. In between, the targets are summed per entry, and paths read a table and
     /// sample rows a few frames old; the densities they evaluate are those of the
     /// same rows, so the estimate stays unbiased, and Q takes the same targets,
     /// folded later. The rebuild is a sequential loop per row, and learning
@@ -87,15 +113,16 @@ impl RecordSchedule {
     /// little from frame to frame; that is why the stride follows the table's
     /// fill, not the frame count (docs/guiding.md, "The recording schedule").
     pub fn learns_after(&self, frame: u32) -> bool {
-        let stride = self.stride(frame);
-        frame % stride == stride - 1
+        let period = if frame < shared::RECORD_ALL_FRAMES { 1 } else { self.learning_period(frame) };
+        frame % period == period - 1
     }
 
     /// Frames per learning pass once the first `RECORD_ALL_FRAMES` are past, at
-    /// frame `frame`'s stride: the share of a pass each guided frame costs in
-    /// the long run ([`FrameRace::report_guided`]).
+    /// frame `frame`: its stride, or the schedule's `min_period` where that is
+    /// longer. The share of a pass each guided frame costs in the long run
+    /// ([`FrameRace::report_guided`]).
     pub fn learning_period(&self, frame: u32) -> u32 {
-        self.stride(frame.max(shared::RECORD_ALL_FRAMES))
+        self.stride(frame.max(shared::RECORD_ALL_FRAMES)).max(self.min_period)
     }
 }
 

@@ -146,6 +146,7 @@ mod tests {
             rate_exponent: 1.0,
             learning_frames: 0,
             unguided_frames: false,
+            learning_period: None,
         };
         let mut t = QTable::new(&cfg);
         assert_eq!(t.used_cells, 4);

@@ -400,6 +400,7 @@ impl PreparedScene {
                     opts.unguided_frames == guide::UnguidedFrames::Auto,
                 ),
                 unguided_frames: opts.unguided_frames == guide::UnguidedFrames::Auto,
+                learning_period: opts.learning_period,
             };
             let p = &mut prepared.params;
             p.guide_bins = bins.count();

@@ -106,7 +106,7 @@ mod tests {
     fn frame_dispatches_trace_every_row_once() {
         // 102.4 paths per entry per frame: strides 8, 16 and 32 from frames 8, 32
         // and 192.
-        let s = RecordSchedule::new(1600, 1000);
+        let s = RecordSchedule::new(1600, 1000, 1);
         let strides = [7, 8, 31, 32, 191, 192].map(|f| s.stride(f));
         assert_eq!(strides, [1, 8, 8, 16, 16, 32], "{s:?}");
         for guided in [false, true] {
