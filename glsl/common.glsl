@@ -249,23 +249,19 @@
 #define FRAME_VARIANCE_SLOTS 64
 #define FRAME_VARIANCE_SCALE 65536.0
 #define NUM_COUNTERS 133
-// learn.comp: invocations per workgroup of the fold (phase 0) and of the rows'
-// rebuild (phase 1), one row per invocation; the rebuild's groups stage their
-// rows in shared memory where at least LEARN_MIN_STAGED_ROWS fit
-// (src/render/learning.rs `rebuild_layout`), else build them in the table.
+// learn.comp: invocations per workgroup of the fold (phase 0), and of the rows'
+// rebuild (phase 1), whose group builds one row at a time in shared memory
+// (src/render/learning.rs `rebuild_shared_bytes`).
 #define LEARN_FOLD_GROUP 16
-#define LEARN_GROUP 16
-#define LEARN_MIN_STAGED_ROWS 8
+#define LEARN_ROW_GROUP 64
 // learn.comp's dispatches: at most this many groups (every Vulkan device's
 // maxComputeWorkGroupCount[0] is at least this), each invocation stepping
 // through the work a dispatch apart.
 #define LEARN_MAX_GROUPS 65535
 // learn.comp's specialization constants (their constant_id): its invocations
-// per workgroup, the words of its shared array (rows per group x bins), and
-// whether the rebuild stages its rows there (else it builds them in the table).
+// per workgroup and the words of its shared arrays (a row's bins).
 #define SPEC_LEARN_GROUP 0
 #define SPEC_LEARN_STAGE_WORDS 1
-#define SPEC_LEARN_STAGED 2
 // Guiding: sampling distributions per cell, one per class of surface orientation
 // (src/guide/bins.rs `normal_class`).
 #define NORMAL_CLASSES 6

@@ -5,7 +5,7 @@
 // the last fold into the table, Q <- Q + w (S / c - Q) with w = batch_rate(n, c)
 // (learning rate 1 / i^omega for the i-th target; the running mean at omega = 1),
 // and clears the sums;
-// phase 1, one invocation per (cell, normal class): rebuilds that sampling row
+// phase 1, one workgroup per (cell, normal class): rebuilds that sampling row
 // where a recording path has read it (`QTable::rows_read`),
 // an alias table over bins in proportion to (Q + floor * Qbar) cos
 // (`build_sampling_rows`, `build_alias_row`: the same steps in the same order).
@@ -19,12 +19,11 @@
 #include "sampling.glsl"
 
 // src/render/mod.rs `GpuRenderer::new`: the fold runs LEARN_FOLD_GROUP invocations
-// per group with no shared array; the rebuild as many rows per group as it
-// stages in shared memory, or LEARN_GROUP where it builds them in the table.
+// per group with no shared array; the rebuild LEARN_ROW_GROUP per group, one row
+// each group, staged in shared arrays of a row's bins (STAGE_WORDS).
 layout(local_size_x_id = SPEC_LEARN_GROUP) in;
-layout(constant_id = SPEC_LEARN_GROUP) const uint GROUP = LEARN_GROUP;
+layout(constant_id = SPEC_LEARN_GROUP) const uint GROUP = LEARN_FOLD_GROUP;
 layout(constant_id = SPEC_LEARN_STAGE_WORDS) const uint STAGE_WORDS = 1u;
-layout(constant_id = SPEC_LEARN_STAGED) const bool STAGED = false;
 layout(std430, set = 0, binding = 0) buffer QTable { float q_table[]; };
 layout(std430, set = 0, binding = 1) buffer Visits { uint visits[]; };
 layout(std430, set = 0, binding = 2) buffer FrameSums { float frame_sums[]; };
@@ -110,49 +109,41 @@ float bin_cosine(uint b, uint class_) {
     return s > 1e-6 ? s : 0.0;
 }
 
-// A row is built where loads cost little. Vose's loop is sequential, and its
-// chains of dependent loads from L2 are slow. Where 8 rows fit a group's 32 KB
-// (up to 512 bins, STAGED) the group stages its rows in shared memory; larger
-// rows are built in the table, where it seems the L1 cache holds them: staged
-// fewer to a group, too few rows are in flight per multiprocessor
-// (src/render/learning.rs `rebuild_layout`; docs/guiding.md, "Learning").
-// Bin b of invocation i's row sits at b * GROUP + i in `staged`, so that the
-// invocations of a group, in step through the loops over every bin, read
-// neighbouring words (each row contiguous, they would all hit one bank).
+// A row is built where loads cost little: Vose's loop is sequential, and built
+// in the table by one invocation its chains of dependent loads from L2 were
+// slow. A group stages its row in shared memory (a row of Bins::MAX_COUNT bins
+// fits the 16 KB every device has) and builds it together: the loops over bins
+// in parallel, the sums and Vose's loop by its first invocation, in the order
+// of the CPU twin (docs/guiding.md, "Learning").
 shared uvec2 staged[STAGE_WORDS];
-uint row_start;   // the row's first bin in sampler_table
-uint stage_start; // the row's first bin in staged (its bins GROUP apart)
+// Each bin's probability in units of 1 / ALIAS_THRESHOLD_ONE, summed by atomics.
+shared uint staged_units[STAGE_WORDS];
+shared float staged_total;
 
-uvec2 get_bin(uint b) { return STAGED ? staged[stage_start + b * GROUP] : sampler_table[row_start + b]; }
-void set_bin(uint b, uvec2 v) {
-    if (STAGED) staged[stage_start + b * GROUP] = v; else sampler_table[row_start + b] = v;
-}
-float weight_at(uint b) { return uintBitsToFloat(get_bin(b).y); }
-void set_weight(uint b, float w) { set_bin(b, uvec2(get_bin(b).x, floatBitsToUint(w))); }
-void set_column(uint b, uint c) { set_bin(b, uvec2(c, get_bin(b).y)); }
+float weight_at(uint b) { return uintBitsToFloat(staged[b].y); }
+void set_weight(uint b, float w) { staged[b].y = floatBitsToUint(w); }
 
 // First column at or after `from` not yet set whose scaled weight is small
 // (below 1) or large; n where there is none. src/guide/sampler.rs `build_alias_row`.
 uint open_column(uint from, uint n, bool small) {
     for (uint i = from; i < n; ++i) {
-        uvec2 e = get_bin(i);
+        uvec2 e = staged[i];
         if (e.x == uint(UNLEARNED) && (uintBitsToFloat(e.y) < 1.0) == small) return i;
     }
     return n;
 }
 
-// Vose's construction in place over the weights in the density slots, then
-// each bin's density read back from the table (src/guide/sampler.rs `build_alias_row`).
-void build_alias_row(uint n, float total) {
-    float scale = float(n) / total;
-    for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * scale);
+// Vose's pairing over the scaled weights (mean 1) in the density slots: each
+// small column takes its threshold and the large bin that fills it
+// (src/guide/sampler.rs `build_alias_row`); columns left unset stay UNLEARNED.
+void alias_pairs(uint n) {
     uint next = open_column(0u, n, true);
     uint s = next;
     uint l = open_column(0u, n, false);
     while (s < n && l < n) {
         float p = weight_at(s);
         uint threshold = min(uint(ceil(p * float(ALIAS_THRESHOLD_ONE))), uint(ALIAS_THRESHOLD_ONE));
-        set_column(s, (threshold << 16u) | l);
+        staged[s].x = (threshold << 16u) | l;
         float rest = (weight_at(l) + p) - 1.0;
         set_weight(l, rest);
         if (rest < 1.0) {
@@ -163,18 +154,11 @@ void build_alias_row(uint n, float total) {
             s = next;
         }
     }
-    for (uint b = 0u; b < n; ++b) {
-        if (get_bin(b).x == uint(UNLEARNED)) set_column(b, (uint(ALIAS_THRESHOLD_ONE) << 16u) | b);
-    }
-    // Densities: the probability of each bin under the table, over 4 pi / n.
-    for (uint b = 0u; b < n; ++b) set_weight(b, float(get_bin(b).x >> 16u) / float(ALIAS_THRESHOLD_ONE));
-    for (uint b = 0u; b < n; ++b) {
-        uint c = get_bin(b).x;
-        uint a = c & 0xffffu;
-        if (a != b) set_weight(a, weight_at(a) + (1.0 - float(c >> 16u) / float(ALIAS_THRESHOLD_ONE)));
-    }
-    for (uint b = 0u; b < n; ++b) set_weight(b, weight_at(b) * (1.0 / (4.0 * PI)));
 }
+
+// A bin's density from its probability in units (src/guide/sampler.rs
+// `alias_densities`): units / ALIAS_THRESHOLD_ONE / n over the bin's 4 pi / n.
+float units_density(uint units) { return float(units) / float(ALIAS_THRESHOLD_ONE) * (1.0 / (4.0 * PI)); }
 
 // Phase 0 for entry i: fold its targets into Q; for i < cells where cells learn
 // their fractions, one Adam step on cell i's fraction too.
@@ -198,26 +182,21 @@ void fold(uint i) {
     frame_counts[i] = 0u;
 }
 
-// Phase 1 for sampling row i, of cell i / NORMAL_CLASSES: rebuild it, where a
-// recording path has read it (else it stays unlearned, its fraction 0).
-void build_row(uint i) {
-    if (rows_read[i] == 0u) return;
+// The sums of row i over its bins' Q and cosine (staged in the column and
+// density slots), the weights (Q + floor * Qbar) cos written to the density
+// slots and the columns marked unset; the row's fraction and, where the grid is
+// adaptive, its cell's targets written. Returns the weights' total.
+// Sequential, in the CPU twin's order (`build_sampling_rows`).
+float row_weights(uint i) {
     uint cell = i / NORMAL_CLASSES;
-    uint class_ = i % NORMAL_CLASSES;
     uint qrow = cell * push.bins;
-    uint row = i * push.bins;
-    row_start = row;
-    // Each bin's Q and cosine, Q read from the table once, wait in its column
-    // and density slots; then the weights (Q + floor * Qbar) cos take the density
-    // slot and the column is marked unset while the table is built.
     float qc = 0.0;
     float c = 0.0;
     float targets = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
-        float w = bin_cosine(b, class_);
-        float q = q_table[qrow + b];
+        float q = uintBitsToFloat(staged[b].x);
+        float w = uintBitsToFloat(staged[b].y);
         targets += float(visits[qrow + b]);
-        set_bin(b, uvec2(floatBitsToUint(q), floatBitsToUint(w)));
         qc += q * w;
         c += w;
     }
@@ -226,22 +205,63 @@ void build_row(uint i) {
     float q_floor = c > 0.0 ? push.floor_factor * qc / c : 0.0;
     float total = 0.0;
     for (uint b = 0u; b < push.bins; ++b) {
-        uvec2 e = get_bin(b);
-        float w = (uintBitsToFloat(e.x) + q_floor) * uintBitsToFloat(e.y);
-        set_bin(b, uvec2(uint(UNLEARNED), floatBitsToUint(w)));
+        float w = (uintBitsToFloat(staged[b].x) + q_floor) * uintBitsToFloat(staged[b].y);
+        staged[b] = uvec2(uint(UNLEARNED), floatBitsToUint(w));
         total += w;
     }
+    float g = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
+    row_fractions[i] = total > 0.0 ? g * evidence_weight(targets) : 0.0;
+    return total;
+}
+
+// Phase 1 for sampling row i, of cell i / NORMAL_CLASSES, by the whole group:
+// rebuild it where a recording path has read it (else it stays unlearned, its
+// fraction 0), as src/guide/sampler.rs `build_sampling_rows` and `build_alias_row`.
+void build_row(uint i) {
+    if (rows_read[i] == 0u) return;  // the same for the whole group
+    uint lid = gl_LocalInvocationID.x;
+    uint n = push.bins;
+    uint class_ = i % NORMAL_CLASSES;
+    uint qrow = (i / NORMAL_CLASSES) * n;
+    uint row = i * n;
+    // Each bin's Q, read from the table once, and cosine, in its column and density slots.
+    for (uint b = lid; b < n; b += GROUP) {
+        staged[b] = uvec2(floatBitsToUint(q_table[qrow + b]), floatBitsToUint(bin_cosine(b, class_)));
+    }
+    barrier();
+    if (lid == 0u) staged_total = row_weights(i);
+    barrier();
+    float total = staged_total;
     if (!(total > 0.0)) {
-        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = uvec2(uint(UNLEARNED), 0u);
-        row_fractions[i] = 0.0;
+        for (uint b = lid; b < n; b += GROUP) sampler_table[row + b] = uvec2(uint(UNLEARNED), 0u);
+        barrier();
         return;
     }
-    float g = push.learn_fraction != 0u ? cell_fraction(fraction_states[cell]) : push.start_fraction;
-    row_fractions[i] = g * evidence_weight(targets);
-    build_alias_row(push.bins, total);
-    if (STAGED) {
-        for (uint b = 0u; b < push.bins; ++b) sampler_table[row + b] = get_bin(b);
+    float scale = float(n) / total;
+    for (uint b = lid; b < n; b += GROUP) set_weight(b, weight_at(b) * scale);
+    barrier();
+    if (lid == 0u) alias_pairs(n);
+    barrier();
+    // What is left is full (up to rounding): each such column keeps its own bin.
+    // Then each bin's probability: its threshold, plus what each column aliased
+    // to it leaves.
+    for (uint b = lid; b < n; b += GROUP) {
+        uint c = staged[b].x;
+        c = c == uint(UNLEARNED) ? (uint(ALIAS_THRESHOLD_ONE) << 16u) | b : c;
+        staged[b].x = c;
+        staged_units[b] = c >> 16u;
     }
+    barrier();
+    for (uint b = lid; b < n; b += GROUP) {
+        uint c = staged[b].x;
+        uint a = c & 0xffffu;
+        if (a != b) atomicAdd(staged_units[a], uint(ALIAS_THRESHOLD_ONE) - (c >> 16u));
+    }
+    barrier();
+    for (uint b = lid; b < n; b += GROUP) {
+        sampler_table[row + b] = uvec2(staged[b].x, floatBitsToUint(units_density(staged_units[b])));
+    }
+    barrier();
 }
 
 // src/guide/tree.rs `QTable::split_cell`: the 8 children of `cell` from `first` on
@@ -302,7 +322,6 @@ void refine() {
 // invocation steps through the work a whole dispatch apart.
 void main() {
     uint stride = gl_NumWorkGroups.x * GROUP;
-    stage_start = gl_LocalInvocationID.x;
     if (push.phase == 0u) {
         // Every cell is an entry's index too (cells <= entries).
         for (uint i = gl_GlobalInvocationID.x; i < push.entries; i += stride) fold(i);
@@ -310,6 +329,6 @@ void main() {
         refine();
     } else {
         uint n = push.cells * NORMAL_CLASSES;
-        for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) build_row(i);
+        for (uint i = gl_WorkGroupID.x; i < n; i += gl_NumWorkGroups.x) build_row(i);
     }
 }

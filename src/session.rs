@@ -57,6 +57,9 @@ impl Renderer for GpuRenderer {
             variance: t.variance,
         })
     }
+    fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
+        GpuRenderer::render_round(self, max, time_left_ms)
+    }
     fn image_frames(&self) -> u32 {
         self.frames()
     }

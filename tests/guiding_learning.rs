@@ -20,15 +20,15 @@ use rlpt::render::GpuRenderer;
 use rlpt::scene::Scene;
 use std::sync::Arc;
 
-/// learn.comp builds rows of up to 128 bins in shared memory and larger ones in
-/// the table itself: both against Rust.
+/// learn.comp's groups build the same rows as Rust: rows of fewer bins than a
+/// group has invocations, of several bins each, and of an odd count; the largest,
+/// 32x32, in `learning_reaches_past_one_dispatch`.
 #[test]
 fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
     let ctx = gpu();
-    // Rows staged 16 and 8 to a workgroup of the rebuild, and built in the table
-    // (src/render/mod.rs `rebuild_layout`); the largest table, 32x32, in
-    // `learning_reaches_past_one_dispatch`.
-    for bins in [Bins::SPHERE_DEFAULT, Bins { rows: 12, cols: 24 }, Bins { rows: 20, cols: 40 }] {
+    for bins in
+        [Bins { rows: 4, cols: 8 }, Bins { rows: 9, cols: 13 }, Bins::SPHERE_DEFAULT, Bins { rows: 20, cols: 40 }]
+    {
         glsl_learning_matches_rust(&ctx, bins);
     }
     assert_no_validation_messages(&ctx);

@@ -20,6 +20,11 @@ impl Timer {
         Ok(Timer { ctx: ctx.clone(), pool, capacity })
     }
 
+    /// Timestamps the pool holds.
+    pub fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
     /// Records a reset of all queries (before the first stamp of a submission).
     pub fn cmd_reset(&self, cmd: vk::CommandBuffer) {
         // SAFETY: `cmd` is recording outside a render pass.

@@ -174,20 +174,19 @@ pub fn build_alias_row(row: &mut [AliasBin]) {
 
 /// Sets each bin's density to the probability the row's alias table gives it,
 /// over the bin's solid angle (4 pi / n): `(threshold_b + sum over columns j
-/// aliased to b of (1 - threshold_j)) / n / (4 pi / n)`.
+/// aliased to b of (1 - threshold_j)) / n / (4 pi / n)`, summed exactly in units
+/// of 1 / THRESHOLD_ONE (the GPU's groups add them by atomics, in any order).
+/// `glsl/learn.comp` `units_density`.
 fn alias_densities(row: &mut [AliasBin]) {
-    let threshold = |c: u32| (c >> 16) as f32 / THRESHOLD_ONE as f32;
-    for e in row.iter_mut() {
-        e.pdf = threshold(e.column);
-    }
-    for i in 0..row.len() {
-        let a = (row[i].column & 0xffff) as usize;
+    let mut units: Vec<u32> = row.iter().map(|e| e.column >> 16).collect();
+    for (i, e) in row.iter().enumerate() {
+        let a = (e.column & 0xffff) as usize;
         if a != i {
-            row[a].pdf += 1.0 - threshold(row[i].column);
+            units[a] += THRESHOLD_ONE - (e.column >> 16);
         }
     }
-    for e in row.iter_mut() {
-        e.pdf *= 1.0 / (4.0 * PI);
+    for (e, u) in row.iter_mut().zip(units) {
+        e.pdf = u as f32 / THRESHOLD_ONE as f32 * (1.0 / (4.0 * PI));
     }
 }
 

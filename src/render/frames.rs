@@ -5,6 +5,15 @@
 
 use super::*;
 use crate::math::sampler::rng_frame;
+use crate::renderer::RoundReport;
+
+/// GPU time a round of short frames fills ([`GpuRenderer::render_round`]): each
+/// submission waits for the host, and frames of a fraction of a millisecond one
+/// to a submission leave the GPU idle most of the time, and slower.
+pub const ROUND_MS: f64 = 2.0;
+
+/// Frames in one round at most.
+pub const ROUND_MAX_FRAMES: u32 = 64;
 
 impl GpuRenderer {
     /// The kernel's push constants for the next frame (`rows` left 0, `cmd_trace`
@@ -75,6 +84,41 @@ impl GpuRenderer {
         }
     }
 
+    /// Renders a round of frames in one submission: as many as fill [`ROUND_MS`]
+    /// at the last submission's time per frame, up to [`ROUND_MAX_FRAMES`] and
+    /// `max`, and where `time_left_ms` is set, no more than fit it (each taken to
+    /// last as long; none where not one does). One frame where there are no
+    /// timestamps (the session judges the time by the wall clock), before the
+    /// first submission, and where a race chooses each frame's kernel.
+    pub fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
+        let per_frame = self.round_frame_ms.filter(|_| self.race.is_none() && self.ctx.info.timestamps);
+        let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
+        if let (Some(ms), Some(left)) = (per_frame, time_left_ms) {
+            count = count.min((left / ms).max(0.0) as u32);
+            if count == 0 {
+                return Ok(RoundReport { frames: 0, time_up: Some(true), ..Default::default() });
+            }
+        }
+        let t = self.render_frames(count)?;
+        let timestamps = self.ctx.info.timestamps;
+        let ms = t.total_ms();
+        // As the session judges one frame: the next is taken to last as long as these did.
+        let time_up = match (self.round_frame_ms, time_left_ms) {
+            (Some(next), Some(left)) if timestamps => Some(next > left - ms),
+            (_, None) if timestamps => Some(false),
+            _ => None,
+        };
+        Ok(RoundReport {
+            frames: count,
+            gpu_ms: timestamps.then_some(ms),
+            learn_ms: timestamps.then_some(t.learn_ms),
+            zero_paths: t.zero_paths,
+            time_up,
+            kind: t.kind,
+            variance: t.variance,
+        })
+    }
+
     /// Renders `count` frames in one submission (each followed by learning when
     /// guiding is on: the fold and the rows' rebuild as `RecordSchedule::learns_after`
     /// says) and returns what they measured. Times come from timestamp
@@ -101,6 +145,11 @@ impl GpuRenderer {
                 (PathPush { ablate: 0, ..self.next_frame(kind) }, kind)
             })
             .collect();
+        // Stamps: 0 before the first frame, a pair around each learning pass (up
+        // to the timer's room; passes past it count as path tracing), the last
+        // after everything.
+        let passes = std::cell::Cell::new(0u32);
+        let pass_pairs = (self.timer.capacity() - 2) / 2;
         let submitted = self.ctx.run_commands("pathtrace frames", |cmd| {
             self.counters.cmd_clear(cmd);
             self.ctx.barrier(cmd);
@@ -116,19 +165,22 @@ impl GpuRenderer {
                 }
                 self.cmd_trace(cmd, push, kind);
                 if let Some(l) = &self.learning {
-                    if timestamps && f + 1 == count {
-                        self.timer.cmd_stamp(cmd, 1);
-                    }
                     if learn && kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
+                        let k = passes.get();
+                        let stamped = timestamps && k < pass_pairs;
+                        if stamped {
+                            self.timer.cmd_stamp(cmd, 1 + 2 * k);
+                        }
                         l.cmd_learn(&self.ctx, cmd, |_| {});
+                        if stamped {
+                            self.timer.cmd_stamp(cmd, 2 + 2 * k);
+                            passes.set(k + 1);
+                        }
                     }
                 }
             }
             if timestamps {
-                if self.learning.is_none() {
-                    self.timer.cmd_stamp(cmd, 1);
-                }
-                self.timer.cmd_stamp(cmd, 2);
+                self.timer.cmd_stamp(cmd, 1 + 2 * passes.get());
             }
             self.ctx.barrier(cmd);
             self.counters.cmd_copy_to(cmd, &self.counters_readback);
@@ -149,11 +201,11 @@ impl GpuRenderer {
         let variance = self.read_frame_variance(count);
         let mut t = FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, ..Default::default() };
         if timestamps {
-            let s = self.timer.read(3)?;
-            // With several frames in one submission, learning between them counts as path tracing
-            // except after the last; call with count = 1 to separate the passes exactly.
-            t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[1]);
-            t.learn_ms = self.timer.ticks_to_ms(s[1], s[2]);
+            let passes = passes.get();
+            let s = self.timer.read(2 + 2 * passes)?;
+            t.learn_ms = (0..passes as usize).map(|k| self.timer.ticks_to_ms(s[1 + 2 * k], s[2 + 2 * k])).sum();
+            t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[1 + 2 * passes as usize]) - t.learn_ms;
+            self.round_frame_ms = Some(t.total_ms() / count as f64);
         }
         if let (Some(race), Some(v), Some(l)) = (self.race.as_mut(), variance, &self.learning) {
             let n = count as f64;

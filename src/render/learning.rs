@@ -9,10 +9,9 @@ use crate::guide::CellNode;
 pub(super) struct Learning {
     /// `learn.comp` as phase 0 runs it (the fold), LEARN_FOLD_GROUP invocations per group.
     pub(super) fold: Pipeline,
-    /// `learn.comp` as phase 1 runs it (the rows' rebuild), `rows_per_group`
-    /// invocations per group, each building one row ([`rebuild_layout`]).
+    /// `learn.comp` as phase 1 runs it (the rows' rebuild), a group of
+    /// LEARN_ROW_GROUP invocations building each row together.
     pub(super) build: Pipeline,
-    pub(super) rows_per_group: u32,
     /// `learn.comp` as phase 2 runs it (the adaptive grid's splits), one group of
     /// REFINE_GROUP invocations.
     pub(super) refine: Pipeline,
@@ -97,10 +96,6 @@ pub(super) fn tree_of_words(bytes: &[u8]) -> (Vec<CellNode>, u32) {
     (nodes, used)
 }
 
-/// Shared memory the rows' rebuild gives a workgroup at most, in bytes, where the
-/// device allows it: more per group would leave fewer groups resident.
-pub(super) const LEARN_STAGE_BYTES: u32 = 32 * 1024;
-
 /// Bytes of the guiding table's sampling rows, the largest of its buffers.
 pub(super) fn sampling_rows_bytes(cfg: &crate::guide::GuideConfig) -> u64 {
     cfg.entries() as u64 * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64
@@ -130,24 +125,15 @@ pub(super) fn learn_groups(n: u32, group: u32) -> u32 {
     n.div_ceil(group).clamp(1, shared::LEARN_MAX_GROUPS)
 }
 
-/// How learn.comp's rows' rebuild runs for rows of `bins` bins: (rows per group,
-/// words of its shared array, whether it stages the rows there). Staged where at
-/// least LEARN_MIN_STAGED_ROWS rows (8 bytes a bin, `AliasBin`) fit in
-/// [`LEARN_STAGE_BYTES`] and the device's limit, as many as fit up to LEARN_GROUP
-/// (a power of two): 16 rows of the 8x16 default without roulette, 8 of 12x24
-/// and 16x32. Larger rows, the 20x40 default with roulette among them, are built
-/// in the table by groups of LEARN_GROUP: staged fewer to a group, too few rows
-/// are in flight and the rebuild is slower (docs/guiding.md, "Learning").
-pub(super) fn rebuild_layout(bins: u32, max_shared: u32) -> (u32, u32, bool) {
-    let row = bins * std::mem::size_of::<AliasBin>() as u32;
-    let fit = (LEARN_STAGE_BYTES.min(max_shared) / row).min(shared::LEARN_GROUP);
-    if fit >= shared::LEARN_MIN_STAGED_ROWS {
-        let rows = 1 << fit.ilog2();
-        (rows, rows * bins, true)
-    } else {
-        (shared::LEARN_GROUP, 1, false)
-    }
+/// Bytes of shared memory learn.comp's rows' rebuild takes for rows of `bins`
+/// bins: the row staged (8 bytes a bin, `AliasBin`), its bins' probabilities in
+/// units (4 a bin) and the row's total.
+pub(super) const fn rebuild_shared_bytes(bins: u32) -> u32 {
+    bins * (std::mem::size_of::<AliasBin>() as u32 + 4) + 4
 }
+
+// The largest row fits the shared memory every Vulkan device has.
+const _: () = assert!(rebuild_shared_bytes(crate::guide::Bins::MAX_COUNT as u32) <= 16384);
 
 impl Learning {
     /// Entries of the table (`GuideConfig::entries`).
@@ -166,7 +152,7 @@ impl Learning {
     pub(super) fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(1);
         let rows = self.cfg.sampling_rows() as u32;
-        let groups = learn_groups(rows, self.rows_per_group);
+        let groups = learn_groups(rows, 1);
         self.build.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
@@ -246,29 +232,6 @@ impl Learning {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The rows' rebuild stages as many rows per group as fit its share of shared
-    /// memory, a power of two up to LEARN_GROUP, where at least
-    /// LEARN_MIN_STAGED_ROWS fit; larger rows are built in the table.
-    #[test]
-    fn rebuild_groups_stage_what_fits() {
-        let bins = |r: u32, c: u32| r * c;
-        let unstaged = (shared::LEARN_GROUP, 1, false);
-        for (n, limit, want) in [
-            (8, 49152, (16, 16 * 8, true)),
-            (bins(8, 16), 49152, (16, 16 * 128, true)),
-            (bins(12, 24), 49152, (8, 8 * 288, true)),
-            (bins(16, 32), 49152, (8, 8 * 512, true)),
-            (bins(20, 40), 49152, unstaged),
-            (bins(32, 32), 49152, unstaged),
-            (bins(8, 16), 16384, (16, 16 * 128, true)),
-            (bins(12, 24), 16384, unstaged),
-        ] {
-            let got = rebuild_layout(n, limit);
-            assert_eq!(got, want, "{n} bins, {limit} bytes");
-            assert!(!got.2 || got.1 * 8 <= LEARN_STAGE_BYTES.min(limit), "{n} bins fit");
-        }
-    }
 
     /// learn.comp's dispatches stay within what every device takes.
     #[test]

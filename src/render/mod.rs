@@ -13,6 +13,7 @@ use std::sync::Arc;
 mod dispatch;
 pub mod display;
 mod frames;
+pub use frames::{ROUND_MAX_FRAMES, ROUND_MS};
 mod learning;
 mod memory;
 mod multi;
@@ -148,6 +149,9 @@ pub struct GpuRenderer {
     pub ablate: u32,
     /// [`DEVICE_LOST_HOOK`]'s frame count (tests only).
     lose_device_after: Option<u32>,
+    /// GPU time per frame of the last submission, its learning passes included
+    /// (timestamps): how many frames the next round takes ([`ROUND_MS`]).
+    round_frame_ms: Option<f64>,
 }
 
 /// pathtrace.comp's push constants (`Push`).
@@ -271,24 +275,21 @@ impl GpuRenderer {
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
                 let sampler_size = sampling_rows_bytes(cfg);
-                let (rows_per_group, stage_words, staged) =
-                    rebuild_layout(cfg.bins.count(), ctx.info.max_compute_shared_memory);
                 let bindings: Vec<(u32, Binding)> = (0..9).map(|i| (i, Binding::Storage)).collect();
-                let learn = |name: &str, group: u32, stage_words: u32, staged: bool| {
+                let learn = |name: &str, group: u32, stage_words: u32| {
                     Pipeline::new_specialized(
                         ctx,
                         name,
                         shader("learn"),
                         &bindings,
                         4 * LEARN_PUSH_WORDS as u32,
-                        &[group, stage_words, staged as u32],
+                        &[group, stage_words],
                     )
                 };
                 let l = Learning {
-                    fold: learn("learn_fold", shared::LEARN_FOLD_GROUP, 1, false)?,
-                    build: learn("learn_rows", rows_per_group, stage_words, staged)?,
-                    refine: learn("learn_refine", shared::REFINE_GROUP, 1, false)?,
-                    rows_per_group,
+                    fold: learn("learn_fold", shared::LEARN_FOLD_GROUP, 1)?,
+                    build: learn("learn_rows", shared::LEARN_ROW_GROUP, cfg.bins.count())?,
+                    refine: learn("learn_refine", shared::REFINE_GROUP, 1)?,
                     q: Buffer::new(ctx, "Q table", size, BufferUsage::Storage)?,
                     visits: Buffer::new(ctx, "Q visits", size, BufferUsage::Storage)?,
                     sums: Buffer::new(ctx, "frame target sums", sums_size, BufferUsage::Storage)?,
@@ -363,7 +364,8 @@ impl GpuRenderer {
             readback,
             counters,
             counters_readback,
-            timer: Timer::new(ctx, 4)?,
+            // Two per learning pass of a round, and its start and end.
+            timer: Timer::new(ctx, 2 + 2 * ROUND_MAX_FRAMES)?,
             width: p.width,
             height: p.height,
             params: *p,
@@ -375,6 +377,7 @@ impl GpuRenderer {
             table_frames: if scene.guide_start.is_some() { crate::guide::GuideField::table_frames() } else { 0 },
             ablate: 0,
             lose_device_after: std::env::var(DEVICE_LOST_HOOK).ok().and_then(|v| v.trim().parse().ok()),
+            round_frame_ms: None,
         };
         renderer.bind_path_pipelines();
         Ok(renderer)
