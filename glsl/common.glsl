@@ -34,6 +34,13 @@
 #define MAT_ROUGH_DIELECTRIC 6
 // A GGX dielectric coat over a Lambertian base (src/math/bsdf.rs `coated_eval_pdf`).
 #define MAT_COATED 7
+// A mix of two materials (pbrt's `mix`), resolved at each hit to one of them
+// (pathtrace.comp `resolve_mix`): Material.albedo_roughness.x its amount, the
+// chance of the second (times its albedo texture's red where it has one), k.xy
+// the two materials' indices (as floats, exact below 2^24). A mix may name mixes,
+// at most MIX_MAX_DEPTH levels in all. Its emission is the surface's own.
+#define MAT_MIX 8
+#define MIX_MAX_DEPTH 4
 
 // Light kinds and the "not a light" marker.
 #define LIGHT_SPHERE 0
@@ -75,6 +82,9 @@
 // reflectance texture (Material.eta.w 1): kernels without them skip that code.
 #define SCENE_KIND_PROCEDURAL 16
 #define SCENE_KIND_REFLECTANCE_CONDUCTOR 17
+// Bit (1 << SCENE_KIND_MIX) where a material is a mix (MAT_MIX, which has no bit
+// of its own kind): kernels without one have no `resolve_mix` code.
+#define SCENE_KIND_MIX 18
 
 // RenderParams.flags bits.
 #define FLAG_NEE 1
@@ -378,7 +388,7 @@ struct Material {
     vec4 albedo_roughness;   // xyz albedo, w GGX roughness
     vec4 emission_ior;       // xyz emitted radiance, w index of refraction
     vec4 eta;                // xyz a conductor's eta (real part of its index); w 1 for a reflectance conductor
-    vec4 k;                  // xyz a conductor's k (imaginary part)
+    vec4 k;                  // xyz a conductor's k (imaginary part); xy a mix's two materials
     uint kind;               // MAT_*
     uint two_sided;          // emission leaves both sides
     uint albedo_texture;     // NO_TEXTURE, or 1 + the texture whose RGB multiplies the albedo
@@ -518,5 +528,7 @@ const uint SCENE_KINDS = 0xffffffffu;
 bool scene_has_material(uint kind) { return (SCENE_KINDS & (1u << kind)) != 0u; }
 // Whether the scene may have a light of kind LIGHT_*.
 bool scene_has_light(uint kind) { return (SCENE_KINDS & (1u << (uint(SCENE_KIND_LIGHT_SHIFT) + kind))) != 0u; }
+// Whether the scene may have a mix (MAT_MIX), whose hits resolve to one of its materials.
+const bool SCENE_MIX = (SCENE_KINDS & (1u << SCENE_KIND_MIX)) != 0u;
 
 #endif

@@ -142,6 +142,20 @@ Bsdf material_bsdf(uint mat, vec2 uv) {
     return b;
 }
 
+// src/cpu/mod.rs `resolve_mix`: the material a hit on `mat` shades with: `mat`
+// itself, or where it is a mix one of its two materials, the second with chance
+// its amount by mix_hash of the hit, level by level (at most MIX_MAX_DEPTH).
+uint resolve_mix(uint mat, vec3 p, vec3 wo, vec2 uv) {
+    for (uint level = 0u; level < uint(MIX_MAX_DEPTH); ++level) {
+        Material m = materials[mat];
+        if (m.kind != MAT_MIX) break;
+        float amount = m.albedo_roughness.x;
+        if (SCENE_TEXTURES && m.albedo_texture != NO_TEXTURE) amount *= colour_texture(m.albedo_texture - 1u, uv).x;
+        mat = mix_hash(p, wo, mat) < amount ? uint(m.k.y) : uint(m.k.x);
+    }
+    return mat;
+}
+
 // src/cpu/path.rs `shading_side`: the shading normal on the side of n, or n
 // where wo lies on one side of it and the other of the surface.
 vec3 shading_side(vec3 n, Hit hit, vec3 wo) {
@@ -526,7 +540,10 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         vec3 wo = -d;
         float w_le;
         vec3 le = emission_met(hit, wo, d, nee, power, prev_pdf, prev_delta, prev_p, beta, radiance, w_le);
-        Bsdf bsdf = material_bsdf(hit.material, hit.uv);
+        // A mix resolves here to the material every stage below shades with;
+        // kernels of scenes without one have no such code (SCENE_MIX).
+        uint mat = SCENE_MIX ? resolve_mix(hit.material, hit.p, wo, hit.uv) : hit.material;
+        Bsdf bsdf = material_bsdf(mat, hit.uv);
         vec3 n = (bsdf_transmits(bsdf) || dot(hit.n, wo) >= 0.0) ? hit.n : -hit.n;
         vec3 ns = SCENE_SMOOTH ? shading_side(n, hit, wo) : n;
         mat3 frame = make_frame(ns);

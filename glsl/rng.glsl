@@ -32,4 +32,19 @@ vec2 rng_next_2d(inout uint state) {
     return vec2(a, rng_next(state));
 }
 
+// src/math/rng.rs `mix_hash`: a number in [0, 1) hashed from a hit point, the
+// direction wo and a mix's index (pbrt-v4's HashFloat), so that every evaluation
+// at a vertex sees the same choice, and no sampler dimension is taken.
+float mix_hash(vec3 p, vec3 wo, uint mat) {
+    uvec3 a = floatBitsToUint(p), b = floatBitsToUint(wo);
+    uint h = pcg_hash(mat ^ 0x2545f491u);
+    h = pcg_hash(h ^ a.x);
+    h = pcg_hash(h ^ a.y);
+    h = pcg_hash(h ^ a.z);
+    h = pcg_hash(h ^ b.x);
+    h = pcg_hash(h ^ b.y);
+    h = pcg_hash(h ^ b.z);
+    return uintBitsToFloat(0x3f800000u | (h >> 9u)) - 1.0;
+}
+
 #endif

@@ -57,7 +57,16 @@ fn bmw_loads_with_a_uniform_sky_for_its_missing_environment_map() {
     let paint = s.materials.iter().find(|m| m.name == "CarPaint").unwrap();
     assert_eq!((paint.kind, paint.ior, paint.albedo), (MaterialKind::Coated, 1.5, Vec3::splat(0.7)));
     note(&s, "material \"CarPaint\": a smooth coat (alpha 0) given roughness");
-    note(&s, "material \"LEATHER\" (mix)");
+    // Its leather mixes a diffuse and a coated material: one of the two per hit, without a note.
+    let leather = s.materials.iter().find(|m| m.name == "LEATHER").unwrap();
+    let name = |i: u32| s.materials[i as usize].name.as_str();
+    let [a, b] = leather.mix.expect("a mix");
+    assert_eq!(
+        (leather.kind, name(a), name(b), leather.albedo.x),
+        (MaterialKind::Mix, "LEATHER-black", "LEATHER-white", 0.2)
+    );
+    assert_eq!(s.materials[b as usize].kind, MaterialKind::Coated);
+    assert!(!s.notes.iter().any(|n| n.contains("(mix)")), "{:#?}", s.notes);
     assert!((s.camera.vfov_deg - 30.0).abs() < 1e-6, "1400x1000 is landscape: fov is vertical");
 }
 

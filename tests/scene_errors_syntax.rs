@@ -235,7 +235,7 @@ fn missing_material_name_and_type() {
         "5:1",
         &[
             "[[material]] \"white\": missing key `type`",
-            "diffuse, specular, glossy, dielectric, conductor, coated, emissive",
+            "diffuse, specular, glossy, dielectric, conductor, coated, emissive, mix",
         ],
     );
 }
@@ -365,7 +365,7 @@ fn unknown_material_type() {
         &text,
         "7:8",
         &[
-            "key `type` must be one of diffuse, specular, glossy, dielectric, conductor, coated, emissive",
+            "key `type` must be one of diffuse, specular, glossy, dielectric, conductor, coated, emissive, mix",
             "found \"metal\"",
         ],
     );

@@ -66,8 +66,19 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
     for (i, m) in scene.materials.iter().enumerate() {
         let a = m.albedo;
         let e = m.emission;
-        let mut line = format!("    [{i}] {}: {:?}, albedo {}", m.name, m.kind, v(a));
         use rlpt::scene::MaterialKind as K;
+        let mut line = match m.mix {
+            Some([x, y]) => {
+                let name = |j: u32| format!("[{j}] {}", scene.materials[j as usize].name);
+                let by = match (&m.albedo_texture, &m.albedo_procedural) {
+                    (Some(t), _) => format!(" times texture {}", t.path.display()),
+                    (None, Some(p)) => format!(" times the {}", p.describe()),
+                    _ => String::new(),
+                };
+                format!("    [{i}] {}: Mix of {} and {}, the second with chance {}{by}", m.name, name(x), name(y), a.x)
+            }
+            None => format!("    [{i}] {}: {:?}, albedo {}", m.name, m.kind, v(a)),
+        };
         if matches!(m.kind, K::Glossy | K::Conductor | K::RoughDielectric | K::Coated) {
             line += &format!(", roughness {}", m.roughness);
         }
@@ -82,10 +93,10 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         if m.emits() {
             line += &format!(", emission {}{}", v(e), if m.two_sided { " (two-sided)" } else { "" });
         }
-        if let Some(t) = &m.albedo_texture {
+        if let Some(t) = m.albedo_texture.as_ref().filter(|_| m.mix.is_none()) {
             line += &format!(", albedo times texture {}", t.path.display());
         }
-        if let Some(p) = &m.albedo_procedural {
+        if let Some(p) = m.albedo_procedural.as_ref().filter(|_| m.mix.is_none()) {
             line += &format!(", albedo times the {}", p.describe());
         }
         if let Some(t) = &m.roughness_texture {

@@ -5,7 +5,9 @@
 use crate::camera::camera_ray;
 use crate::film::Film;
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
+use crate::layout::SceneArrays;
 use crate::math::bsdf::Bsdf;
+use crate::math::rng::mix_hash;
 use crate::math::sampler::PathSampler;
 use crate::math::{mean3, Vec3};
 use crate::prepared::PreparedScene;
@@ -25,6 +27,27 @@ fn material_bsdf(scene: &PreparedScene, mat: u32, uv: glam::Vec2) -> Bsdf {
         crate::math::texture::apply_textures(scene, m, uv, &mut b);
     }
     b
+}
+
+/// The material a hit on `mat` shades with: `mat` itself, or where it is a mix
+/// (`shared::MAT_MIX`) one of its two materials, the second with chance its
+/// amount (times its amount texture at `uv`) by [`mix_hash`] of the hit point
+/// `p` and `wo`, level by level (at most `shared::MIX_MAX_DEPTH`).
+/// `glsl/pathtrace.comp` `resolve_mix` is its twin.
+pub fn resolve_mix(scene: &SceneArrays, mat: u32, p: Vec3, wo: Vec3, uv: glam::Vec2) -> u32 {
+    let mut mat = mat;
+    for _ in 0..shared::MIX_MAX_DEPTH {
+        let m = &scene.materials[mat as usize];
+        if m.kind != shared::MAT_MIX {
+            break;
+        }
+        let mut amount = m.albedo_roughness[0];
+        if !scene.textures.is_empty() && m.albedo_texture != shared::NO_TEXTURE {
+            amount *= crate::math::texture::colour_texture(scene, m.albedo_texture - 1, uv).x;
+        }
+        mat = if mix_hash(p, wo, mat) < amount { m.k[1] as u32 } else { m.k[0] as u32 };
+    }
+    mat
 }
 
 /// The guiding state a path reads: configuration and the table of the previous frames.

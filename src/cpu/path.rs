@@ -5,7 +5,7 @@
 //! `record_end` (Q-learning targets), `roulette`. Each stage has its GLSL twin of
 //! the same name in `glsl/pathtrace.comp`; the arithmetic and its order match.
 
-use super::{material_bsdf, xyz, Guide};
+use super::{material_bsdf, resolve_mix, xyz, Guide};
 use crate::guide::{self, Recorder};
 use crate::math::bsdf::{bsdf_eval_pdf, bsdf_sample, Bsdf};
 use crate::math::envmap;
@@ -155,7 +155,13 @@ pub fn trace_path(
         let (le, le_counted) = emission_met(scene, &s, &mut path, &hit, wo, d);
         // What the target of the ray that arrived here counts of that emission.
         let le_target = if s.mis_targets { le_counted } else { mean3(le) };
-        let bsdf = material_bsdf(scene, hit.material, hit.uv);
+        // A mix resolves here to the material every stage below shades with.
+        let mat = if p.scene_kinds & 1 << shared::SCENE_KIND_MIX != 0 {
+            resolve_mix(scene, hit.material, hit.p, wo, hit.uv)
+        } else {
+            hit.material
+        };
+        let bsdf = material_bsdf(scene, mat, hit.uv);
         // Reflecting materials are two-sided: shade with the normal on wo's side.
         let n = if bsdf.transmits() || hit.n.dot(wo) >= 0.0 { hit.n } else { -hit.n };
         let ns = shading_side(n, hit, wo);

@@ -271,7 +271,7 @@ pub fn bsdf_sample(b: &Bsdf, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSampl
             }
             Some(BsdfSample { wi, weight: f * (wi.z / pdf), pdf, delta: false })
         }
-        MaterialKind::Emissive => None,
+        MaterialKind::Emissive | MaterialKind::Mix => None,
     }
 }
 
@@ -455,6 +455,7 @@ impl GpuMaterial {
             shared::MAT_CONDUCTOR => MaterialKind::Conductor,
             shared::MAT_ROUGH_DIELECTRIC => MaterialKind::RoughDielectric,
             shared::MAT_COATED => MaterialKind::Coated,
+            shared::MAT_MIX => MaterialKind::Mix,
             _ => MaterialKind::Emissive,
         };
         let [r, g, b, roughness] = self.albedo_roughness;

@@ -45,6 +45,18 @@ impl Rng {
     }
 }
 
+/// A number in [0, 1) hashed from a hit point `p`, the direction `wo` and a mix's
+/// index `mat` (pbrt-v4's `HashFloat`): every evaluation at a vertex sees the same
+/// choice of a mix's material, and no sampler dimension is taken.
+/// `glsl/rng.glsl` `mix_hash` is its twin.
+pub fn mix_hash(p: glam::Vec3, wo: glam::Vec3, mat: u32) -> f32 {
+    let mut h = pcg_hash(mat ^ 0x2545_f491);
+    for x in [p.x, p.y, p.z, wo.x, wo.y, wo.z] {
+        h = pcg_hash(h ^ x.to_bits());
+    }
+    f32::from_bits(0x3f80_0000 | (h >> 9)) - 1.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::Rng;

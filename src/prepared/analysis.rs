@@ -16,12 +16,14 @@ use super::*;
 /// guided kernel evaluates the mixture of diffuse vertices alone. And
 /// `SCENE_KIND_PROCEDURAL` where a texture is procedural, and
 /// `SCENE_KIND_REFLECTANCE_CONDUCTOR` where a conductor reads its index from
-/// its reflectance texture: kernels without them leave that code out.
+/// its reflectance texture, and `SCENE_KIND_MIX` where a material is a mix:
+/// kernels without them leave that code out.
 pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight], textures: &[GpuTexture]) -> u32 {
     let m = materials.iter().fold(0, |k, m| {
         let guided_glossy = if crate::guide::glossy_guided(m) { 1 << shared::SCENE_KIND_GUIDED_GLOSSY } else { 0 };
         let reflectance = if m.eta[3] != 0.0 { 1 << shared::SCENE_KIND_REFLECTANCE_CONDUCTOR } else { 0 };
-        k | 1 << m.kind | guided_glossy | reflectance
+        let kind = if m.kind == shared::MAT_MIX { 1 << shared::SCENE_KIND_MIX } else { 1 << m.kind };
+        k | kind | guided_glossy | reflectance
     });
     let procedural = textures.iter().any(|t| t.format >= shared::TEXTURE_CHECKER);
     let m = if procedural { m | 1 << shared::SCENE_KIND_PROCEDURAL } else { m };

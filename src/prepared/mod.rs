@@ -148,7 +148,11 @@ impl PreparedScene {
                 albedo_roughness: v4(m.albedo, m.roughness),
                 emission_ior: v4(m.emission, m.ior),
                 eta: v4(m.eta, if m.reflectance_conductor { 1.0 } else { 0.0 }),
-                k: v4(m.k, 0.0),
+                // A mix's two materials, as floats (exact: Scene's indices are below 2^24).
+                k: match m.mix {
+                    Some([a, b]) => [a as f32, b as f32, 0.0, 0.0],
+                    None => v4(m.k, 0.0),
+                },
                 kind: m.kind as u32,
                 two_sided: m.two_sided as u32,
                 albedo_texture: shared::NO_TEXTURE,

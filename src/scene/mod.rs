@@ -68,6 +68,8 @@ pub enum MaterialKind {
     RoughDielectric = 6,
     /// A GGX dielectric coat over a Lambertian base (an approximation; docs/SCENE_FORMAT.md).
     Coated = 7,
+    /// Two materials, one of them chosen at each hit ([`Material::mix`]).
+    Mix = 8,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -99,6 +101,10 @@ pub struct Material {
     /// A conductor whose albedo (times its texture) is pbrt-v4's `reflectance` r
     /// at each hit: eta 1 and k = [`conductor_k`] of r there, the Fresnel untinted.
     pub reflectance_conductor: bool,
+    /// A mix's two materials (indices into `Scene::materials`; kind `Mix`): at each
+    /// hit the second with chance `albedo.x` (its amount), times the red of its
+    /// albedo texture (image or procedural, grey) where it has one, else the first.
+    pub mix: Option<[u32; 2]>,
 }
 
 impl Material {
@@ -120,7 +126,13 @@ impl Material {
             roughness_texture: None,
             albedo_procedural: None,
             reflectance_conductor: false,
+            mix: None,
         }
+    }
+
+    /// A mix of materials `a` and `b`, `b` at a hit with chance `amount` in [0, 1].
+    pub fn mix(name: impl Into<String>, a: u32, b: u32, amount: f32) -> Material {
+        Material { mix: Some([a, b]), ..Material::plain(name, MaterialKind::Mix, Vec3::splat(amount)) }
     }
 
     /// Whether it emits light: the primitives of such materials are the scene's
@@ -133,6 +145,19 @@ impl Material {
     pub fn textured(&self) -> bool {
         self.albedo_texture.is_some() || self.roughness_texture.is_some() || self.albedo_procedural.is_some()
     }
+}
+
+/// How many levels of mixes material `m` is (0: not a mix; a mix one more than
+/// its deeper material), or None beyond `shared::MIX_MAX_DEPTH` levels (a cycle
+/// included): the renderers resolve that many levels and no more.
+pub fn mix_depth(materials: &[Material], m: u32) -> Option<u32> {
+    fn depth(materials: &[Material], m: u32, left: u32) -> Option<u32> {
+        let Some(pair) = materials.get(m as usize).and_then(|x| x.mix) else { return Some(0) };
+        let left = left.checked_sub(1)?;
+        let (a, b) = (depth(materials, pair[0], left)?, depth(materials, pair[1], left)?);
+        Some(1 + a.max(b))
+    }
+    depth(materials, m, crate::shared::MIX_MAX_DEPTH)
 }
 
 /// pbrt-v4's conductor of normal-incidence reflectance `r` (clamped to [0,

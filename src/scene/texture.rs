@@ -308,56 +308,76 @@ pub fn load_textures(scene: &mut Scene) -> Result<(), SceneError> {
             }
         }
     }
-    let textured = |m: &super::Material| m.textured();
-    if !scene.materials.iter().any(textured) {
+    if !(0..scene.materials.len() as u32).any(|m| reads_texture(&scene.materials, m)) {
         return Ok(());
     }
-    let mut untextured: Vec<Option<u32>> = vec![None; scene.materials.len()];
-    for mesh in &mut scene.meshes {
-        if mesh.uvs.is_some() {
+    let mut copies = std::collections::HashMap::new();
+    for i in 0..scene.meshes.len() {
+        if scene.meshes[i].uvs.is_some() {
             continue;
         }
         let mut named = Vec::new();
-        for m in &mut mesh.materials {
-            let material = &scene.materials[*m as usize];
-            if !textured(material) {
+        for t in 0..scene.meshes[i].materials.len() {
+            let m = scene.meshes[i].materials[t];
+            if !reads_texture(&scene.materials, m) {
                 continue;
             }
-            if untextured[*m as usize].is_none() {
-                let mut plain = material.clone();
-                if let Some(r) = plain.albedo_texture.take() {
-                    plain.albedo =
-                        (plain.albedo * scene.textures[find(&scene.textures, &r).unwrap()].mean).min(Vec3::ONE);
-                }
-                if let Some(p) = plain.albedo_procedural.take() {
-                    plain.albedo = (plain.albedo * p.mean(&scene.textures)).min(Vec3::ONE);
-                }
-                if std::mem::take(&mut plain.reflectance_conductor) {
-                    (plain.eta, plain.k, plain.albedo) = (Vec3::ONE, super::conductor_k(plain.albedo), Vec3::ONE);
-                }
-                if let Some(r) = plain.roughness_texture.take() {
-                    let mean = scene.textures[find(&scene.textures, &r).unwrap()].mean.x;
-                    plain.roughness = (plain.roughness * mean).clamp(shared::TEXTURE_MIN_ROUGHNESS, 1.0);
-                }
-                plain.name = format!("{} (untextured)", material.name);
-                untextured[*m as usize] = Some(scene.materials.len() as u32);
-                scene.materials.push(plain);
+            if !named.contains(&m) {
+                named.push(m);
             }
-            if !named.contains(m) {
-                named.push(*m);
-            }
-            *m = untextured[*m as usize].unwrap();
+            scene.meshes[i].materials[t] = untextured(scene, m, &mut copies);
         }
         for m in named {
             let name = &scene.materials[m as usize].name;
             scene.notes.push(format!(
                 "{}: has no texture coordinates, so its triangles of textured material `{name}` take the texture's \
                  mean in place of the texture",
-                mesh.source.display()
+                scene.meshes[i].source.display()
             ));
         }
     }
     Ok(())
+}
+
+/// Whether a hit on material `m` reads a texture: its own, or a mix's materials'.
+fn reads_texture(materials: &[super::Material], m: u32) -> bool {
+    let x = &materials[m as usize];
+    x.textured() || x.mix.is_some_and(|[a, b]| reads_texture(materials, a) || reads_texture(materials, b))
+}
+
+/// The copy of material `m` without textures (made once, in `copies`): its
+/// albedo times the texture's mean colour, its roughness times the mean
+/// roughness; a mix's copy names its materials' copies.
+fn untextured(scene: &mut Scene, m: u32, copies: &mut std::collections::HashMap<u32, u32>) -> u32 {
+    if let Some(&c) = copies.get(&m) {
+        return c;
+    }
+    if !reads_texture(&scene.materials, m) {
+        return m;
+    }
+    let material = &scene.materials[m as usize];
+    let mut plain = material.clone();
+    if let Some(r) = plain.albedo_texture.take() {
+        plain.albedo = (plain.albedo * scene.textures[find(&scene.textures, &r).unwrap()].mean).min(Vec3::ONE);
+    }
+    if let Some(p) = plain.albedo_procedural.take() {
+        plain.albedo = (plain.albedo * p.mean(&scene.textures)).min(Vec3::ONE);
+    }
+    if std::mem::take(&mut plain.reflectance_conductor) {
+        (plain.eta, plain.k, plain.albedo) = (Vec3::ONE, super::conductor_k(plain.albedo), Vec3::ONE);
+    }
+    if let Some(r) = plain.roughness_texture.take() {
+        let mean = scene.textures[find(&scene.textures, &r).unwrap()].mean.x;
+        plain.roughness = (plain.roughness * mean).clamp(shared::TEXTURE_MIN_ROUGHNESS, 1.0);
+    }
+    plain.name = format!("{} (untextured)", material.name);
+    if let Some([a, b]) = plain.mix {
+        plain.mix = Some([untextured(scene, a, copies), untextured(scene, b, copies)]);
+    }
+    scene.materials.push(plain);
+    let c = scene.materials.len() as u32 - 1;
+    copies.insert(m, c);
+    c
 }
 
 /// One line per texture for `rlpt info`: its file, use, size and memory.

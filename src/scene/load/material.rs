@@ -2,13 +2,14 @@
 //! by name for the shapes that use it.
 
 use super::*;
-use crate::scene::texture::{Channel, Remap, TextureRef, TextureUse};
+use crate::scene::texture::{Channel, Factor, Remap, TextureRef, TextureUse};
+use crate::shared;
 
 /// A TOML scene's roughness texture: the mean of its RGB, read as the roughness.
 const ROUGHNESS_TEXELS: TextureUse = TextureUse::roughness(Channel::Average, Remap::Identity);
 
 pub(super) const MATERIAL_TYPES: &[&str] =
-    &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive"];
+    &["diffuse", "specular", "glossy", "dielectric", "conductor", "coated", "emissive", "mix"];
 /// Largest accepted component of a conductor's `eta` and `k` (measured metals lie well below).
 pub(super) const MAX_CONDUCTOR_INDEX: f64 = 100.0;
 
@@ -46,6 +47,7 @@ pub(super) fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
             &["name", "type", "eta", "k", "roughness", "emission", "two_sided", "albedo_texture", "roughness_texture"]
         }
         MaterialKind::Emissive => &["name", "type", "emission", "two_sided"],
+        MaterialKind::Mix => &["name", "type", "materials", "amount", "amount_texture", "emission", "two_sided"],
     }
 }
 
@@ -73,6 +75,7 @@ pub(super) fn type_name(kind: MaterialKind) -> &'static str {
         MaterialKind::Conductor => "conductor",
         MaterialKind::Coated => "coated",
         MaterialKind::Emissive => "emissive",
+        MaterialKind::Mix => "mix",
     }
 }
 
@@ -110,6 +113,7 @@ pub(super) fn parse_material(
         "conductor" => MaterialKind::Conductor,
         "coated" => MaterialKind::Coated,
         "emissive" => MaterialKind::Emissive,
+        "mix" => MaterialKind::Mix,
         other => {
             return Err(t.error_at(type_value.span(), format!("key `type` must be one of {types}, found \"{other}\"")))
         }
@@ -205,8 +209,61 @@ pub(super) fn parse_material(
                 return Err(t.error_here("missing key `emission` (emitted radiance [r, g, b], components >= 0)"));
             }
         }
+        MaterialKind::Mix => parse_mix(&t, &mut material, defined, base)?,
     }
     Ok((material, name_value.span()))
+}
+
+/// A mix's keys: `materials`, the names of two materials defined before it,
+/// `amount` (default 0.5), the chance of the second at a hit, and
+/// `amount_texture`, a grey image whose value at the hit multiplies it.
+fn parse_mix(t: &Table<'_, '_, '_>, m: &mut Material, defined: &[Material], base: &Path) -> Result<(), SceneError> {
+    let expected = "an array of the names of two materials defined before this one";
+    let v = t.required("materials", expected)?;
+    let DeValue::Array(items) = v.get_ref() else {
+        return Err(t.error_at(v.span(), format!("key `materials` must be {expected}, found {}", t.src.describe(v))));
+    };
+    if items.len() != 2 {
+        return Err(t.error_at(v.span(), format!("key `materials` must be {expected}, found {} names", items.len())));
+    }
+    let mut pair = [0u32; 2];
+    for (slot, item) in pair.iter_mut().zip(items.iter()) {
+        let name = t.string("materials", item, expected)?;
+        let Some(i) = defined.iter().position(|d| d.name == name) else {
+            let names: Vec<&str> = defined.iter().map(|d| d.name.as_str()).collect();
+            return Err(t.error_at(
+                item.span(),
+                format!(
+                    "key `materials` names \"{name}\", which is not a material defined before this one (defined: {})",
+                    names.join(", ")
+                ),
+            ));
+        };
+        if defined[i].emits() {
+            return Err(t.error_at(
+                item.span(),
+                format!("material \"{name}\" emits light; a mix's materials may not (give the mix its `emission`)"),
+            ));
+        }
+        *slot = i as u32;
+    }
+    let amount = match t.get("amount") {
+        None => 0.5,
+        Some(a) => t.ranged("amount", a, |x| (0.0..=1.0).contains(&x), "a number from 0 to 1")?,
+    };
+    let usage = TextureUse::Float { srgb: false, scale: Factor(1.0), invert: false };
+    let texture = texture_key(t, "amount_texture", base, usage)?;
+    let mut all = defined.to_vec();
+    all.push(Material { albedo_texture: texture, ..Material::mix(m.name.clone(), pair[0], pair[1], amount) });
+    if crate::scene::mix_depth(&all, defined.len() as u32).is_none() {
+        return Err(t.error_at(
+            v.span(),
+            format!("mixes nest at most {} levels deep; this one would be deeper", shared::MIX_MAX_DEPTH),
+        ));
+    }
+    let mixed = all.pop().expect("pushed above");
+    (m.kind, m.albedo, m.mix, m.albedo_texture) = (mixed.kind, mixed.albedo, mixed.mix, mixed.albedo_texture);
+    Ok(())
 }
 
 pub(super) fn material_index(t: &Table<'_, '_, '_>, materials: &[Material]) -> Result<u32, SceneError> {

@@ -1,5 +1,6 @@
 //! pbrt's materials (v4 names and v3 names) mapped onto rlpt's kinds by the
-//! rules of `docs/pbrt.md`; what a mapping approximates is noted.
+//! rules of `docs/pbrt.md`; what a mapping approximates is noted. `mix` is
+//! in [`super::mix`].
 
 use std::collections::HashMap;
 
@@ -9,7 +10,6 @@ use super::lexer::Loc;
 use super::params::{Param, Params};
 pub(crate) use super::texture::{FloatImage, Reflectance, Texture};
 use super::{Importer, Notes};
-use crate::scene::procedural::{Combine, Operand, Procedural};
 use crate::scene::texture::{Channel, Factor, Remap};
 use crate::scene::{conductor_k, Material, MaterialKind, SceneError, TextureRef, TextureUse};
 
@@ -561,50 +561,5 @@ impl Importer {
         mapped.mapping = format!("{label}: {} [{}]", mapped.mapping, loc.at());
         self.materials.push(mapped);
         Ok(self.materials.len() - 1)
-    }
-
-    /// `mix`: two diffuse materials blend their albedos; otherwise the one of
-    /// larger weight stands for both.
-    fn mix(&mut self, p: &Params, loc: &Loc, label: &str) -> Result<Mapped, SceneError> {
-        let names = p.get("materials", &["string"]).map(|q| q.strings()).transpose()?;
-        let Some(names) = names.filter(|n| n.len() == 2) else {
-            return Err(
-                loc.error(format!("material \"{label}\" (mix): expected \"string materials\" with two material names"))
-            );
-        };
-        let amount = {
-            let mut r = self.reader(p, loc, format!("material \"{label}\""));
-            r.scalar("amount", 0.5)?
-        };
-        let mut pair = Vec::new();
-        for n in &names {
-            let i = *self.named_materials.get(n).ok_or_else(|| {
-                loc.error(format!("material \"{label}\" (mix): \"{n}\" is not a named material made before it"))
-            })?;
-            pair.push(self.materials[i].clone());
-        }
-        let (a, b) = (&pair[0].material, &pair[1].material);
-        let t = amount.clamp(0.0, 1.0) as f32;
-        let untextured = a.albedo_texture.is_none() && b.albedo_texture.is_none();
-        let images_only = |m: &Material| m.albedo_procedural.is_none() && m.roughness_texture.is_none();
-        let diffuse = a.kind == MaterialKind::Diffuse && b.kind == MaterialKind::Diffuse;
-        let (material, how) = if diffuse && untextured && images_only(a) && images_only(b) {
-            let mut m = a.clone();
-            m.albedo = a.albedo.lerp(b.albedo, t);
-            (m, format!("albedos of \"{}\" and \"{}\" blended by amount {amount}", names[0], names[1]))
-        } else if diffuse && images_only(a) && images_only(b) {
-            // A textured albedo: the two blended per hit as a procedural mix.
-            let op = |m: &Material| Operand { value: m.albedo, image: m.albedo_texture.clone() };
-            let mut m = a.clone();
-            let p = Procedural { combine: Combine::Mix, a: op(a), b: op(b), amount: Operand::constant(Vec3::splat(t)) };
-            (m.albedo, m.albedo_texture, m.albedo_procedural) = (Vec3::ONE, None, Some(p));
-            (m, format!("albedos of \"{}\" and \"{}\" blended per hit by amount {amount}", names[0], names[1]))
-        } else {
-            let (pick, name) = if t < 0.5 { (a, &names[0]) } else { (b, &names[1]) };
-            (pick.clone(), format!("\"{name}\", the larger share at amount {amount}"))
-        };
-        self.notes.approximated(loc, format!("material \"{label}\" (mix): {how}"))?;
-        let kind = format!("{:?}", material.kind).to_lowercase();
-        Ok(Mapped { material, mapping: format!("mix -> {kind} ({how})") })
     }
 }

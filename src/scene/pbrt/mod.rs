@@ -8,6 +8,7 @@ mod camera;
 mod images;
 mod lexer;
 mod material;
+mod mix;
 mod params;
 mod shapes;
 mod texture;

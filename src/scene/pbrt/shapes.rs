@@ -37,7 +37,9 @@ pub(super) struct Output {
 }
 
 impl Importer {
-    /// The scene material for pbrt material `m` with `area`'s emission.
+    /// The scene material for pbrt material `m` with `area`'s emission; a mix's
+    /// materials become scene materials too (without the emission, which is the
+    /// surface's, the mix's own).
     fn scene_material(&mut self, m: usize, area: Option<&AreaLight>) -> u32 {
         let (emission, two_sided) = area.map_or((Vec3::ZERO, false), |a| (a.radiance, a.two_sided));
         let key = (m, emission.to_array().map(f32::to_bits), two_sided);
@@ -45,6 +47,9 @@ impl Importer {
             return i;
         }
         let mut material = self.materials[m].material.clone();
+        if let Some([a, b]) = material.mix {
+            material.mix = Some([self.scene_material(a as usize, None), self.scene_material(b as usize, None)]);
+        }
         if area.is_some() {
             material.emission = emission;
             material.two_sided = two_sided;
