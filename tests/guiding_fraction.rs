@@ -41,6 +41,9 @@ fn exp1_table(
 ) -> QTable {
     let scene = scene("seed-exp1.toml");
     let mut o = guided(&options(&scene, 48, 32, 64), mode);
+    // Learning once per recording cycle, as a large image does: the tests follow
+    // the fractions over a few dozen frames.
+    o.learning_period = Some(1);
     o.nee = nee;
     o.learning_rate_exponent = rate;
     o.q_targets = targets;
@@ -188,6 +191,8 @@ fn exp1_tables(targets: QTargets, frames: &[u32]) -> (PreparedScene, Vec<QTable>
     let scene = scene("seed-exp1.toml");
     let mut o = guided(&options(&scene, 48, 32, 64), GuidingMode::Sphere);
     (o.q_targets, o.seed) = (targets, 5);
+    o.learning_period = Some(1); // once per recording cycle, as exp1_table
+
     let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     let mut r = CpuRenderer::new(&prepared);
     let (mut done, mut tables) = (0, Vec::new());

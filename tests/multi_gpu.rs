@@ -132,6 +132,9 @@ fn same_tables_on_two_devices(grid: GridKind) {
     let (scene, mut opts) = door(24, 16, 64);
     opts.guiding = GuidingMode::Sphere;
     opts.guide_grid = Some(grid);
+    // Learning once per recording cycle, so that a round of several frames ends
+    // at a pass (a small image's default period is longer than the rounds).
+    opts.learning_period = Some(1);
     if grid == GridKind::Adaptive {
         // Fewer bins: cells learn enough to split within the rounds.
         opts.bins = Some(rlpt::guide::Bins { rows: 8, cols: 16 });
