@@ -46,6 +46,7 @@ fn part(p: &PreparedScene, part: Part, total: u32, shift: bool) -> PartImage {
             total_frames: total,
             first_frame: range.start,
             frames: film.frames,
+            spp: film.samples_per_pixel(),
             guiding: "off".into(),
             guide_in: None,
         },

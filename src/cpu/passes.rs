@@ -1,0 +1,101 @@
+//! A CPU frame against a deadline (`CpuRenderer::render_frame_until`): passes of
+//! one sample per pixel over the whole image, each started only where it is
+//! predicted to end by the deadline, so that a frame cut short holds the same
+//! number of samples in every pixel. The reasons are in docs/cli.md, `--time`.
+
+use super::{FrameCounters, FrameEnd, FrameSetup, PixelSums};
+use crate::guide::{FrameSums, Recorder};
+use crate::layout::AccumPixel;
+use crate::math::rng::pcg_hash;
+use crate::math::sampler::hash_combine;
+use crate::shared;
+use rayon::prelude::*;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// The frame's sample index (0..64) that pass `pass` traces in `pixel`: the
+/// passes go through the 64 indices from one drawn per pixel and frame, so that
+/// each sample of a frame cut short is, whatever its index, one of the frame's
+/// own (its random numbers and, with independent samples, its sub-square of
+/// the pixel) and lands anywhere in the pixel with equal chance: the first k
+/// indices of every pixel would see only the top rows of its sub-squares.
+pub fn pass_sample(seed: u32, pixel: u32, rng_frame: u32, pass: u32) -> u32 {
+    let first = hash_combine(hash_combine(pcg_hash(seed ^ 0x85eb_ca6b), pixel), rng_frame);
+    first.wrapping_add(pass) % shared::SAMPLES_PER_FRAME
+}
+
+/// Whether a pass taken to last `pass_ms` (None: unknown) that starts at `now`
+/// ends by `deadline`.
+pub(super) fn pass_fits(pass_ms: Option<f64>, now: Instant, deadline: Instant) -> bool {
+    let pass = Duration::from_secs_f64(pass_ms.unwrap_or(0.0).max(0.0) / 1e3);
+    now < deadline && now + pass <= deadline
+}
+
+/// What the passes traced: the samples per pixel, each pixel's sums, what was
+/// counted, and the targets recorded (None where no row recorded).
+pub(super) struct Passes {
+    pub samples: u32,
+    pub pixels: Vec<PixelSums>,
+    pub counters: FrameCounters,
+    pub sums: Option<FrameSums>,
+}
+
+/// Traces passes of one sample per pixel over the image whose accumulation is
+/// `film` until 64 are done, or those `end` asks for, or at its deadline the next
+/// is predicted, by `pass_ms` (updated to each pass's time), to end past it. The
+/// first pass always runs. The
+/// targets are recorded into one set of sums per thread, kept over the passes,
+/// as a table's sums are large.
+pub(super) fn trace_passes(
+    setup: &FrameSetup,
+    film: &[AccumPixel],
+    end: FrameEnd,
+    pass_ms: &mut Option<f64>,
+    no_sums: &(dyn Fn() -> FrameSums + Sync),
+) -> Passes {
+    let p = &setup.scene.params;
+    let width = p.width as usize;
+    let mut pixels = vec![PixelSums::default(); film.len()];
+    let slots: Vec<Mutex<Option<FrameSums>>> = (0..rayon::current_num_threads()).map(|_| Mutex::new(None)).collect();
+    let mut counters = FrameCounters::default();
+    let mut samples = 0;
+    let last = match end {
+        FrameEnd::Samples(k) => k,
+        _ => shared::SAMPLES_PER_FRAME,
+    };
+    while samples < last {
+        let start = Instant::now();
+        if let (FrameEnd::Deadline(deadline), true) = (end, samples > 0) {
+            if !pass_fits(*pass_ms, start, deadline) {
+                break;
+            }
+        }
+        let pass = samples;
+        let traced = pixels
+            .par_chunks_mut(width)
+            .zip(film.par_chunks(width))
+            .enumerate()
+            .map(|(y, (row, accs))| {
+                let mut c = FrameCounters::default();
+                let y = y as u32;
+                // This thread's sums: no other thread takes them while it traces the row.
+                let mut slot = setup.records(y).then(|| {
+                    let i = rayon::current_thread_index().unwrap_or(0) % slots.len();
+                    slots[i].lock().unwrap_or_else(|e| e.into_inner())
+                });
+                for (x, (px, acc)) in row.iter_mut().zip(accs).enumerate() {
+                    let x = x as u32;
+                    let sample = pass_sample(p.seed, y * p.width + x, setup.rng_frame, pass);
+                    let learn = slot.as_mut().map(|s| s.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                    setup.trace_sample(x, y, sample, setup.estimate(acc), learn, px, &mut c);
+                }
+                c
+            })
+            .reduce(FrameCounters::default, FrameCounters::plus);
+        counters = counters.plus(traced);
+        samples += 1;
+        *pass_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let sums = slots.into_iter().filter_map(|s| s.into_inner().unwrap_or_else(|e| e.into_inner())).reduce(FrameSums::merge);
+    Passes { samples, pixels, counters, sums }
+}
