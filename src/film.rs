@@ -105,7 +105,13 @@ pub fn available_memory() -> Option<u64> {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Film {
-        Film { width, height, frames: 0, partial_spp: 0, pixels: vec![AccumPixel::default(); (width * height) as usize] }
+        Film {
+            width,
+            height,
+            frames: 0,
+            partial_spp: 0,
+            pixels: vec![AccumPixel::default(); (width * height) as usize],
+        }
     }
 
     pub fn samples_per_pixel(&self) -> u64 {

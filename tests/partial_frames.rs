@@ -183,3 +183,30 @@ fn the_variance_with_a_frame_cut_short_is_unbiased() {
         }
     }
 }
+
+/// A guided frame's targets reach the table whether the frame is whole, in 64
+/// passes or cut short: the first frame's paths are the same in each (the same
+/// table, the same random numbers), so the table learns from 64 passes exactly
+/// the targets of the whole frame (Q to float summation order), and from 16
+/// passes a subset of them, entry by entry.
+#[test]
+fn a_guided_frame_cut_short_teaches_its_targets() {
+    let s = scene("cornell-box.toml");
+    let mut o = options(&s, 16, 12, 64);
+    o.guiding = rlpt::guide::GuidingMode::Sphere;
+    let p = PreparedScene::new(&s, &o).expect("valid options");
+    let (mut whole, mut passes, mut cut) = (CpuRenderer::new(&p), CpuRenderer::new(&p), CpuRenderer::new(&p));
+    whole.render_frame();
+    passes.render_frame_samples(64);
+    cut.render_frame_samples(16);
+    let (w, ps, c) = (whole.table().unwrap(), passes.table().unwrap(), cut.table().unwrap());
+    let total = |v: &[u32]| v.iter().map(|&n| n as u64).sum::<u64>();
+    assert!(total(&w.visits) > 0, "the whole frame taught the table nothing");
+    let differ = w.visits.iter().zip(&ps.visits).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "64 passes recorded other targets than the whole frame in {differ} entries");
+    let dq = w.q.iter().zip(&ps.q).map(|(a, b)| (a - b).abs() / a.abs().max(1e-3)).fold(0.0, f32::max);
+    assert!(dq < 1e-4, "Q from 64 passes against the whole frame's: {dq}");
+    assert!(w.visits.iter().zip(&c.visits).all(|(a, b)| b <= a), "16 passes recorded targets the frame has not");
+    let (tw, tc) = (total(&w.visits), total(&c.visits));
+    assert!(tc > 0 && tc < tw, "16 passes recorded {tc} targets of the whole frame's {tw}");
+}

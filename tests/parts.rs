@@ -412,7 +412,7 @@ fn parts_cut_short_by_time_hold_their_samples_exactly() {
         for _ in 0..info.spp / 64 {
             r.render_frame();
         }
-        if info.spp % 64 > 0 {
+        if !info.spp.is_multiple_of(64) {
             r.render_frame_samples((info.spp % 64) as u32);
         }
         let film = r.film();

@@ -37,10 +37,11 @@ pub(crate) struct RenderArgs {
     /// Write the learned field to FILE once the render ends (after the image), for --guide-in.
     #[arg(long, value_name = "FILE")]
     guide_out: Option<PathBuf>,
-    /// Stop by this much render time (GPU time from timestamps on the GPU, wall clock on
-    /// the CPU): no frame starts that would end past it, each judged to last as long as
-    /// the frame before (the first always runs; a slower frame ends past it by the
-    /// difference). --spp is then the upper bound.
+    /// Stop at this much render time (GPU time from timestamps on the GPU, wall clock on
+    /// the CPU). On the CPU the last frame is cut short at it, in passes of one sample per
+    /// pixel, and its samples counted exactly. On the GPU no frame starts that would end
+    /// past it, each judged to last as long as the frame before (the first always runs; a
+    /// slower frame ends past it by the difference). --spp is then the upper bound.
     #[arg(long, value_parser = parse_seconds)]
     time: Option<f64>,
     /// Render part K (from 0) of N of the render that --spp asks for: its K-th of N

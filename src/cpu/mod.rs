@@ -260,51 +260,14 @@ impl CpuRenderer {
         let no_sums = || scene.guide.as_ref().map_or_else(|| FrameSums::new(0, 0), FrameSums::for_config);
         let (sums, counters, samples) = match end {
             FrameEnd::Whole => {
-                let (sums, counters) = self
-                    .film
-                    .pixels
-                    .par_chunks_mut(p.width as usize)
-                    .enumerate()
-                    .fold(
-                        || (no_sums(), FrameCounters::default()),
-                        |(mut sums, mut counters), (y, row)| {
-                            let record = setup.records(y as u32);
-                            for (x, acc) in row.iter_mut().enumerate() {
-                                let mut px = PixelSums::default();
-                                let estimate = setup.estimate(acc);
-                                for sample in 0..shared::SAMPLES_PER_FRAME {
-                                    let learn = record.then_some(&mut sums as &mut dyn Recorder);
-                                    setup.trace_sample(x as u32, y as u32, sample, estimate, learn, &mut px, &mut counters);
-                                }
-                                setup.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
-                            }
-                            (sums, counters)
-                        },
-                    )
-                    .reduce(|| (no_sums(), FrameCounters::default()), |(a, ca), (b, cb)| (a.merge(b), ca.plus(cb)));
+                let (sums, counters) = setup.trace_whole(&mut self.film.pixels, weigh, &no_sums);
                 (sums, counters, shared::SAMPLES_PER_FRAME)
             }
             FrameEnd::Deadline(_) | FrameEnd::Samples(_) => {
                 let mut pass_ms = self.predicted_pass_ms();
-                let traced = passes::trace_passes(&setup, &self.film.pixels, end, &mut pass_ms, &no_sums);
+                let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, &mut pass_ms, weigh, &no_sums);
                 self.pass_ms = pass_ms;
-                let k = traced.samples;
-                let mut counters = traced.counters;
-                counters = self
-                    .film
-                    .pixels
-                    .par_chunks_mut(p.width as usize)
-                    .zip(traced.pixels.par_chunks(p.width as usize))
-                    .map(|(row, px)| {
-                        let mut c = FrameCounters::default();
-                        for (acc, &px) in row.iter_mut().zip(px) {
-                            setup.finish_pixel(acc, px, k, weigh && k == shared::SAMPLES_PER_FRAME, &mut c);
-                        }
-                        c
-                    })
-                    .reduce(FrameCounters::default, FrameCounters::plus)
-                    .plus(counters);
-                (traced.sums.unwrap_or_else(no_sums), counters, k)
+                (traced.sums.unwrap_or_else(no_sums), traced.counters, traced.samples)
             }
         };
         let whole = samples == shared::SAMPLES_PER_FRAME;
@@ -402,13 +365,40 @@ impl FrameSetup<'_> {
         }
     }
 
+    /// Traces a whole frame into `film`, each pixel's 64 samples together, rows
+    /// in parallel; returns the targets recorded (or empty sums) and the counts.
+    fn trace_whole(
+        &self,
+        film: &mut [crate::layout::AccumPixel],
+        weigh: bool,
+        no_sums: &(dyn Fn() -> FrameSums + Sync),
+    ) -> (FrameSums, FrameCounters) {
+        film.par_chunks_mut(self.scene.params.width as usize)
+            .enumerate()
+            .fold(
+                || (no_sums(), FrameCounters::default()),
+                |(mut sums, mut counters), (y, row)| {
+                    let (y, record) = (y as u32, self.records(y as u32));
+                    for (x, acc) in row.iter_mut().enumerate() {
+                        let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
+                        for sample in 0..shared::SAMPLES_PER_FRAME {
+                            let learn = record.then_some(&mut sums as &mut dyn Recorder);
+                            self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
+                        }
+                        self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
+                    }
+                    (sums, counters)
+                },
+            )
+            .reduce(|| (no_sums(), FrameCounters::default()), |(a, ca), (b, cb)| (a.merge(b), ca.plus(cb)))
+    }
+
     /// Traces sample `sample` (0..64) of pixel (x, y) into `px`, counting its rays
     /// and whether it carried nothing.
     #[inline(always)]
     pub(super) fn trace_sample(
         &self,
-        x: u32,
-        y: u32,
+        (x, y): (u32, u32),
         sample: u32,
         estimate: f32,
         learn: Option<&mut dyn Recorder>,
@@ -435,7 +425,7 @@ impl FrameSetup<'_> {
 
     /// Adds a pixel's frame of `samples` samples to its accumulation, and where
     /// `weigh`, its variance term to `counters`.
-    fn finish_pixel(
+    pub(super) fn finish_pixel(
         &self,
         acc: &mut crate::layout::AccumPixel,
         px: PixelSums,

@@ -31,26 +31,26 @@ pub(super) fn pass_fits(pass_ms: Option<f64>, now: Instant, deadline: Instant) -
     now < deadline && now + pass <= deadline
 }
 
-/// What the passes traced: the samples per pixel, each pixel's sums, what was
-/// counted, and the targets recorded (None where no row recorded).
+/// What the passes traced: the samples per pixel, what was counted, and the
+/// targets recorded (None where no row recorded).
 pub(super) struct Passes {
     pub samples: u32,
-    pub pixels: Vec<PixelSums>,
     pub counters: FrameCounters,
     pub sums: Option<FrameSums>,
 }
 
 /// Traces passes of one sample per pixel over the image whose accumulation is
 /// `film` until 64 are done, or those `end` asks for, or at its deadline the next
-/// is predicted, by `pass_ms` (updated to each pass's time), to end past it. The
-/// first pass always runs. The
-/// targets are recorded into one set of sums per thread, kept over the passes,
-/// as a table's sums are large.
+/// is predicted, by `pass_ms` (updated to each pass's time), to end past it (the
+/// first always runs), then adds each pixel's samples to `film` (weighed where
+/// `weigh` and the frame is whole). The targets go to one set of sums per
+/// thread, kept over the passes, as a table's sums are large.
 pub(super) fn trace_passes(
     setup: &FrameSetup,
-    film: &[AccumPixel],
+    film: &mut [AccumPixel],
     end: FrameEnd,
     pass_ms: &mut Option<f64>,
+    weigh: bool,
     no_sums: &(dyn Fn() -> FrameSums + Sync),
 ) -> Passes {
     let p = &setup.scene.params;
@@ -87,7 +87,7 @@ pub(super) fn trace_passes(
                     let x = x as u32;
                     let sample = pass_sample(p.seed, y * p.width + x, setup.rng_frame, pass);
                     let learn = slot.as_mut().map(|s| s.get_or_insert_with(no_sums) as &mut dyn Recorder);
-                    setup.trace_sample(x, y, sample, setup.estimate(acc), learn, px, &mut c);
+                    setup.trace_sample((x, y), sample, setup.estimate(acc), learn, px, &mut c);
                 }
                 c
             })
@@ -96,6 +96,20 @@ pub(super) fn trace_passes(
         samples += 1;
         *pass_ms = Some(start.elapsed().as_secs_f64() * 1e3);
     }
-    let sums = slots.into_iter().filter_map(|s| s.into_inner().unwrap_or_else(|e| e.into_inner())).reduce(FrameSums::merge);
-    Passes { samples, pixels, counters, sums }
+    // Each pixel's samples into its accumulation; a frame cut short is not weighed.
+    let weigh = weigh && samples == shared::SAMPLES_PER_FRAME;
+    let finished = film
+        .par_chunks_mut(width)
+        .zip(pixels.par_chunks(width))
+        .map(|(row, sums)| {
+            let mut c = FrameCounters::default();
+            for (acc, &px) in row.iter_mut().zip(sums) {
+                setup.finish_pixel(acc, px, samples, weigh, &mut c);
+            }
+            c
+        })
+        .reduce(FrameCounters::default, FrameCounters::plus);
+    let sums =
+        slots.into_iter().filter_map(|s| s.into_inner().unwrap_or_else(|e| e.into_inner())).reduce(FrameSums::merge);
+    Passes { samples, counters: counters.plus(finished), sums }
 }
