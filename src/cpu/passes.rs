@@ -1,7 +1,10 @@
 //! A CPU frame against a deadline (`CpuRenderer::render_frame_until`): passes of
 //! one sample per pixel over the whole image, each started only where it is
 //! predicted to end by the deadline, so that a frame cut short holds the same
-//! number of samples in every pixel. The reasons are in docs/cli.md, `--time`.
+//! number of samples in every pixel. Passes that fit twice over in the time left
+//! are traced together, each pixel's in pass order, so that the threads wait for
+//! each other a few times a frame rather than 64. The reasons are in docs/cli.md,
+//! `--time`.
 
 use super::{FrameCounters, FrameEnd, FrameSetup, PixelSums};
 use crate::guide::{FrameSums, Recorder};
@@ -20,8 +23,12 @@ use std::time::{Duration, Instant};
 /// the pixel) and lands anywhere in the pixel with equal chance: the first k
 /// indices of every pixel would see only the top rows of its sub-squares.
 pub fn pass_sample(seed: u32, pixel: u32, rng_frame: u32, pass: u32) -> u32 {
-    let first = hash_combine(hash_combine(pcg_hash(seed ^ 0x85eb_ca6b), pixel), rng_frame);
-    first.wrapping_add(pass) % shared::SAMPLES_PER_FRAME
+    first_sample(seed, pixel, rng_frame).wrapping_add(pass) % shared::SAMPLES_PER_FRAME
+}
+
+/// [`pass_sample`]'s index of pass 0, unreduced.
+fn first_sample(seed: u32, pixel: u32, rng_frame: u32) -> u32 {
+    hash_combine(hash_combine(pcg_hash(seed ^ 0x85eb_ca6b), pixel), rng_frame)
 }
 
 /// Whether a pass taken to last `pass_ms` (None: unknown) that starts at `now`
@@ -37,6 +44,22 @@ pub(super) struct Passes {
     pub samples: u32,
     pub counters: FrameCounters,
     pub sums: Option<FrameSums>,
+}
+
+/// How many passes to trace together after `done` of `last`, at `now`: for
+/// [`FrameEnd::Samples`] all of them; against a deadline, one where a pass's time
+/// (`pass_ms`) is unknown, else as many as fit in half the time left (at least
+/// one), so that a group that runs up to twice as slow as its prediction still
+/// ends in time.
+fn group(end: FrameEnd, done: u32, last: u32, pass_ms: Option<f64>, now: Instant) -> u32 {
+    match (end, pass_ms) {
+        (FrameEnd::Deadline(d), Some(pass)) if pass > 0.0 => {
+            let left_ms = d.saturating_duration_since(now).as_secs_f64() * 1e3;
+            ((left_ms / (2.0 * pass)) as u32).clamp(1, last - done)
+        }
+        (FrameEnd::Deadline(_), _) => 1,
+        _ => last - done,
+    }
 }
 
 /// Traces passes of one sample per pixel over the image whose accumulation is
@@ -70,7 +93,7 @@ pub(super) fn trace_passes(
                 break;
             }
         }
-        let pass = samples;
+        let passes = samples..samples + group(end, samples, last, *pass_ms, start);
         let traced = pixels
             .par_chunks_mut(width)
             .zip(film.par_chunks(width))
@@ -85,16 +108,20 @@ pub(super) fn trace_passes(
                 });
                 for (x, (px, acc)) in row.iter_mut().zip(accs).enumerate() {
                     let x = x as u32;
-                    let sample = pass_sample(p.seed, y * p.width + x, setup.rng_frame, pass);
-                    let learn = slot.as_mut().map(|s| s.get_or_insert_with(no_sums) as &mut dyn Recorder);
-                    setup.trace_sample((x, y), sample, setup.estimate(acc), learn, px, &mut c);
+                    let (first, estimate) =
+                        (first_sample(p.seed, y * p.width + x, setup.rng_frame), setup.estimate(acc));
+                    for pass in passes.clone() {
+                        let sample = first.wrapping_add(pass) % shared::SAMPLES_PER_FRAME;
+                        let learn = slot.as_mut().map(|s| s.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                        setup.trace_sample((x, y), sample, estimate, learn, px, &mut c);
+                    }
                 }
                 c
             })
             .reduce(FrameCounters::default, FrameCounters::plus);
         counters = counters.plus(traced);
-        samples += 1;
-        *pass_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+        samples = passes.end;
+        *pass_ms = Some(start.elapsed().as_secs_f64() * 1e3 / passes.len() as f64);
     }
     // Each pixel's samples into its accumulation; a frame cut short is not weighed.
     let weigh = weigh && samples == shared::SAMPLES_PER_FRAME;
