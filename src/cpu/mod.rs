@@ -115,8 +115,8 @@ pub struct CpuRenderer {
     /// The last frame's mean relative variance, where it is weighed
     /// (`FLAG_FRAME_VARIANCE`; `crate::render::FrameTimings::variance`).
     pub last_variance: Option<f64>,
-    /// The last frame's wall time, its learning included, and the last pass's
-    /// (`render_frame_until`): what the next is predicted to take.
+    /// The last frame's wall time, its learning included, and where it was
+    /// traced in passes, its last pass's: what the next is predicted to take.
     last_frame_ms: Option<f64>,
     pass_ms: Option<f64>,
 }
@@ -261,12 +261,12 @@ impl CpuRenderer {
         let (sums, counters, samples) = match end {
             FrameEnd::Whole => {
                 let (sums, counters) = setup.trace_whole(&mut self.film.pixels, weigh, &no_sums);
+                self.pass_ms = None;
                 (sums, counters, shared::SAMPLES_PER_FRAME)
             }
             FrameEnd::Deadline(_) | FrameEnd::Samples(_) => {
-                let mut pass_ms = self.predicted_pass_ms();
-                let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, &mut pass_ms, weigh, &no_sums);
-                self.pass_ms = pass_ms;
+                let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, weigh, &no_sums);
+                self.pass_ms = traced.pass_ms;
                 (traced.sums.unwrap_or_else(no_sums), traced.counters, traced.samples)
             }
         };
@@ -311,8 +311,9 @@ impl CpuRenderer {
         samples
     }
 
-    /// How long the next pass of one sample per pixel is taken to last: the
-    /// last pass's time, else a 64th of the last frame's (None before any frame).
+    /// How long the next pass of one sample per pixel is taken to last: the last
+    /// frame's last pass's time where it was traced in passes, else a 64th of the
+    /// last frame's (None before any frame).
     fn predicted_pass_ms(&self) -> Option<f64> {
         self.pass_ms.or(self.last_frame_ms.map(|f| f / shared::SAMPLES_PER_FRAME as f64))
     }

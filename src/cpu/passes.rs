@@ -38,19 +38,20 @@ pub(super) fn pass_fits(pass_ms: Option<f64>, now: Instant, deadline: Instant) -
     now < deadline && now + pass <= deadline
 }
 
-/// What the passes traced: the samples per pixel, what was counted, and the
-/// targets recorded (None where no row recorded).
+/// What the passes traced: the samples per pixel, the last pass's time, what
+/// was counted, and the targets recorded (None where no row recorded).
 pub(super) struct Passes {
     pub samples: u32,
+    pub pass_ms: Option<f64>,
     pub counters: FrameCounters,
     pub sums: Option<FrameSums>,
 }
 
 /// How many passes to trace together after `done` of `last`, at `now`: for
-/// [`FrameEnd::Samples`] all of them; against a deadline, one where a pass's time
-/// (`pass_ms`) is unknown, else as many as fit in half the time left (at least
-/// one), so that a group that runs up to twice as slow as its prediction still
-/// ends in time.
+/// [`FrameEnd::Samples`] all of them; against a deadline, one where this frame's
+/// pass time (`pass_ms`) is not measured yet, else as many as fit in half the
+/// time left (at least one), so that a group that runs up to twice as slow as its
+/// prediction still ends in time.
 fn group(end: FrameEnd, done: u32, last: u32, pass_ms: Option<f64>, now: Instant) -> u32 {
     match (end, pass_ms) {
         (FrameEnd::Deadline(d), Some(pass)) if pass > 0.0 => {
@@ -64,15 +65,14 @@ fn group(end: FrameEnd, done: u32, last: u32, pass_ms: Option<f64>, now: Instant
 
 /// Traces passes of one sample per pixel over the image whose accumulation is
 /// `film` until 64 are done, or those `end` asks for, or at its deadline the next
-/// is predicted, by `pass_ms` (updated to each pass's time), to end past it (the
-/// first always runs), then adds each pixel's samples to `film` (weighed where
-/// `weigh` and the frame is whole). The targets go to one set of sums per
-/// thread, kept over the passes, as a table's sums are large.
+/// is predicted, by the last pass's time, to end past it (the first always runs),
+/// then adds each pixel's samples to `film` (weighed where `weigh` and the frame
+/// is whole). The targets go to one set of sums per thread, kept over the
+/// passes, as a table's sums are large.
 pub(super) fn trace_passes(
     setup: &FrameSetup,
     film: &mut [AccumPixel],
     end: FrameEnd,
-    pass_ms: &mut Option<f64>,
     weigh: bool,
     no_sums: &(dyn Fn() -> FrameSums + Sync),
 ) -> Passes {
@@ -81,7 +81,7 @@ pub(super) fn trace_passes(
     let mut pixels = vec![PixelSums::default(); film.len()];
     let slots: Vec<Mutex<Option<FrameSums>>> = (0..rayon::current_num_threads()).map(|_| Mutex::new(None)).collect();
     let mut counters = FrameCounters::default();
-    let mut samples = 0;
+    let (mut samples, mut pass_ms) = (0, None);
     let last = match end {
         FrameEnd::Samples(k) => k,
         _ => shared::SAMPLES_PER_FRAME,
@@ -89,11 +89,11 @@ pub(super) fn trace_passes(
     while samples < last {
         let start = Instant::now();
         if let (FrameEnd::Deadline(deadline), true) = (end, samples > 0) {
-            if !pass_fits(*pass_ms, start, deadline) {
+            if !pass_fits(pass_ms, start, deadline) {
                 break;
             }
         }
-        let passes = samples..samples + group(end, samples, last, *pass_ms, start);
+        let passes = samples..samples + group(end, samples, last, pass_ms, start);
         let traced = pixels
             .par_chunks_mut(width)
             .zip(film.par_chunks(width))
@@ -121,7 +121,7 @@ pub(super) fn trace_passes(
             .reduce(FrameCounters::default, FrameCounters::plus);
         counters = counters.plus(traced);
         samples = passes.end;
-        *pass_ms = Some(start.elapsed().as_secs_f64() * 1e3 / passes.len() as f64);
+        pass_ms = Some(start.elapsed().as_secs_f64() * 1e3 / passes.len() as f64);
     }
     // Each pixel's samples into its accumulation; a frame cut short is not weighed.
     let weigh = weigh && samples == shared::SAMPLES_PER_FRAME;
@@ -138,5 +138,5 @@ pub(super) fn trace_passes(
         .reduce(FrameCounters::default, FrameCounters::plus);
     let sums =
         slots.into_iter().filter_map(|s| s.into_inner().unwrap_or_else(|e| e.into_inner())).reduce(FrameSums::merge);
-    Passes { samples, counters: counters.plus(finished), sums }
+    Passes { samples, pass_ms, counters: counters.plus(finished), sums }
 }
