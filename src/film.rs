@@ -11,14 +11,19 @@ use glam::Vec3;
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    /// Frames accumulated; each adds `SAMPLES_PER_FRAME` samples per pixel.
+    /// Frames accumulated; each adds `SAMPLES_PER_FRAME` samples per pixel, but
+    /// a last one cut short ([`Film::partial_spp`]).
     pub frames: u32,
+    /// The samples per pixel of the last frame where a deadline cut it short (1
+    /// to 63: a CPU render's `--time`, `crate::cpu::CpuRenderer::render_frame_until`);
+    /// 0 where every frame is whole. No frame is accumulated after a partial one.
+    pub partial_spp: u32,
     pub pixels: Vec<AccumPixel>,
 }
 
 /// Adds one frame's 64-sample sum to a pixel that already holds `frames` frames
 /// (Welford's update of the frame means' squared deviations); the GLSL twin is
-/// `accumulate` in `glsl/pathtrace.comp`.
+/// `accumulate` in `glsl/pathtrace.comp`. [`accumulate_samples`] with 64 samples.
 ///
 /// The first frame of an accumulation (`frames` 0) writes over what the pixel
 /// holds. Where that is the learning frames' radiance (`learned_frames` > 0,
@@ -26,19 +31,29 @@ pub struct Film {
 /// learning frames' share of learned roulette's estimate
 /// (`crate::cpu::roulette_estimate`); the image is `sum[..3]` alone.
 pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3]) {
+    accumulate_samples(acc, frames, learned_frames, sum, shared::SAMPLES_PER_FRAME);
+}
+
+/// [`accumulate`] of a frame of `samples` samples per pixel (1 to 64) after
+/// `frames` whole ones: West's weighted Welford update, each frame's mean
+/// weighted by its share of a whole frame's samples, so that
+/// [`Film::variance_of_mean`] stays unbiased (docs/cli.md, `--time`). With 64
+/// samples every weight is 1 and the arithmetic is [`accumulate`]'s, bit for bit.
+pub fn accumulate_samples(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3], samples: u32) {
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
     if frames == 0 {
         let learned = if learned_frames > 0 { mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
         *acc = AccumPixel { sum: [sum[0], sum[1], sum[2], learned], m2_frame_mean: [0.0; 4] };
         return;
     }
+    let w = samples as f32 / per_frame;
     for c in 0..3 {
         let mean_old = acc.sum[c] / (per_frame * frames as f32);
-        let m = sum[c] / per_frame;
+        let m = sum[c] / samples as f32;
         let delta = m - mean_old;
-        let mean_new = mean_old + delta / (frames + 1) as f32;
+        let mean_new = mean_old + delta * w / (frames as f32 + w);
         acc.sum[c] += sum[c];
-        acc.m2_frame_mean[c] += delta * (m - mean_new);
+        acc.m2_frame_mean[c] += w * delta * (m - mean_new);
     }
 }
 
@@ -90,11 +105,21 @@ pub fn available_memory() -> Option<u64> {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Film {
-        Film { width, height, frames: 0, pixels: vec![AccumPixel::default(); (width * height) as usize] }
+        Film {
+            width,
+            height,
+            frames: 0,
+            partial_spp: 0,
+            pixels: vec![AccumPixel::default(); (width * height) as usize],
+        }
     }
 
     pub fn samples_per_pixel(&self) -> u64 {
-        self.frames as u64 * shared::SAMPLES_PER_FRAME as u64
+        let whole = self.frames as u64 * shared::SAMPLES_PER_FRAME as u64;
+        match self.partial_spp {
+            0 => whole,
+            k => whole - (shared::SAMPLES_PER_FRAME - k) as u64,
+        }
     }
 
     /// The radiance estimate: mean of all samples.
@@ -108,12 +133,15 @@ impl Film {
     }
 
     /// Estimated variance of each pixel's mean, from the spread of its per-frame
-    /// 64-sample means (needs at least two frames; `None` otherwise).
+    /// means (needs at least two frames; `None` otherwise): the weighted squared
+    /// deviations over (frames - 1) and the samples in units of whole frames
+    /// ([`accumulate_samples`]), which with whole frames is their count.
     pub fn variance_of_mean(&self) -> Option<Image> {
         if self.frames < 2 {
             return None;
         }
         let f = self.frames as f64;
+        let weight = self.samples_per_pixel() as f64 / shared::SAMPLES_PER_FRAME as f64;
         Some(Image {
             width: self.width,
             height: self.height,
@@ -124,7 +152,7 @@ impl Film {
                     let mut v = [0.0f32; 3];
                     for c in 0..3 {
                         let var_frame = (p.m2_frame_mean[c] as f64 / (f - 1.0)).max(0.0);
-                        v[c] = (var_frame / f) as f32;
+                        v[c] = (var_frame / weight) as f32;
                     }
                     v
                 })

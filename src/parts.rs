@@ -86,20 +86,16 @@ pub struct PartInfo {
     /// The part's first image frame of the whole render's.
     pub first_frame: u32,
     /// The image frames the part traced (fewer than its range where `--time` or
-    /// Ctrl-C cut it short).
+    /// Ctrl-C cut it short), a last one cut short included.
     pub frames: u32,
+    /// Samples per pixel of the part: `frames` times 64, less what a last frame
+    /// cut short by `--time` lacks (`crate::film::Film::partial_spp`).
+    pub spp: u64,
     /// The guiding mode, in words (`off`, `octant`, `sphere`).
     pub guiding: String,
     /// [`field_hash`] of the saved field it started from (`--guide-in`); None
     /// where it learned from nothing.
     pub guide_in: Option<u64>,
-}
-
-impl PartInfo {
-    /// Samples per pixel of the part.
-    pub fn spp(&self) -> u64 {
-        self.frames as u64 * shared::SAMPLES_PER_FRAME as u64
-    }
 }
 
 /// A part: its header, its image and the variance of each pixel's mean (from the
@@ -136,7 +132,7 @@ impl PartImage {
             (ATTR_SCENE, format!("{:016x}", i.scene_hash)),
             (ATTR_SETTINGS, format!("{:016x}", i.settings_hash)),
             (ATTR_SEED, i.seed.to_string()),
-            (ATTR_SPP, i.spp().to_string()),
+            (ATTR_SPP, i.spp.to_string()),
             (ATTR_TOTAL, i.total_frames.to_string()),
             (ATTR_FIRST, i.first_frame.to_string()),
             (ATTR_FRAMES, i.frames.to_string()),
@@ -203,6 +199,7 @@ impl PartImage {
         if count == 0 || index >= count {
             return Err(format!("{name} is a damaged part: part {index} of {count}"));
         }
+        let spp: u64 = number(&name, ATTR_SPP, get(ATTR_SPP)?, false)?;
         let info = PartInfo {
             part: Part { index, count },
             scene_hash: hex(ATTR_SCENE)?,
@@ -211,16 +208,19 @@ impl PartImage {
             total_frames: dec(ATTR_TOTAL)?,
             first_frame: dec(ATTR_FIRST)?,
             frames: dec(ATTR_FRAMES)?,
+            spp,
             guiding: get(ATTR_GUIDING)?.clone(),
             guide_in: match get(ATTR_GUIDE_IN)?.as_str() {
                 "none" => None,
                 v => Some(number(&name, ATTR_GUIDE_IN, v, true)?),
             },
         };
-        let spp: u64 = number(&name, ATTR_SPP, get(ATTR_SPP)?, false)?;
-        if spp != info.spp() {
+        // Whole frames, the last of which a deadline may have cut short (to at least one sample).
+        let whole = info.frames as u64 * shared::SAMPLES_PER_FRAME as u64;
+        let least = whole.saturating_sub(shared::SAMPLES_PER_FRAME as u64 - 1);
+        if spp > whole || spp < least {
             return Err(format!(
-                "{name} is a damaged part: its {ATTR_SPP} {spp} is not {} frames of {}",
+                "{name} is a damaged part: its {ATTR_SPP} {spp} is not {} frames of {}, the last possibly cut short",
                 info.frames,
                 shared::SAMPLES_PER_FRAME
             ));
@@ -395,12 +395,14 @@ pub fn merge(parts: &[(PathBuf, PartImage)], allow_missing: bool) -> Result<Merg
         }
         for (path, p) in parts {
             let range = p.info.part.frames(p.info.total_frames);
-            if p.info.frames < range.len() as u32 {
+            let asked = range.len() as u64 * shared::SAMPLES_PER_FRAME as u64;
+            if p.info.spp < asked {
                 notes.push(format!(
-                    "{} holds {} of its {} frames (cut short by --time or Ctrl-C): merged by the samples it has",
+                    "{} holds {} of its {} samples per pixel (cut short by --time or Ctrl-C): merged by the \
+                     samples it has",
                     path.display(),
-                    p.info.frames,
-                    range.len()
+                    p.info.spp,
+                    asked
                 ));
             }
         }
@@ -408,7 +410,7 @@ pub fn merge(parts: &[(PathBuf, PartImage)], allow_missing: bool) -> Result<Merg
     if !problems.is_empty() {
         return Err(problems);
     }
-    let total: u64 = parts.iter().map(|(_, p)| p.info.spp()).sum();
+    let total: u64 = parts.iter().map(|(_, p)| p.info.spp).sum();
     if total == 0 {
         return Err(vec!["the parts hold no samples".into()]);
     }
@@ -417,7 +419,7 @@ pub fn merge(parts: &[(PathBuf, PartImage)], allow_missing: bool) -> Result<Merg
     let mut var = vec![[0.0f64; 3]; first.mean.pixels.len()];
     let all_variances = parts.iter().all(|(_, p)| p.variance.is_some());
     for (_, p) in parts {
-        let n = p.info.spp() as f64;
+        let n = p.info.spp as f64;
         for (i, m) in p.mean.pixels.iter().enumerate() {
             for c in 0..3 {
                 mean[i][c] += n * m[c] as f64;

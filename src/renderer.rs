@@ -40,6 +40,9 @@ pub struct RoundReport {
     pub kind: Option<crate::guide::FrameKind>,
     /// The one frame's mean relative variance, where the renderer weighs it.
     pub variance: Option<f64>,
+    /// The samples per pixel of a last frame cut short at the time limit (the
+    /// CPU's), None where every frame was whole.
+    pub cut_spp: Option<u32>,
 }
 
 /// What the frame loop needs of a renderer: `crate::render::GpuRenderer`,
@@ -50,7 +53,8 @@ pub trait Renderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError>;
     /// Traces a round of at most `max` frames (`max` at least 1), where
     /// `time_left_ms` is set none that its renderer judges would end past it.
-    /// One frame, the time judged by the session, unless a renderer does more.
+    /// One frame, the time judged by the session, unless a renderer does more
+    /// (the CPU's last frame stops at the time left, cut short).
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         let _ = (max, time_left_ms);
         let r = self.render_frame()?;
@@ -62,10 +66,16 @@ pub trait Renderer {
             time_up: None,
             kind: r.kind,
             variance: r.variance,
+            cut_spp: None,
         })
     }
     /// Frames in the image (the learning frames left out once it starts).
     fn image_frames(&self) -> u32;
+    /// Samples per pixel of the image: its frames' 64 each, less what a last
+    /// frame cut short lacks ([`Film::partial_spp`], on the CPU).
+    fn image_spp(&self) -> u32 {
+        self.image_frames() * crate::shared::SAMPLES_PER_FRAME
+    }
     /// The image so far.
     fn film(&self) -> Result<Film, GpuError>;
     /// The device, in words: a GPU's name, or the CPU and its threads.
@@ -83,6 +93,9 @@ macro_rules! forward_renderer_queries {
     ($self:ident => $inner:expr) => {
         fn image_frames(&$self) -> u32 {
             $inner.image_frames()
+        }
+        fn image_spp(&$self) -> u32 {
+            $inner.image_spp()
         }
         fn film(&$self) -> Result<$crate::film::Film, $crate::gpu::GpuError> {
             $inner.film()

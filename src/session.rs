@@ -29,8 +29,36 @@ impl Renderer for CpuRenderer {
             variance: self.last_variance,
         })
     }
+    /// With a time limit, the frame that would end past it is cut short at it
+    /// ([`CpuRenderer::render_frame_within`]), and the round says the time is up.
+    fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
+        let _ = max;
+        let (samples, time_up) = match time_left_ms {
+            Some(left) => {
+                let (samples, up) = CpuRenderer::render_frame_within(self, left);
+                (samples, Some(up))
+            }
+            None => {
+                CpuRenderer::render_frame(self);
+                (crate::shared::SAMPLES_PER_FRAME, None)
+            }
+        };
+        Ok(RoundReport {
+            frames: (samples > 0) as u32,
+            gpu_ms: None,
+            learn_ms: None,
+            zero_paths: Some(self.last_counters.zero_paths),
+            time_up,
+            kind: self.last_kind,
+            variance: self.last_variance,
+            cut_spp: (samples < crate::shared::SAMPLES_PER_FRAME).then_some(samples),
+        })
+    }
     fn image_frames(&self) -> u32 {
         CpuRenderer::film(self).frames
+    }
+    fn image_spp(&self) -> u32 {
+        CpuRenderer::film(self).samples_per_pixel() as u32
     }
     fn film(&self) -> Result<Film, GpuError> {
         Ok(CpuRenderer::film(self).clone())
@@ -80,7 +108,9 @@ impl Renderer for GpuRenderer {
 /// How much a session may render: at most `frames` frames (the learning frames
 /// counted), and where `time_ms` is set, no frame that would end past it, each
 /// taken to last as long as the frame before (the first frame always runs; a
-/// frame slower than the one before ends past the limit by the difference).
+/// frame slower than the one before ends past the limit by the difference). On
+/// the CPU the frame that would end past it is traced up to it, cut short
+/// ([`CpuRenderer::render_frame_within`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
     pub frames: u32,
@@ -165,6 +195,9 @@ impl<'a> Session<'a> {
                 // Nothing fitted the time left (a renderer that keeps the budget itself).
                 break;
             }
+            // A frame cut short traced its share of a whole frame's paths.
+            let paths = self.paths_per_frame
+                * report.cut_spp.map_or(1.0, |k| k as f64 / crate::shared::SAMPLES_PER_FRAME as f64);
             let frame_ms = report.gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
             let mark = time_mark(self.elapsed_ms, self.elapsed_ms + frame_ms);
             self.elapsed_ms += frame_ms;
@@ -190,12 +223,12 @@ impl<'a> Session<'a> {
             };
             self.frames.push(FrameStats {
                 frame: f + n,
-                spp: self.renderer.image_frames() * crate::shared::SAMPLES_PER_FRAME,
+                spp: self.renderer.image_spp(),
                 gpu_ms: report.gpu_ms,
                 elapsed_ms: self.elapsed_ms,
                 rel_mse: errors.map(|e| e.rel_mse),
                 rel_mse_debiased: errors.and_then(|e| e.rel_mse_debiased),
-                zero_fraction: report.zero_paths.map(|z| z as f64 / self.paths_per_frame),
+                zero_fraction: report.zero_paths.map(|z| z as f64 / paths),
                 unguided: report.kind == Some(crate::guide::FrameKind::Unguided),
                 frame_variance: report.variance,
             });

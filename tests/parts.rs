@@ -46,6 +46,7 @@ fn part(p: &PreparedScene, part: Part, total: u32, shift: bool) -> PartImage {
             total_frames: total,
             first_frame: range.start,
             frames: film.frames,
+            spp: film.samples_per_pixel(),
             guiding: "off".into(),
             guide_in: None,
         },
@@ -356,4 +357,73 @@ fn guided_parts_from_one_field_merge_to_the_image() {
         "5",
     ];
     run(&compare).unwrap();
+}
+
+/// Parts that `--time` cuts short on the CPU, their last frame at the time
+/// limit: each header's spp is the count of the samples its image holds (the
+/// same part traced here, its last frame cut after those samples, is its image
+/// to float summation order, the variance too), the summary and `--stats` say
+/// it, and merge weights the parts by it.
+#[test]
+fn parts_cut_short_by_time_hold_their_samples_exactly() {
+    let (w, h, seed) = (12, 9, 4);
+    // As the command line prepares it: --stats counts the paths that carry nothing.
+    let sc = scene("cornell-box.toml");
+    let mut o = rlpt::options::RenderOptions::from_scene(&sc);
+    (o.width, o.height, o.seed, o.counters) = (w, h, seed, rlpt::options::Counters::ZeroPaths);
+    let p = PreparedScene::new(&sc, &o).expect("valid options");
+    let mut paths = Vec::new();
+    for k in 0..2 {
+        let (path, stats) = (tmp(&format!("timed-part-{k}.exr")), tmp(&format!("timed-part-{k}.json")));
+        let spec = format!("{k}/2");
+        let size = [w.to_string(), h.to_string(), seed.to_string()];
+        let out = run(&[
+            "render",
+            "scenes/cornell-box.toml",
+            "--device",
+            "cpu",
+            "--width",
+            &size[0],
+            "--height",
+            &size[1],
+            "--seed",
+            &size[2],
+            "--spp",
+            "64000",
+            "--time",
+            "0.3",
+            "--part",
+            &spec,
+            "-o",
+            s(&path),
+            "--stats",
+            s(&stats),
+        ])
+        .unwrap();
+        let part = PartImage::load(&path).unwrap();
+        let info = &part.info;
+        assert_eq!((info.scene_hash, info.settings_hash), (scene_hash(&p), settings_hash(&p.params)));
+        assert!(info.frames >= 2 && info.frames < 500, "{out}");
+        assert!(out.contains(&format!(", {} spp (part {spec}", info.spp)), "{out}");
+        let stats = rlpt::stats::RenderStats::load(&stats).unwrap();
+        assert_eq!(stats.frames.last().map(|f| f.spp as u64), Some(info.spp));
+        let mut r = CpuRenderer::new(&p);
+        r.set_frame_offset(info.first_frame);
+        for _ in 0..info.spp / 64 {
+            r.render_frame();
+        }
+        if !info.spp.is_multiple_of(64) {
+            r.render_frame_samples((info.spp % 64) as u32);
+        }
+        let film = r.film();
+        assert_eq!((film.frames, film.samples_per_pixel()), (info.frames, info.spp));
+        let d = max_relative_difference(&part.mean, &film.mean());
+        assert!(d < 1e-5, "part {k} ({} spp) against its samples traced here: {d}", info.spp);
+        let d = max_relative_difference(part.variance.as_ref().unwrap(), &film.variance_of_mean().unwrap());
+        assert!(d < 1e-3, "part {k}'s variance against its samples': {d}");
+        paths.push((path, info.spp));
+    }
+    let merged = tmp("timed-merged.exr");
+    let out = run(&["merge", s(&paths[0].0), s(&paths[1].0), "-o", s(&merged)]).unwrap();
+    assert!(out.contains(&format!("{w}x{h}, {} spp", paths[0].1 + paths[1].1)), "{out}");
 }

@@ -37,10 +37,11 @@ pub(crate) struct RenderArgs {
     /// Write the learned field to FILE once the render ends (after the image), for --guide-in.
     #[arg(long, value_name = "FILE")]
     guide_out: Option<PathBuf>,
-    /// Stop by this much render time (GPU time from timestamps on the GPU, wall clock on
-    /// the CPU): no frame starts that would end past it, each judged to last as long as
-    /// the frame before (the first always runs; a slower frame ends past it by the
-    /// difference). --spp is then the upper bound.
+    /// Stop at this much render time (GPU time from timestamps on the GPU, wall clock on
+    /// the CPU). On the CPU the last frame is cut short at it, in passes of one sample per
+    /// pixel, and its samples counted exactly. On the GPU no frame starts that would end
+    /// past it, each judged to last as long as the frame before (the first always runs; a
+    /// slower frame ends past it by the difference). --spp is then the upper bound.
     #[arg(long, value_parser = parse_seconds)]
     time: Option<f64>,
     /// Render part K (from 0) of N of the render that --spp asks for: its K-th of N
@@ -243,7 +244,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let (stop, film) = session.run(budget, &INTERRUPTED)?;
     let traced = session.traced();
     let gpu_ms_total = session.elapsed_ms;
-    let spp = session.renderer.image_frames() * shared::SAMPLES_PER_FRAME;
+    let spp = session.renderer.image_spp();
     stats.frames = std::mem::take(&mut session.frames);
     let renderer = &session.renderer;
     let film = match (film, &stop) {
@@ -273,6 +274,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
                 first_frame: range.start,
                 // Cut short within the learning frames, the film holds no image frame.
                 frames: if traced > learning_frames { film.frames } else { 0 },
+                spp: if traced > learning_frames { film.samples_per_pixel() } else { 0 },
                 guiding: opts.guiding.name().into(),
                 guide_in,
             };
@@ -339,8 +341,12 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         }
         _ => String::new(),
     };
-    // Samples traced, the learning frames' included.
-    let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME) as f64;
+    // Samples traced, the learning frames' included, less what a last frame cut short lacks.
+    let missing = match film.partial_spp {
+        0 => 0,
+        k => shared::SAMPLES_PER_FRAME - k,
+    };
+    let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME - missing) as f64;
     let gpu = match renderer.timestamps() {
         true => {
             format!(", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame", gpu_ms_total / traced as f64)

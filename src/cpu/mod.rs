@@ -13,6 +13,7 @@ use crate::math::{mean3, Vec3};
 use crate::prepared::PreparedScene;
 use crate::shared;
 use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
@@ -75,7 +76,9 @@ impl<'a> Guide<'a> {
     }
 }
 
+mod passes;
 mod path;
+pub use passes::pass_sample;
 pub use path::{shading_side, sides_agree, trace_path};
 
 /// What a frame measured besides the image.
@@ -88,6 +91,17 @@ pub struct FrameCounters {
     /// The pixels' `crate::film::frame_variance_term`s summed (0 where no race
     /// weighs the frame).
     pub variance: u64,
+}
+
+impl FrameCounters {
+    /// Both counts added.
+    pub fn plus(self, o: FrameCounters) -> FrameCounters {
+        FrameCounters {
+            zero_paths: self.zero_paths + o.zero_paths,
+            segments: self.segments + o.segments,
+            variance: self.variance + o.variance,
+        }
+    }
 }
 
 /// The CPU renderer's guiding state.
@@ -124,6 +138,10 @@ pub struct CpuRenderer {
     /// The last frame's mean relative variance, where it is weighed
     /// (`FLAG_FRAME_VARIANCE`; `crate::render::FrameTimings::variance`).
     pub last_variance: Option<f64>,
+    /// The last frame's wall time, its learning included, and where it was
+    /// traced in passes, its last pass's: what the next is predicted to take.
+    last_frame_ms: Option<f64>,
+    pass_ms: Option<f64>,
 }
 
 impl CpuRenderer {
@@ -146,6 +164,8 @@ impl CpuRenderer {
             last_counters: FrameCounters::default(),
             last_kind: None,
             last_variance: None,
+            last_frame_ms: None,
+            pass_ms: None,
         }
     }
 
@@ -181,7 +201,56 @@ impl CpuRenderer {
     /// after the learning frames (`GuideConfig::learning_frames`) starts the
     /// image anew: the film then holds it alone (`crate::film::accumulate`).
     pub fn render_frame(&mut self) {
-        let start = std::time::Instant::now();
+        self.trace_frame(FrameEnd::Whole);
+    }
+
+    /// Renders one frame, or as much of it as ends by `deadline`: passes of one
+    /// sample per pixel over the whole image, each started only where it is
+    /// predicted to end by then (the render's first always runs). Returns the
+    /// samples per pixel traced: 0 where no pass fitted (nothing changed), below
+    /// 64 where the frame was cut short, which ends the film ([`Film::partial_spp`]).
+    pub fn render_frame_until(&mut self, deadline: Instant) -> u32 {
+        self.trace_frame(FrameEnd::Deadline(deadline))
+    }
+
+    /// The frame of [`render_frame_until`](Self::render_frame_until) cut after
+    /// `samples` passes (1 to 64) rather than at a deadline: the same samples, the
+    /// same film.
+    pub fn render_frame_samples(&mut self, samples: u32) {
+        assert!((1..=shared::SAMPLES_PER_FRAME).contains(&samples), "a frame holds 1 to 64 samples per pixel");
+        self.trace_frame(FrameEnd::Samples(samples));
+    }
+
+    /// Renders within `time_left_ms` of now: a whole frame as [`render_frame`](Self::render_frame)
+    /// where twice the last frame's time is left (so that a frame slower than the
+    /// last still ends in time), else [`render_frame_until`](Self::render_frame_until)
+    /// the deadline. Returns the samples per pixel traced, and whether the time
+    /// is up: the frame was cut short, or no further pass fits.
+    pub fn render_frame_within(&mut self, time_left_ms: f64) -> (u32, bool) {
+        let start = Instant::now();
+        let deadline = start + Duration::from_secs_f64(time_left_ms.max(0.0) / 1e3);
+        let samples = match self.last_frame_ms {
+            Some(last) if time_left_ms >= 2.0 * last => {
+                self.trace_frame(FrameEnd::Whole);
+                shared::SAMPLES_PER_FRAME
+            }
+            _ => self.trace_frame(FrameEnd::Deadline(deadline)),
+        };
+        let more = passes::pass_fits(self.predicted_pass_ms(), Instant::now(), deadline);
+        (samples, samples < shared::SAMPLES_PER_FRAME || !more)
+    }
+
+    /// The frame of [`render_frame`](Self::render_frame) (each pixel's 64 paths
+    /// together), or one in passes; returns the samples per pixel traced.
+    fn trace_frame(&mut self, end: FrameEnd) -> u32 {
+        assert_eq!(self.film.partial_spp, 0, "a frame cut short ends the film: reset it first");
+        let start = Instant::now();
+        if let FrameEnd::Deadline(d) = end {
+            // Past the render's first pass, nothing is traced unless a pass fits.
+            if self.frames_traced > 0 && !passes::pass_fits(self.predicted_pass_ms(), start, d) {
+                return 0;
+            }
+        }
         let p = self.scene.params;
         let learning_frames = self.scene.learning_frames();
         // The image's frames are guided or not as the race says, where there is one.
@@ -195,82 +264,45 @@ impl CpuRenderer {
             self.learned_frames = self.film.frames;
             self.film.frames = 0;
         }
-        let (accum_frames, learned_frames) = (self.film.frames, self.learned_frames);
-        let rng_frame = crate::math::sampler::rng_frame(self.frames_traced, learning_frames, self.frame_offset);
         // A loaded field has learned: learned roulette need not wait for it.
         let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
         let scene = &self.scene;
         let learning = self.learning.as_ref();
-        let guide = scene.guide.as_ref().zip(learning).filter(|_| guided).map(|(cfg, l)| Guide::new(cfg, &l.table));
+        let setup = FrameSetup {
+            scene,
+            guide: scene.guide.as_ref().zip(learning).filter(|_| guided).map(|(cfg, l)| Guide::new(cfg, &l.table)),
+            schedule: learning.filter(|_| guided).map(|l| &l.schedule),
+            frame,
+            rng_frame: crate::math::sampler::rng_frame(self.frames_traced, learning_frames, self.frame_offset),
+            accum_frames: self.film.frames,
+            learned_frames: self.learned_frames,
+            roulette_frames: frame + table_frames,
+        };
         let weigh = p.flags & shared::FLAG_FRAME_VARIANCE != 0;
         // Empty sums for the table (none without guiding).
         let no_sums = || scene.guide.as_ref().map_or_else(|| FrameSums::new(0, 0), FrameSums::for_config);
-        let schedule = learning.filter(|_| guided).map(|l| &l.schedule);
-        let (sums, counters) = self
-            .film
-            .pixels
-            .par_chunks_mut(p.width as usize)
-            .enumerate()
-            .fold(
-                || (no_sums(), FrameCounters::default()),
-                |(mut sums, mut counters), (y, row)| {
-                    let record = schedule.is_some_and(|s| s.records(frame, y as u32));
-                    for (x, acc) in row.iter_mut().enumerate() {
-                        let pixel = y as u32 * p.width + x as u32;
-                        let (mut sum, mut sum_sq) = (Vec3::ZERO, 0.0f32);
-                        let estimate = match guide {
-                            Some(_) => {
-                                guide::roulette_estimate(acc, accum_frames, learned_frames, frame + table_frames)
-                            }
-                            None => 0.0,
-                        };
-                        for sample in 0..shared::SAMPLES_PER_FRAME {
-                            let mut rng = PathSampler::for_flags(p.flags, p.seed, pixel, rng_frame, sample);
-                            let u = rng.sample_pixel(sample);
-                            let (o, d) = camera_ray(&p, x as u32, y as u32, u);
-                            let learn = record.then_some(&mut sums as &mut dyn Recorder);
-                            let (l, segs) = trace_path(scene, guide, o, d, &mut rng, estimate, learn);
-                            counters.segments += segs as u64;
-                            // A NaN or infinite sample would poison the pixel forever; it is dropped
-                            // (as on the GPU) and counted as carrying nothing.
-                            if l.is_finite() {
-                                sum += l;
-                                sum_sq += mean3(l) * mean3(l);
-                            }
-                            if !(l.max_element() > 0.0) {
-                                counters.zero_paths += 1;
-                            }
-                        }
-                        if weigh {
-                            let before = pixel_mean_before(acc, accum_frames, learned_frames, mean3(sum));
-                            counters.variance += crate::film::frame_variance_term(mean3(sum), sum_sq, before) as u64;
-                        }
-                        crate::film::accumulate(acc, accum_frames, learned_frames, sum.to_array());
-                    }
-                    (sums, counters)
-                },
-            )
-            .reduce(
-                || (no_sums(), FrameCounters::default()),
-                |(a, ca), (b, cb)| {
-                    (
-                        a.merge(b),
-                        FrameCounters {
-                            zero_paths: ca.zero_paths + cb.zero_paths,
-                            segments: ca.segments + cb.segments,
-                            variance: ca.variance + cb.variance,
-                        },
-                    )
-                },
-            );
+        let (sums, counters, samples) = match end {
+            FrameEnd::Whole => {
+                let (sums, counters) = setup.trace_whole(&mut self.film.pixels, weigh, &no_sums);
+                self.pass_ms = None;
+                (sums, counters, shared::SAMPLES_PER_FRAME)
+            }
+            FrameEnd::Deadline(_) | FrameEnd::Samples(_) => {
+                let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, weigh, &no_sums);
+                self.pass_ms = traced.pass_ms;
+                (traced.sums.unwrap_or_else(no_sums), traced.counters, traced.samples)
+            }
+        };
+        let whole = samples == shared::SAMPLES_PER_FRAME;
         let guided_before = self.learning.as_ref().map_or(0, |l| l.guided_traced);
         let (mut trace_ms, mut learn_ms, mut period) = (start.elapsed().as_secs_f64() * 1e3, None, 1);
         if let (Some(l), Some(cfg)) = (self.learning.as_mut(), self.scene.guide.as_ref()) {
             if guided {
+                // A frame cut short recorded real targets, of fewer paths: they count as any frame's.
                 l.pending.add_all(&sums);
                 trace_ms = start.elapsed().as_secs_f64() * 1e3;
                 if l.schedule.learns_after(l.guided_traced) {
-                    let learn_start = std::time::Instant::now();
+                    let learn_start = Instant::now();
                     l.table.learn(cfg, &l.pending);
                     l.pending = FrameSums::for_config(cfg);
                     learn_ms = Some(learn_start.elapsed().as_secs_f64() * 1e3);
@@ -280,7 +312,9 @@ impl CpuRenderer {
             }
         }
         let pixels = (p.width * p.height) as f64;
-        let variance = weigh.then(|| counters.variance as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels);
+        // A frame cut short is the render's last: no race reads its weight.
+        let variance =
+            (weigh && whole).then(|| counters.variance as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels);
         if let (Some(race), Some(kind), Some(v)) =
             (self.learning.as_mut().and_then(|l| l.race.as_mut()), kind, variance)
         {
@@ -289,10 +323,145 @@ impl CpuRenderer {
             }
         }
         self.film.frames += 1;
+        if !whole {
+            self.film.partial_spp = samples;
+        }
         self.frames_traced += 1;
         self.last_counters = counters;
         self.last_kind = kind;
         self.last_variance = variance;
+        self.last_frame_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+        samples
+    }
+
+    /// How long the next pass of one sample per pixel is taken to last: the last
+    /// frame's last pass's time where it was traced in passes, else a 64th of the
+    /// last frame's (None before any frame).
+    fn predicted_pass_ms(&self) -> Option<f64> {
+        self.pass_ms.or(self.last_frame_ms.map(|f| f / shared::SAMPLES_PER_FRAME as f64))
+    }
+}
+
+/// Where a frame ends: after its 64 samples per pixel (each pixel's together),
+/// or in passes of one sample per pixel, at a deadline or after a number of them.
+#[derive(Clone, Copy)]
+enum FrameEnd {
+    Whole,
+    Deadline(Instant),
+    Samples(u32),
+}
+
+/// What every path of a frame reads besides its pixel and sample.
+pub(super) struct FrameSetup<'a> {
+    scene: &'a PreparedScene,
+    guide: Option<Guide<'a>>,
+    /// The recording schedule, on guided frames.
+    schedule: Option<&'a guide::RecordSchedule>,
+    /// The frame's index in the recording schedule.
+    frame: u32,
+    /// The random numbers' frame index (`crate::math::sampler::rng_frame`).
+    rng_frame: u32,
+    /// The film's frames before this one, and the learning frames left out of it.
+    accum_frames: u32,
+    learned_frames: u32,
+    /// The table's frames, for learned roulette's wait (`guide::roulette_estimate`).
+    roulette_frames: u32,
+}
+
+/// One pixel's radiance sum over a frame's samples so far, and its mean3 squares.
+#[derive(Clone, Copy, Default)]
+pub(super) struct PixelSums {
+    sum: Vec3,
+    sum_sq: f32,
+}
+
+impl FrameSetup<'_> {
+    /// Whether the paths of pixel row `y` record Q-learning targets.
+    pub(super) fn records(&self, y: u32) -> bool {
+        self.schedule.is_some_and(|s| s.records(self.frame, y))
+    }
+
+    /// The pixel estimate learned roulette compares with (0 without guiding).
+    pub(super) fn estimate(&self, acc: &crate::layout::AccumPixel) -> f32 {
+        match self.guide {
+            Some(_) => guide::roulette_estimate(acc, self.accum_frames, self.learned_frames, self.roulette_frames),
+            None => 0.0,
+        }
+    }
+
+    /// Traces a whole frame into `film`, each pixel's 64 samples together, rows
+    /// in parallel; returns the targets recorded (or empty sums) and the counts.
+    fn trace_whole(
+        &self,
+        film: &mut [crate::layout::AccumPixel],
+        weigh: bool,
+        no_sums: &(dyn Fn() -> FrameSums + Sync),
+    ) -> (FrameSums, FrameCounters) {
+        film.par_chunks_mut(self.scene.params.width as usize)
+            .enumerate()
+            .fold(
+                || (no_sums(), FrameCounters::default()),
+                |(mut sums, mut counters), (y, row)| {
+                    let (y, record) = (y as u32, self.records(y as u32));
+                    for (x, acc) in row.iter_mut().enumerate() {
+                        let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
+                        for sample in 0..shared::SAMPLES_PER_FRAME {
+                            let learn = record.then_some(&mut sums as &mut dyn Recorder);
+                            self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
+                        }
+                        self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
+                    }
+                    (sums, counters)
+                },
+            )
+            .reduce(|| (no_sums(), FrameCounters::default()), |(a, ca), (b, cb)| (a.merge(b), ca.plus(cb)))
+    }
+
+    /// Traces sample `sample` (0..64) of pixel (x, y) into `px`, counting its rays
+    /// and whether it carried nothing.
+    #[inline(always)]
+    pub(super) fn trace_sample(
+        &self,
+        (x, y): (u32, u32),
+        sample: u32,
+        estimate: f32,
+        learn: Option<&mut dyn Recorder>,
+        px: &mut PixelSums,
+        counters: &mut FrameCounters,
+    ) {
+        let p = &self.scene.params;
+        let pixel = y * p.width + x;
+        let mut rng = PathSampler::for_flags(p.flags, p.seed, pixel, self.rng_frame, sample);
+        let u = rng.sample_pixel(sample);
+        let (o, d) = camera_ray(p, x, y, u);
+        let (l, segs) = trace_path(self.scene, self.guide, o, d, &mut rng, estimate, learn);
+        counters.segments += segs as u64;
+        // A NaN or infinite sample would poison the pixel forever; it is dropped
+        // (as on the GPU) and counted as carrying nothing.
+        if l.is_finite() {
+            px.sum += l;
+            px.sum_sq += mean3(l) * mean3(l);
+        }
+        if !(l.max_element() > 0.0) {
+            counters.zero_paths += 1;
+        }
+    }
+
+    /// Adds a pixel's frame of `samples` samples to its accumulation, and where
+    /// `weigh`, its variance term to `counters`.
+    pub(super) fn finish_pixel(
+        &self,
+        acc: &mut crate::layout::AccumPixel,
+        px: PixelSums,
+        samples: u32,
+        weigh: bool,
+        counters: &mut FrameCounters,
+    ) {
+        if weigh {
+            let before = pixel_mean_before(acc, self.accum_frames, self.learned_frames, mean3(px.sum));
+            counters.variance += crate::film::frame_variance_term(mean3(px.sum), px.sum_sq, before) as u64;
+        }
+        crate::film::accumulate_samples(acc, self.accum_frames, self.learned_frames, px.sum.to_array(), samples);
     }
 }
 

@@ -549,7 +549,7 @@ impl GpuRenderer {
         })?;
         let n = (self.width * self.height) as usize * std::mem::size_of::<AccumPixel>();
         let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(&self.readback.read()[..n]);
-        Ok(Film { width: self.width, height: self.height, frames: self.accum_frames, pixels })
+        Ok(Film { width: self.width, height: self.height, frames: self.accum_frames, partial_spp: 0, pixels })
     }
 
     /// The learned table (None without guiding).

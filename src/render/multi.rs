@@ -452,6 +452,7 @@ impl Renderer for MultiGpuRenderer {
             time_up: Some(time_up.unwrap_or(false)),
             kind: None,
             variance: None,
+            cut_spp: None,
         })
     }
 
