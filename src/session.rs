@@ -195,9 +195,9 @@ impl<'a> Session<'a> {
                 // Nothing fitted the time left (a renderer that keeps the budget itself).
                 break;
             }
-            // A frame cut short traced its share of a whole frame's paths.
+            // The round's frames' paths; a frame cut short traced its share of a whole frame's.
             let paths = self.paths_per_frame
-                * report.cut_spp.map_or(1.0, |k| k as f64 / crate::shared::SAMPLES_PER_FRAME as f64);
+                * report.cut_spp.map_or(n as f64, |k| k as f64 / crate::shared::SAMPLES_PER_FRAME as f64);
             let frame_ms = report.gpu_ms.unwrap_or_else(|| frame_start.elapsed().as_secs_f64() * 1e3);
             let mark = time_mark(self.elapsed_ms, self.elapsed_ms + frame_ms);
             self.elapsed_ms += frame_ms;

@@ -116,6 +116,7 @@ impl GpuRenderer {
             time_up,
             kind: t.kind,
             variance: t.variance,
+            cut_spp: None,
         })
     }
 
