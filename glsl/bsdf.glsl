@@ -11,6 +11,7 @@ struct Bsdf {
     float ior;
     vec3 eta;      // a conductor's complex index eta + i k
     vec3 k;
+    float base_alpha;  // a coated material's conductor base's GGX alpha; 0: its Lambertian base
 };
 
 struct BsdfSample {
@@ -31,6 +32,10 @@ bool bsdf_is_delta(Bsdf b) {
 
 // src/math/bsdf.rs `Bsdf::transmits`: the dielectrics keep the surface's front
 // normal; the other materials are shaded from wo's side.
+// src/math/bsdf.rs `Bsdf::has_conductor_base`: a coated material over a conductor
+// (known false in kernels of scenes without one).
+bool has_conductor_base(Bsdf b) { return SCENE_COATED_CONDUCTOR && is_kind(b, MAT_COATED) && b.base_alpha > 0.0; }
+
 bool bsdf_transmits(Bsdf b) { return is_kind(b, MAT_DIELECTRIC) || is_kind(b, MAT_ROUGH_DIELECTRIC); }
 
 // GGX D(h) of a unit half vector, from its components: alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2).
@@ -176,16 +181,45 @@ float coated_coat_chance(Bsdf b, float cos_o) {
     return clamp(fo / max(fo + base, 1e-12), 0.1, 0.9);
 }
 
-// src/math/bsdf.rs `coated_eval_pdf`: a GGX dielectric coat's reflection plus a
-// Lambertian base seen through it (an approximation; docs/SCENE_FORMAT.md).
-vec3 coated_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
+// src/math/bsdf.rs `coated_conductor_base`: the conductor base under the coat
+// (index divided by the coat's, Fresnel at the refracted angle, the bounces
+// between base and coat), without the coat's transmission; its density in pdf.
+vec3 coated_conductor_base(Bsdf b, vec3 wo, vec3 wi, float fo, float fi, out float pdf) {
     vec3 h;
     float d, g1, g2;
-    ggx_terms(wo, wi, b.alpha, h, d, g1, g2);
-    float coat = fresnel_dielectric(dot(wo, h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
-    float through = (1.0 - fresnel_dielectric(wo.z, b.ior)) * (1.0 - fresnel_dielectric(wi.z, b.ior));
+    ggx_terms(wo, wi, b.base_alpha, h, d, g1, g2);
+    float c = dot(wo, h);
+    float cos_t = sqrt(max(0.0, 1.0 - (1.0 - c * c) / (b.ior * b.ior)));
+    vec3 fc = fresnel_complex3(cos_t, b.eta / b.ior, b.k / b.ior);
+    vec3 bounces = vec3(1.0) - fc * min(fo, fi);
+    pdf = g1 * d / (4.0 * wo.z);
+    return b.albedo * fc / bounces * (d * g2 / (4.0 * wo.z * wi.z));
+}
+
+// src/math/bsdf.rs `coated_eval_pdf`: a GGX dielectric coat's reflection (none
+// here where it is smooth) plus a Lambertian or conductor base seen through it
+// (an approximation; docs/SCENE_FORMAT.md).
+vec3 coated_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out float pdf) {
     float p = coated_coat_chance(b, wo.z);
-    pdf = p * g1 * d / (4.0 * wo.z) + (1.0 - p) * cosine_hemisphere_pdf(wi.z);
+    float fo = fresnel_dielectric(wo.z, b.ior);
+    float fi = fresnel_dielectric(wi.z, b.ior);
+    float coat = 0.0;
+    pdf = 0.0;
+    if (!SCENE_SMOOTH_COAT || b.alpha > 0.0) {
+        vec3 h;
+        float d, g1, g2;
+        ggx_terms(wo, wi, b.alpha, h, d, g1, g2);
+        coat = fresnel_dielectric(dot(wo, h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
+        pdf = p * g1 * d / (4.0 * wo.z);
+    }
+    float through = (1.0 - fo) * (1.0 - fi);
+    if (has_conductor_base(b)) {
+        float base_pdf;
+        vec3 base = coated_conductor_base(b, wo, wi, fo, fi, base_pdf);
+        pdf += (1.0 - p) * base_pdf;
+        return vec3(coat) + base * through;
+    }
+    pdf += (1.0 - p) * cosine_hemisphere_pdf(wi.z);
     return vec3(coat) + b.albedo * (through / PI);
 }
 
@@ -316,8 +350,21 @@ BsdfSample bsdf_sample(Bsdf b, vec3 wo, float uc, vec2 u) {
         s.weight = s.ok ? f * (abs(s.wi.z) / pdf) : vec3(0.0);
     } else if (is_kind(b, MAT_COATED)) {
         if (wo.z <= 0.0) return s;
-        if (uc < coated_coat_chance(b, wo.z)) {
+        float p = coated_coat_chance(b, wo.z);
+        if (uc < p) {
+            if (SCENE_SMOOTH_COAT && b.alpha == 0.0) {
+                // The smooth coat's mirror lobe, chosen with chance p.
+                s.wi = vec3(-wo.x, -wo.y, wo.z);
+                s.weight = vec3(fresnel_dielectric(wo.z, b.ior) / p);
+                s.pdf = p;
+                s.delta = true;
+                s.ok = true;
+                return s;
+            }
             vec3 h = ggx_sample_vndf(wo, b.alpha, u);
+            s.wi = 2.0 * dot(wo, h) * h - wo;
+        } else if (has_conductor_base(b)) {
+            vec3 h = ggx_sample_vndf(wo, b.base_alpha, u);
             s.wi = 2.0 * dot(wo, h) * h - wo;
         } else {
             s.wi = cosine_hemisphere(u);

@@ -32,7 +32,10 @@
 #define MAT_CONDUCTOR 5
 // GGX dielectric, reflection and transmission (the smooth one is MAT_DIELECTRIC).
 #define MAT_ROUGH_DIELECTRIC 6
-// A GGX dielectric coat over a Lambertian base (src/math/bsdf.rs `coated_eval_pdf`).
+// A GGX dielectric coat over a Lambertian base (src/math/bsdf.rs `coated_eval_pdf`),
+// or over a GGX conductor: Material.k.w its roughness (0 for the Lambertian base),
+// eta and k its index; a roughness texture then scales the base's roughness.
+// A coat of roughness 0 is smooth (a delta lobe).
 #define MAT_COATED 7
 // A mix of two materials (pbrt's `mix`), resolved at each hit to one of them
 // (pathtrace.comp `resolve_mix`): Material.albedo_roughness.x its amount, the
@@ -85,6 +88,11 @@
 // Bit (1 << SCENE_KIND_MIX) where a material is a mix (MAT_MIX, which has no bit
 // of its own kind): kernels without one have no `resolve_mix` code.
 #define SCENE_KIND_MIX 18
+// Bit (1 << SCENE_KIND_COATED_CONDUCTOR) where a coated material has a conductor
+// base, (1 << SCENE_KIND_SMOOTH_COAT) where one has a smooth coat (roughness 0):
+// kernels without them have none of that code.
+#define SCENE_KIND_COATED_CONDUCTOR 19
+#define SCENE_KIND_SMOOTH_COAT 20
 
 // RenderParams.flags bits.
 #define FLAG_NEE 1
@@ -388,7 +396,7 @@ struct Material {
     vec4 albedo_roughness;   // xyz albedo, w GGX roughness
     vec4 emission_ior;       // xyz emitted radiance, w index of refraction
     vec4 eta;                // xyz a conductor's eta (real part of its index); w 1 for a reflectance conductor
-    vec4 k;                  // xyz a conductor's k (imaginary part); xy a mix's two materials
+    vec4 k;                  // xyz a conductor's k (imaginary part); xy a mix's two materials; w a coated one's conductor base roughness (0: Lambertian)
     uint kind;               // MAT_*
     uint two_sided;          // emission leaves both sides
     uint albedo_texture;     // NO_TEXTURE, or 1 + the texture whose RGB multiplies the albedo
@@ -530,5 +538,8 @@ bool scene_has_material(uint kind) { return (SCENE_KINDS & (1u << kind)) != 0u; 
 bool scene_has_light(uint kind) { return (SCENE_KINDS & (1u << (uint(SCENE_KIND_LIGHT_SHIFT) + kind))) != 0u; }
 // Whether the scene may have a mix (MAT_MIX), whose hits resolve to one of its materials.
 const bool SCENE_MIX = (SCENE_KINDS & (1u << SCENE_KIND_MIX)) != 0u;
+// Whether the scene may have a coated material over a conductor, or with a smooth coat.
+const bool SCENE_COATED_CONDUCTOR = (SCENE_KINDS & (1u << SCENE_KIND_COATED_CONDUCTOR)) != 0u;
+const bool SCENE_SMOOTH_COAT = (SCENE_KINDS & (1u << SCENE_KIND_SMOOTH_COAT)) != 0u;
 
 #endif

@@ -124,13 +124,18 @@ Bsdf material_bsdf(uint mat, vec2 uv) {
     b.alpha = m.albedo_roughness.w * m.albedo_roughness.w;
     b.ior = m.emission_ior.w;
     // Read only where the kernel may meet a conductor: other scenes skip the loads.
-    b.eta = scene_has_material(MAT_CONDUCTOR) ? m.eta.xyz : vec3(1.0);
-    b.k = scene_has_material(MAT_CONDUCTOR) ? m.k.xyz : vec3(0.0);
+    bool conductors = scene_has_material(MAT_CONDUCTOR) || SCENE_COATED_CONDUCTOR;
+    b.eta = conductors ? m.eta.xyz : vec3(1.0);
+    b.k = conductors ? m.k.xyz : vec3(0.0);
+    // A coated material's conductor base: its roughness in k.w (0: Lambertian).
+    b.base_alpha = SCENE_COATED_CONDUCTOR && m.kind == MAT_COATED ? m.k.w * m.k.w : 0.0;
     if (SCENE_TEXTURES) {
         if (m.albedo_texture != NO_TEXTURE) b.albedo *= colour_texture(m.albedo_texture - 1u, uv);
         if (m.roughness_texture != NO_TEXTURE) {
-            float r = clamp(m.albedo_roughness.w * texture_lookup(m.roughness_texture - 1u, uv).r, TEXTURE_MIN_ROUGHNESS, 1.0);
-            b.alpha = r * r;
+            // A coated conductor's texture is its base's roughness, not its coat's.
+            bool base = has_conductor_base(b);
+            float r = clamp((base ? m.k.w : m.albedo_roughness.w) * texture_lookup(m.roughness_texture - 1u, uv).r, TEXTURE_MIN_ROUGHNESS, 1.0);
+            if (base) b.base_alpha = r * r; else b.alpha = r * r;
         }
         // A reflectance conductor: its textured albedo is pbrt-v4's reflectance r.
         if ((SCENE_KINDS & (1u << SCENE_KIND_REFLECTANCE_CONDUCTOR)) != 0u && m.eta.w != 0.0) {
@@ -200,6 +205,7 @@ float lobe_share(Bsdf b) {
     if (scene_has_material(MAT_GLOSSY) && b.kind == MAT_GLOSSY) return glossy_share(b.alpha);
     if (scene_has_material(MAT_CONDUCTOR) && b.kind == MAT_CONDUCTOR) return conductor_share(b.alpha);
     if (is_kind(b, MAT_ROUGH_DIELECTRIC)) return 0.0;
+    if (has_conductor_base(b)) return conductor_share(b.base_alpha);
     return 1.0;
 }
 // src/cpu/path.rs `record_to`: the target of the ray that left through `key`,
@@ -464,6 +470,11 @@ bool choose_direction(Bsdf bsdf, mat3 frame, vec3 wo_local, vec3 n, vec3 ns, flo
             delta = s.delta;
         }
     }
+#if GUIDED
+    // A delta lobe at a vertex that mixes (a smooth coat's): chosen with
+    // (1 - g_frac) times the BSDF's chance, which its weight counts alone.
+    if (SCENE_SMOOTH_COAT && ok && delta && g_frac > 0.0) weight /= 1.0 - g_frac;
+#endif
     // A direction on one side of the shading normal and the other of the
     // surface would leak light through it: dropped.
     if (!sides_agree(n, ns, wi)) ok = false;

@@ -2,6 +2,7 @@
 // Test kernel: runs the GLSL BSDF on inputs from the host. Mode 0 samples
 // (input: uc, u.x, u.y), mode 1 evaluates f and pdf (input: wi). Two vec4
 // results per input: sample -> (wi, ok), (weight, pdf); eval -> (f, pdf), 0.
+// k.w is a coated material's base_alpha.
 #include "common.glsl"
 #include "bsdf.glsl"
 
@@ -30,6 +31,7 @@ void main() {
     b.ior = push.ior;
     b.eta = push.eta.xyz;
     b.k = push.k.xyz;
+    b.base_alpha = push.k.w;
     vec4 x = inputs[i];
     if (push.mode == 0u) {
         BsdfSample s = bsdf_sample(b, push.wo.xyz, x.x, x.yz);

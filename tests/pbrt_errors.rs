@@ -103,7 +103,7 @@ fn missing_files_are_named_as_written_and_as_resolved() {
 #[test]
 fn cli_info_prints_the_mapping_and_strict_refuses() {
     let d = fresh_dir("cli");
-    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coateddiffuse\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMakeNamedMaterial \"paint\" \"string type\" \"coatedconductor\"\nNamedMaterial \"paint\"\n{TRIANGLE}"));
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();
         c.arg("info").arg(&p);
@@ -119,13 +119,14 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
     };
     let (ok, stdout, stderr) = run(false);
     assert!(ok, "{stderr}");
-    assert!(stdout.contains("mapped paint: coateddiffuse -> coated"), "{stdout}");
     assert!(
-        stdout.contains("note: ") && stdout.contains("scene.pbrt:2: material \"paint\": a smooth coat (alpha 0)"),
+        stdout.contains("mapped paint: coatedconductor -> coated (coat eta 1.5, alpha 0 -> a smooth coat"),
         "{stdout}"
     );
+    let smooth_base = "material \"paint\": a smooth conductor under the coat (alpha 0)";
+    assert!(stdout.contains("note: ") && stdout.contains(&format!("scene.pbrt:2: {smooth_base}")), "{stdout}");
     let (ok, _, stderr) = run(true);
-    assert!(!ok && stderr.contains("scene.pbrt:2:1: material \"paint\": a smooth coat (alpha 0)"), "{stderr}");
+    assert!(!ok && stderr.contains(&format!("scene.pbrt:2:1: {smooth_base}")), "{stderr}");
     assert!(stderr.contains("--strict"), "{stderr}");
 }
 

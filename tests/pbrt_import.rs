@@ -205,6 +205,27 @@ fn approximated_materials_are_noted_once_with_their_line() {
     assert_eq!((m.kind, m.albedo, m.ior), (MaterialKind::Coated, Vec3::new(0.1, 0.2, 0.3), 1.6));
     assert!((m.roughness - 0.04f32.sqrt().sqrt()).abs() < 1e-6, "{m:?}");
     assert!(!s.notes.iter().any(|n| n.contains("material")), "{:#?}", s.notes);
+    // pbrt-v4's coatedconductor: its coat's index and roughness, its conductor's
+    // index and roughness (remapped, or not with remaproughness false), or its
+    // reflectance (eta 1, k from it); a smooth coat stays smooth, without a note.
+    let (s, m) = material_of(
+        "coatedconductor",
+        "Material \"coatedconductor\" \"float interface.eta\" 1.7 \"float interface.roughness\" 0.09 \
+         \"spectrum conductor.eta\" \"metal-Au-eta\" \"spectrum conductor.k\" \"metal-Au-k\" \"float conductor.roughness\" 0.01",
+    );
+    assert_eq!((m.kind, m.ior, m.eta.x, m.k.x), (MaterialKind::Coated, 1.7, 0.143119, 3.98316));
+    assert!((m.roughness - 0.09f32.sqrt().sqrt()).abs() < 1e-6 && m.roughness_texture.is_none(), "{m:?}");
+    assert!((m.base_roughness.unwrap() - 0.01f32.sqrt().sqrt()).abs() < 1e-6, "{m:?}");
+    assert!(!s.notes.iter().any(|n| n.contains("material")), "{:#?}", s.notes);
+    let (s, m) = material_of(
+        "coatedconductor",
+        "Material \"coatedconductor\" \"rgb reflectance\" [0.9 0.5 0.2] \"float conductor.roughness\" 0.09 \
+         \"bool remaproughness\" false",
+    );
+    assert_eq!((m.kind, m.ior, m.roughness, m.eta), (MaterialKind::Coated, 1.5, 0.0, Vec3::ONE));
+    assert!((m.k - rlpt::scene::conductor_k(Vec3::new(0.9, 0.5, 0.2))).abs().max_element() < 1e-6, "{m:?}");
+    assert!((m.base_roughness.unwrap() - 0.3).abs() < 1e-6, "alpha 0.09 not remapped: {m:?}");
+    assert!(!s.notes.iter().any(|n| n.contains("material")), "{:#?}", s.notes);
     for (ty, key) in [("plastic", "Kd"), ("substrate", "Kd")] {
         let (s, m) =
             material_of(ty, &format!("\nMaterial \"{ty}\" \"rgb {key}\" [0.1 0.2 0.3] \"rgb Ks\" [0.4 0.4 0.4]"));
@@ -455,10 +476,16 @@ fn image_textures_are_read_and_maps_stand_in_as_their_mean() {
 #[test]
 fn strict_refuses_what_would_be_noted() {
     let d = fresh_dir("strict");
-    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
+    let p = write(&d, "scene.pbrt", format!("WorldBegin\nMaterial \"coatedconductor\"\n{TRIANGLE}"));
     assert!(Scene::load(&p).is_ok());
     let e = Scene::load_with(&p, true).unwrap_err().to_string();
-    assert!(e.contains("scene.pbrt:2:1: ") && e.contains("a smooth coat (alpha 0)") && e.contains("--strict"), "{e}");
+    assert!(
+        e.contains("scene.pbrt:2:1: ") && e.contains("a smooth conductor under the coat") && e.contains("--strict"),
+        "{e}"
+    );
+    // A smooth coat is rendered as one: nothing to note.
+    let p = write(&d, "smooth.pbrt", format!("WorldBegin\nMaterial \"coateddiffuse\"\n{TRIANGLE}"));
+    assert!(Scene::load_with(&p, true).is_ok());
     // Render settings rlpt takes from its own options stay notes.
     let p = write(&d, "ok.pbrt", format!("Sampler \"halton\"\nWorldBegin\n{TRIANGLE}"));
     assert!(Scene::load_with(&p, true).is_ok());

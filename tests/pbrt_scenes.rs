@@ -56,7 +56,13 @@ fn bmw_loads_with_a_uniform_sky_for_its_missing_environment_map() {
     assert_eq!(s.environment, Vec3::ONE);
     let paint = s.materials.iter().find(|m| m.name == "CarPaint").unwrap();
     assert_eq!((paint.kind, paint.ior, paint.albedo), (MaterialKind::Coated, 1.5, Vec3::splat(0.7)));
-    note(&s, "material \"CarPaint\": a smooth coat (alpha 0) given roughness");
+    // Its smooth coats are smooth, and its wheel rims aluminium under one, without a note.
+    assert_eq!(paint.roughness, 0.0);
+    let rim = s.materials.iter().find(|m| m.name == "WheelRim").unwrap();
+    assert_eq!((rim.kind, rim.roughness, rim.ior), (MaterialKind::Coated, 0.0, 1.5));
+    assert_eq!((rim.eta.x, rim.k.x), (1.65746, 9.22387));
+    assert!((rim.base_roughness.expect("a conductor base") - 0.05f32.sqrt().sqrt()).abs() < 1e-6);
+    assert!(!s.notes.iter().any(|n| n.contains("CarPaint") || n.contains("WheelRim")), "{:#?}", s.notes);
     // Its leather mixes a diffuse and a coated material: one of the two per hit, without a note.
     let leather = s.materials.iter().find(|m| m.name == "LEATHER").unwrap();
     let name = |i: u32| s.materials[i as usize].name.as_str();

@@ -364,22 +364,108 @@ type = "emissive"
 emission = [12.0, 12.0, 12.0]
 "#,
     );
-    for (x, material) in [(15.0, "gold"), (38.0, "copper mirror"), (62.0, "frosted"), (85.0, "paint")] {
-        t += &format!("\n[[sphere]]\ncenter = [{x}, 12.0, 60.0]\nradius = 11.0\nmaterial = \"{material}\"\n");
+    four_spheres_in_a_lit_box(&mut t, ["gold", "copper mirror", "frosted", "paint"], "white");
+    let scene = Scene::parse(&t, "new materials").expect("the test scene loads");
+    let mut opts = options(&scene, 32, 24, 512);
+    let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [41, 42], "conductor, rough glass, coated");
+    let (mean, _, _) = region_stats(&g, |_, _| true);
+    assert!(mean > 0.01, "the scene renders lit (mean {mean})");
+}
+
+/// Four spheres of `materials` in a row, in a white box of floor `floor` lit by a lamp in its ceiling.
+fn four_spheres_in_a_lit_box(t: &mut String, materials: [&str; 4], floor: &str) {
+    for (x, material) in [15.0, 38.0, 62.0, 85.0].into_iter().zip(materials) {
+        *t += &format!("\n[[sphere]]\ncenter = [{x}, 12.0, 60.0]\nradius = 11.0\nmaterial = \"{material}\"\n");
     }
     for (origin, u, v, material) in [
-        ([0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], "white"),
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], floor),
         ([0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"),
         ([0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 80.0, 0.0], "white"),
         ([0.0, 0.0, 0.0], [0.0, 80.0, 0.0], [0.0, 0.0, 160.0], "white"),
         ([100.0, 0.0, 0.0], [0.0, 0.0, 160.0], [0.0, 80.0, 0.0], "white"),
         ([35.0, 79.9, 40.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0], "lamp"),
     ] {
-        t += &format!("\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n");
+        *t += &format!("\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n");
     }
-    let scene = Scene::parse(&t, "new materials").expect("the test scene loads");
-    let mut opts = options(&scene, 32, 24, 512);
-    let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [41, 42], "conductor, rough glass, coated");
+}
+
+/// Coated conductors (aluminium under smooth coats, one tinted, gold under a
+/// rough coat) and a floor of a smooth coat over a dark diffuse base (whose light
+/// is mostly its coat's),
+/// in a lit box: the GPU kernel specialized to them (`SCENE_KIND_COATED_CONDUCTOR`,
+/// `SCENE_KIND_SMOOTH_COAT`), unguided and guided (where the smooth coat's delta
+/// lobe is chosen beside guided directions), agrees with the CPU renderer.
+#[test]
+fn gpu_and_cpu_agree_on_coated_conductors_and_smooth_coats() {
+    let mut t = String::from(
+        r#"
+[camera]
+position = [50.0, 40.0, 200.0]
+look_at = [50.0, 35.0, 0.0]
+vfov = 45.0
+
+[render]
+width = 32
+height = 24
+spp = 64
+max_bounces = 5
+
+[[material]]
+name = "white"
+type = "diffuse"
+albedo = [0.75, 0.75, 0.75]
+
+[[material]]
+name = "rim"
+type = "coated"
+roughness = 0
+eta = [1.65746, 0.880369, 0.521229]
+k = [9.22387, 6.26952, 4.837]
+base_roughness = 0.47
+
+[[material]]
+name = "lacquered gold"
+type = "coated"
+roughness = 0.3
+ior = 1.6
+eta = [0.143119, 0.374957, 1.44248]
+k = [3.98316, 2.38572, 1.60322]
+base_roughness = 0.6
+
+[[material]]
+name = "black paint"
+type = "coated"
+albedo = [0.05, 0.02, 0.01]
+roughness = 0
+
+[[material]]
+name = "tinted rim"
+type = "coated"
+albedo = [0.9, 0.6, 0.5]
+roughness = 0
+ior = 1.3
+eta = [1.65746, 0.880369, 0.521229]
+k = [9.22387, 6.26952, 4.837]
+base_roughness = 0.2
+
+[[material]]
+name = "lamp"
+type = "emissive"
+emission = [12.0, 12.0, 12.0]
+"#,
+    );
+    four_spheres_in_a_lit_box(&mut t, ["rim", "lacquered gold", "white", "tinted rim"], "black paint");
+    let scene = Scene::parse(&t, "coated conductors").expect("the test scene loads");
+    let mut opts = options(&scene, 32, 24, 1024);
+    let prepared = rlpt::prepared::PreparedScene::new(&scene, &opts).expect("prepared");
+    let kinds = prepared.params.scene_kinds;
+    for bit in [rlpt::shared::SCENE_KIND_COATED_CONDUCTOR, rlpt::shared::SCENE_KIND_SMOOTH_COAT] {
+        assert!(kinds & 1 << bit != 0, "scene kinds {kinds:#x} name bit {bit}");
+    }
+    // A fixed, large guided fraction: a smooth coat's mirror lobe is then chosen at
+    // vertices that mix with chance (1 - 0.8) times its own, which its weight must count.
+    (opts.guided_fraction, opts.learn_fraction) = (0.8, false);
+    let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [43, 44], "coated conductors, smooth coats");
     let (mean, _, _) = region_stats(&g, |_, _| true);
     assert!(mean > 0.01, "the scene renders lit (mean {mean})");
 }

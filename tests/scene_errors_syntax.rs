@@ -158,10 +158,18 @@ fn conductor_needs_eta_and_k_in_range() {
 }
 
 #[test]
-fn coated_needs_a_rough_coat() {
-    let text =
-        with_material("[[material]]\nname = \"paint\"\ntype = \"coated\"\nalbedo = [0.5, 0.2, 0.1]\nroughness = 0\n");
-    expect(&text, "9:13", &["[[material]] \"paint\": key `roughness` must be a number in (0, 1]"]);
+fn coated_needs_a_coat_roughness_and_a_whole_conductor_base() {
+    let text = with_material(
+        "[[material]]\nname = \"paint\"\ntype = \"coated\"\nalbedo = [0.5, 0.2, 0.1]\nroughness = -0.1\n",
+    );
+    expect(&text, "9:13", &["[[material]] \"paint\": key `roughness` must be a number in [0, 1] (0: a smooth coat)"]);
+    let base = "[[material]]\nname = \"rim\"\ntype = \"coated\"\nroughness = 0\n";
+    let text = with_material(&format!("{base}eta = [1.6, 0.9, 0.5]\nk = [9, 6, 5]\n"));
+    expect(&text, "5:1", &["[[material]] \"rim\": missing key `base_roughness`"]);
+    let text = with_material(&format!("{base}albedo = [0.5, 0.5, 0.5]\nbase_roughness = 0.3\n"));
+    expect(&text, "5:1", &["key `base_roughness` needs a conductor base: give its `eta` and `k` too"]);
+    let text = with_material(&format!("{base}eta = [1.6, 0.9, 0.5]\nbase_roughness = 0.3\n"));
+    expect(&text, "5:1", &["missing key `k`"]);
     let text = with_material(
         "[[material]]\nname = \"paint\"\ntype = \"coated\"\nalbedo = [0.5, 0.2, 0.1]\nroughness = 0.2\nior = 0.8\n",
     );

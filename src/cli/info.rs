@@ -85,9 +85,12 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         if matches!(m.kind, K::Dielectric | K::RoughDielectric | K::Coated) {
             line += &format!(", ior {}", m.ior);
         }
+        if let Some(r) = m.base_roughness {
+            line += &format!(", over a conductor of roughness {r}");
+        }
         if m.reflectance_conductor {
             line += ", eta 1 and k per hit from its reflectance (the albedo)";
-        } else if m.kind == K::Conductor {
+        } else if m.kind == K::Conductor || m.base_roughness.is_some() {
             line += &format!(", eta {}, k {}", v(m.eta), v(m.k));
         }
         if m.emits() {

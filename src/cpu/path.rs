@@ -419,14 +419,10 @@ fn choose_direction(
             }
             Some(b) => {
                 let wi = v.frame.to_world(b.wi).normalize();
-                Some(Direction {
-                    wi,
-                    weight: b.weight,
-                    pdf: b.pdf,
-                    delta: b.delta,
-                    bin: bin_of(guide, wi),
-                    factor: 0.0,
-                })
+                // A delta lobe at a vertex that mixes (a smooth coat's): chosen with
+                // (1 - g_frac) times the BSDF's chance, which b.weight counts alone.
+                let weight = if b.delta && v.g_frac > 0.0 { b.weight / (1.0 - v.g_frac) } else { b.weight };
+                Some(Direction { wi, weight, pdf: b.pdf, delta: b.delta, bin: bin_of(guide, wi), factor: 0.0 })
             }
             None => None,
         }

@@ -87,11 +87,13 @@ pub fn learned(row: &[AliasBin]) -> bool {
 /// guided directions: its lobes lie on both sides of the surface and the guiding
 /// table's bins of one cell serve both sides' light alike. The coated material
 /// takes them as diffuse (share 1): its base is Lambertian and its coat lobe is
-/// still sampled by the BSDF's part of the mixture.
+/// still sampled by the BSDF's part of the mixture; over a conductor base it
+/// shares as the base's GGX lobe.
 pub fn lobe_share(b: &crate::math::bsdf::Bsdf) -> f32 {
     match b.kind {
         crate::scene::MaterialKind::Glossy | crate::scene::MaterialKind::Conductor => glossy_share(b.alpha),
         crate::scene::MaterialKind::RoughDielectric => 0.0,
+        crate::scene::MaterialKind::Coated if b.has_conductor_base() => glossy_share(b.base_alpha),
         _ => 1.0,
     }
 }

@@ -26,6 +26,10 @@ pub struct Bsdf {
     /// A conductor's complex index of refraction eta + i k, per channel.
     pub eta: Vec3,
     pub k: Vec3,
+    /// The coated material's base: 0 for the Lambertian one of `albedo`, else
+    /// the GGX alpha of a conductor base of index `eta` + i `k` (tinted by
+    /// `albedo`; [`coated_conductor_base`]). Unused by the other kinds.
+    pub base_alpha: f32,
 }
 
 /// A sampled direction. `weight` is f * |cos| / pdf; for delta lobes `pdf` is
@@ -41,15 +45,28 @@ pub struct BsdfSample {
 impl Bsdf {
     /// A BSDF of `kind` with no conductor index (eta 1, k 0).
     pub fn new(kind: MaterialKind, albedo: Vec3, alpha: f32, ior: f32) -> Bsdf {
-        Bsdf { kind, albedo, alpha, ior, eta: Vec3::ONE, k: Vec3::ZERO }
+        Bsdf { kind, albedo, alpha, ior, eta: Vec3::ONE, k: Vec3::ZERO, base_alpha: 0.0 }
     }
 
     /// A conductor of complex index `eta` + i `k` and GGX `alpha` (0: a mirror).
     pub fn conductor(eta: Vec3, k: Vec3, alpha: f32) -> Bsdf {
-        Bsdf { kind: MaterialKind::Conductor, albedo: Vec3::ONE, alpha, ior: 1.0, eta, k }
+        Bsdf { kind: MaterialKind::Conductor, albedo: Vec3::ONE, alpha, ior: 1.0, eta, k, base_alpha: 0.0 }
+    }
+
+    /// A coated conductor: a dielectric coat of GGX `alpha` (0: smooth) and index
+    /// `ior` over a conductor of index `eta` + i `k` (as in air) and GGX `base_alpha` > 0.
+    pub fn coated_conductor(alpha: f32, ior: f32, eta: Vec3, k: Vec3, base_alpha: f32) -> Bsdf {
+        Bsdf { kind: MaterialKind::Coated, albedo: Vec3::ONE, alpha, ior, eta, k, base_alpha }
+    }
+
+    /// True for a coated material over a conductor base rather than a Lambertian one.
+    pub fn has_conductor_base(&self) -> bool {
+        self.kind == MaterialKind::Coated && self.base_alpha > 0.0
     }
 
     /// True if the BSDF is a Dirac delta (no direction can be evaluated or light-sampled).
+    /// A coated material with a smooth coat (alpha 0) is not: its coat is a delta
+    /// lobe that `bsdf_sample` chooses with a discrete probability, its base is not.
     pub fn is_delta(&self) -> bool {
         match self.kind {
             MaterialKind::Specular | MaterialKind::Dielectric => true,
@@ -146,17 +163,45 @@ fn coated_coat_chance(b: &Bsdf, cos_o: f32) -> f32 {
 }
 
 /// The coated material, an approximation of a layer: a GGX dielectric coat's
-/// reflection plus a Lambertian base seen through it, albedo (1 - F(cos_o))
-/// (1 - F(cos_i)) / pi, F the coat's Fresnel reflectance. It ignores refraction
-/// of the base's light by the coat, reflections between coat and base, and
-/// absorption; docs/SCENE_FORMAT.md says so. `glsl/bsdf.glsl` has the twin.
+/// reflection plus a base seen through it, weighed by (1 - F(cos_o)) (1 - F(cos_i)),
+/// F the coat's Fresnel reflectance: a Lambertian base of albedo / pi, or a GGX
+/// conductor ([`coated_conductor_base`]). A smooth coat (alpha 0) is a delta
+/// lobe that only `bsdf_sample` returns. It ignores refraction of the base's
+/// light by the coat (directions are not bent), the Lambertian base's
+/// reflections between coat and base, and absorption; docs/SCENE_FORMAT.md
+/// says so. `glsl/bsdf.glsl` has the twin.
 pub fn coated_eval_pdf(b: &Bsdf, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-    let GgxTerms { h, d, g1, g2 } = ggx_terms(wo, wi, b.alpha);
-    let coat = fresnel_dielectric(wo.dot(h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
-    let through = (1.0 - fresnel_dielectric(wo.z, b.ior)) * (1.0 - fresnel_dielectric(wi.z, b.ior));
     let p = coated_coat_chance(b, wo.z);
-    let pdf = p * g1 * d / (4.0 * wo.z) + (1.0 - p) * cosine_hemisphere_pdf(wi.z);
-    (Vec3::splat(coat) + b.albedo * (through / PI), pdf)
+    let (fo, fi) = (fresnel_dielectric(wo.z, b.ior), fresnel_dielectric(wi.z, b.ior));
+    let (mut coat, mut pdf) = (0.0, 0.0);
+    if b.alpha > 0.0 {
+        let GgxTerms { h, d, g1, g2 } = ggx_terms(wo, wi, b.alpha);
+        coat = fresnel_dielectric(wo.dot(h), b.ior) * d * g2 / (4.0 * wo.z * wi.z);
+        pdf = p * g1 * d / (4.0 * wo.z);
+    }
+    let through = (1.0 - fo) * (1.0 - fi);
+    if b.base_alpha > 0.0 {
+        let (base, base_pdf) = coated_conductor_base(b, wo, wi, fo, fi);
+        return (Vec3::splat(coat) + base * through, pdf + (1.0 - p) * base_pdf);
+    }
+    (Vec3::splat(coat) + b.albedo * (through / PI), pdf + (1.0 - p) * cosine_hemisphere_pdf(wi.z))
+}
+
+/// The coated conductor's base, without the coat's transmission, and its
+/// sampling density (GGX visible normals of `base_alpha`): pbrt-v4's
+/// `CoatedConductorMaterial` divides the conductor's index by the coat's, and
+/// light meets it at the refracted angle, so its Fresnel is taken at the cosine
+/// of wo.h refracted into the coat; the light that bounces between base and coat
+/// adds the factor 1 / (1 - Fc min(F(cos_o), F(cos_i))), exact for a smooth coat
+/// over a smooth conductor (its directions are not bent: docs/SCENE_FORMAT.md).
+/// `glsl/bsdf.glsl` has the twin.
+pub fn coated_conductor_base(b: &Bsdf, wo: Vec3, wi: Vec3, fo: f32, fi: f32) -> (Vec3, f32) {
+    let GgxTerms { h, d, g1, g2 } = ggx_terms(wo, wi, b.base_alpha);
+    let c = wo.dot(h);
+    let cos_t = (1.0 - (1.0 - c * c) / (b.ior * b.ior)).max(0.0).sqrt();
+    let fc = fresnel_complex3(cos_t, b.eta / b.ior, b.k / b.ior);
+    let bounces = Vec3::ONE - fc * fo.min(fi);
+    (b.albedo * fc / bounces * (d * g2 / (4.0 * wo.z * wi.z)), g1 * d / (4.0 * wo.z))
 }
 
 /// f(wo, wi), without the cosine. Zero for delta BSDFs.
@@ -257,8 +302,17 @@ pub fn bsdf_sample(b: &Bsdf, wo: Vec3, uc: f32, u: [f32; 2]) -> Option<BsdfSampl
             if wo.z <= 0.0 {
                 return None;
             }
-            let wi = if uc < coated_coat_chance(b, wo.z) {
+            let p = coated_coat_chance(b, wo.z);
+            let wi = if uc < p {
+                if b.alpha == 0.0 {
+                    // The smooth coat's mirror lobe, chosen with chance p.
+                    let f = fresnel_dielectric(wo.z, b.ior);
+                    let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                    return Some(BsdfSample { wi, weight: Vec3::splat(f / p), pdf: p, delta: true });
+                }
                 reflect(wo, ggx_sample_vndf(wo, b.alpha, u))
+            } else if b.base_alpha > 0.0 {
+                reflect(wo, ggx_sample_vndf(wo, b.base_alpha, u))
             } else {
                 cosine_hemisphere(u)
             };
@@ -445,7 +499,8 @@ pub fn ggx_sample_vndf(wo: Vec3, alpha: f32, u: [f32; 2]) -> Vec3 {
 
 impl GpuMaterial {
     /// The BSDF of this record, as `material_bsdf` in `glsl/pathtrace.comp` reads
-    /// it: the roughness in `albedo_roughness.w`, alpha its square.
+    /// it: the roughness in `albedo_roughness.w`, alpha its square; a coated
+    /// material's conductor base's in `k[3]` (0: a Lambertian base).
     pub fn bsdf(&self) -> Bsdf {
         let kind = match self.kind {
             shared::MAT_DIFFUSE => MaterialKind::Diffuse,
@@ -460,6 +515,8 @@ impl GpuMaterial {
         };
         let [r, g, b, roughness] = self.albedo_roughness;
         let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        // A coated material's conductor base: its roughness in k.w (0: Lambertian).
+        let base = self.k[3];
         Bsdf {
             kind,
             albedo: Vec3::new(r, g, b),
@@ -467,6 +524,7 @@ impl GpuMaterial {
             ior: self.emission_ior[3],
             eta: v(self.eta),
             k: v(self.k),
+            base_alpha: if kind == MaterialKind::Coated && base > 0.0 { base * base } else { 0.0 },
         }
     }
 }

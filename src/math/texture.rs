@@ -158,16 +158,24 @@ pub fn triangle_uv(scene: &SceneArrays, i: usize, p: Vec3) -> Vec2 {
 /// The material's textures applied to its BSDF at `uv` (`apply_textures` in
 /// `glsl/pathtrace.comp`'s `material_bsdf`): the albedo times the colour
 /// texture's RGB, the roughness its own times the roughness texture's red,
-/// within [`shared::TEXTURE_MIN_ROUGHNESS`], 1]; a reflectance conductor's
+/// within [`shared::TEXTURE_MIN_ROUGHNESS`], 1] (a coated conductor's base's);
+/// a reflectance conductor's
 /// (`eta[3]` 1) textured albedo its reflectance (eta 1, k `conductor_k`).
 pub fn apply_textures(scene: &SceneArrays, m: &GpuMaterial, uv: Vec2, b: &mut Bsdf) {
     if m.albedo_texture != shared::NO_TEXTURE {
         b.albedo *= colour_texture(scene, m.albedo_texture - 1, uv);
     }
     if m.roughness_texture != shared::NO_TEXTURE {
-        let r = m.albedo_roughness[3] * texture_lookup(scene, m.roughness_texture - 1, uv).x;
+        // A coated conductor's texture is its base's roughness (`k[3]`), not its coat's.
+        let base = b.has_conductor_base();
+        let r =
+            if base { m.k[3] } else { m.albedo_roughness[3] } * texture_lookup(scene, m.roughness_texture - 1, uv).x;
         let r = r.clamp(shared::TEXTURE_MIN_ROUGHNESS, 1.0);
-        b.alpha = r * r;
+        if base {
+            b.base_alpha = r * r;
+        } else {
+            b.alpha = r * r;
+        }
     }
     if m.eta[3] != 0.0 {
         (b.eta, b.k, b.albedo) = (Vec3::ONE, crate::scene::conductor_k(b.albedo), Vec3::ONE);

@@ -16,14 +16,19 @@ use super::*;
 /// guided kernel evaluates the mixture of diffuse vertices alone. And
 /// `SCENE_KIND_PROCEDURAL` where a texture is procedural, and
 /// `SCENE_KIND_REFLECTANCE_CONDUCTOR` where a conductor reads its index from
-/// its reflectance texture, and `SCENE_KIND_MIX` where a material is a mix:
-/// kernels without them leave that code out.
+/// its reflectance texture, `SCENE_KIND_MIX` where a material is a mix,
+/// `SCENE_KIND_COATED_CONDUCTOR` where a coated material has a conductor base and
+/// `SCENE_KIND_SMOOTH_COAT` where one has a smooth coat: kernels without them
+/// leave that code out.
 pub fn scene_kinds(materials: &[GpuMaterial], lights: &[GpuLight], textures: &[GpuTexture]) -> u32 {
     let m = materials.iter().fold(0, |k, m| {
         let guided_glossy = if crate::guide::glossy_guided(m) { 1 << shared::SCENE_KIND_GUIDED_GLOSSY } else { 0 };
         let reflectance = if m.eta[3] != 0.0 { 1 << shared::SCENE_KIND_REFLECTANCE_CONDUCTOR } else { 0 };
         let kind = if m.kind == shared::MAT_MIX { 1 << shared::SCENE_KIND_MIX } else { 1 << m.kind };
-        k | kind | guided_glossy | reflectance
+        let coated = |bit: u32, yes: bool| if m.kind == shared::MAT_COATED && yes { 1 << bit } else { 0 };
+        let coats = coated(shared::SCENE_KIND_COATED_CONDUCTOR, m.k[3] > 0.0)
+            | coated(shared::SCENE_KIND_SMOOTH_COAT, m.albedo_roughness[3] == 0.0);
+        k | kind | guided_glossy | reflectance | coats
     });
     let procedural = textures.iter().any(|t| t.format >= shared::TEXTURE_CHECKER);
     let m = if procedural { m | 1 << shared::SCENE_KIND_PROCEDURAL } else { m };

@@ -151,7 +151,8 @@ impl PreparedScene {
                 // A mix's two materials, as floats (exact: Scene's indices are below 2^24).
                 k: match m.mix {
                     Some([a, b]) => [a as f32, b as f32, 0.0, 0.0],
-                    None => v4(m.k, 0.0),
+                    // A coated material's conductor base's roughness, 0 for the Lambertian base.
+                    None => v4(m.k, m.base_roughness.unwrap_or(0.0)),
                 },
                 kind: m.kind as u32,
                 two_sided: m.two_sided as u32,

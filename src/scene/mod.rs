@@ -66,7 +66,8 @@ pub enum MaterialKind {
     /// A dielectric of roughness > 0 (GGX reflection and transmission); the
     /// scene file's `dielectric` with a `roughness` key above 0.
     RoughDielectric = 6,
-    /// A GGX dielectric coat over a Lambertian base (an approximation; docs/SCENE_FORMAT.md).
+    /// A GGX dielectric coat (smooth at roughness 0) over a Lambertian base, or over
+    /// a GGX conductor ([`Material::base_roughness`]); an approximation, docs/SCENE_FORMAT.md.
     Coated = 7,
     /// Two materials, one of them chosen at each hit ([`Material::mix`]).
     Mix = 8,
@@ -78,8 +79,8 @@ pub struct Material {
     pub kind: MaterialKind,
     /// Reflectance in [0, 1]^3 (diffuse, specular, glossy, dielectric; zero for emissive).
     pub albedo: Vec3,
-    /// GGX roughness (alpha = roughness^2): in (0, 1] for glossy, rough dielectric and
-    /// coated, in [0, 1] for conductor (0 a mirror); 1 otherwise.
+    /// GGX roughness (alpha = roughness^2): in (0, 1] for glossy and rough dielectric,
+    /// in [0, 1] for conductor (0 a mirror) and coated (its coat; 0 smooth); 1 otherwise.
     pub roughness: f32,
     /// Index of refraction >= 1 for dielectric, rough dielectric and coated; 1 otherwise.
     pub ior: f32,
@@ -105,6 +106,10 @@ pub struct Material {
     /// hit the second with chance `albedo.x` (its amount), times the red of its
     /// albedo texture (image or procedural, grey) where it has one, else the first.
     pub mix: Option<[u32; 2]>,
+    /// A coated material's conductor base: its GGX roughness in (0, 1] (its index
+    /// `eta` + i `k`, tinted by `albedo`; a roughness texture scales this one, not
+    /// the coat's). None: the Lambertian base of reflectance `albedo`.
+    pub base_roughness: Option<f32>,
 }
 
 impl Material {
@@ -127,6 +132,7 @@ impl Material {
             albedo_procedural: None,
             reflectance_conductor: false,
             mix: None,
+            base_roughness: None,
         }
     }
 

@@ -27,6 +27,9 @@ pub(super) fn material_keys(kind: MaterialKind) -> &'static [&'static str] {
             "albedo",
             "roughness",
             "ior",
+            "eta",
+            "k",
+            "base_roughness",
             "emission",
             "two_sided",
             "albedo_texture",
@@ -179,12 +182,8 @@ pub(super) fn parse_material(
             };
         }
         MaterialKind::Conductor => {
-            let index = |key: &str, ok: fn(f64) -> bool, expected: &str| -> Result<Vec3, SceneError> {
-                let hint = format!("[r, g, b], components {expected}");
-                Ok(to_vec3(t.vec3(key, t.required(key, &hint)?, ok, expected)?))
-            };
-            material.eta = index("eta", |x| x > 0.0 && x <= MAX_CONDUCTOR_INDEX, "in (0, 100]")?;
-            material.k = index("k", |x| (0.0..=MAX_CONDUCTOR_INDEX).contains(&x), "in [0, 100]")?;
+            material.eta = conductor_index(&t, "eta", |x| x > 0.0 && x <= MAX_CONDUCTOR_INDEX, "in (0, 100]")?;
+            material.k = conductor_index(&t, "k", |x| (0.0..=MAX_CONDUCTOR_INDEX).contains(&x), "in [0, 100]")?;
             material.albedo = Vec3::ONE;
             material.roughness = match t.get("roughness") {
                 None if textured => 1.0,
@@ -195,8 +194,39 @@ pub(super) fn parse_material(
             };
         }
         MaterialKind::Coated => {
-            material.albedo = albedo("the base's reflectance [r, g, b], components in [0, 1]")?;
-            material.roughness = ggx_roughness(&t, "the coat's GGX roughness, a number in (0, 1]", textured)?;
+            let conductor = t.get("eta").is_some() || t.get("k").is_some();
+            material.albedo = if conductor {
+                // A conductor base: its index, and an albedo that tints it (default 1).
+                material.eta = conductor_index(&t, "eta", |x| x > 0.0 && x <= MAX_CONDUCTOR_INDEX, "in (0, 100]")?;
+                material.k = conductor_index(&t, "k", |x| (0.0..=MAX_CONDUCTOR_INDEX).contains(&x), "in [0, 100]")?;
+                material.base_roughness = Some(match t.get("base_roughness") {
+                    None if textured => 1.0,
+                    None => return Err(t.error_here("missing key `base_roughness` (the conductor base's GGX roughness, a number in (0, 1]; required with `eta` and `k`)")),
+                    Some(v) => t.ranged("base_roughness", v, |x| x > 0.0 && x <= 1.0, "a number in (0, 1] (0 < base_roughness <= 1)")?,
+                });
+                match t.get("albedo") {
+                    None => Vec3::ONE,
+                    Some(_) => albedo("the conductor base's tint [r, g, b], components in [0, 1]")?,
+                }
+            } else {
+                if t.get("base_roughness").is_some() {
+                    return Err(t.error_here("key `base_roughness` needs a conductor base: give its `eta` and `k` too"));
+                }
+                albedo("the base's reflectance [r, g, b], components in [0, 1]")?
+            };
+            // The coat's roughness; 0 a smooth coat. With a conductor base a roughness
+            // texture scales the base's roughness, and the coat's is required.
+            material.roughness = match t.get("roughness") {
+                None if textured && !conductor => 1.0,
+                None => {
+                    return Err(t.error_here(
+                        "missing key `roughness` (the coat's GGX roughness, a number in [0, 1]; 0 a smooth coat)",
+                    ))
+                }
+                Some(v) => {
+                    t.ranged("roughness", v, |x| (0.0..=1.0).contains(&x), "a number in [0, 1] (0: a smooth coat)")?
+                }
+            };
             material.ior = match t.get("ior") {
                 None => 1.5,
                 Some(v) => {
@@ -281,6 +311,12 @@ pub(super) fn material_index(t: &Table<'_, '_, '_>, materials: &[Material]) -> R
 /// The required `roughness` key of a GGX lobe, in (0, 1]; `expected` says what a
 /// missing key should have been.
 /// With a roughness texture the key is its factor, 1 where absent.
+/// A conductor's `eta` or `k` (required), per channel.
+fn conductor_index(t: &Table<'_, '_, '_>, key: &str, ok: fn(f64) -> bool, expected: &str) -> Result<Vec3, SceneError> {
+    let hint = format!("[r, g, b], components {expected}");
+    Ok(to_vec3(t.vec3(key, t.required(key, &hint)?, ok, expected)?))
+}
+
 fn ggx_roughness(t: &Table<'_, '_, '_>, expected: &str, textured: bool) -> Result<f32, SceneError> {
     if textured && t.get("roughness").is_none() {
         return Ok(1.0);

@@ -318,8 +318,11 @@ impl Reader<'_> {
     /// eta 1 and k = [`conductor_k`] of it), else `eta` and `k` (default copper).
     /// A reflectance texture (image or procedural) comes back to be read per hit,
     /// its constant factor as its `value`.
+    /// pbrt-v4's coatedconductor names it `reflectance` (read as `conductor.reflectance` too).
     fn conductor(&mut self, prefix: &str) -> Result<(Vec3, Vec3, String, Option<Reflectance>), SceneError> {
-        let name = format!("{prefix}reflectance");
+        let kinds = ["rgb", "color", "spectrum", "float", "texture"];
+        let prefixed = format!("{prefix}reflectance");
+        let name = if self.params.get("reflectance", &kinds).is_some() { "reflectance".to_string() } else { prefixed };
         if self.params.get(&name, &["rgb", "color", "spectrum", "float", "texture"]).is_some() {
             let mut refl = self.reflectance(&name, Vec3::ONE)?;
             refl.value = self.albedo(refl.value, "reflectance")?;
@@ -361,9 +364,66 @@ pub(crate) struct Rough {
 /// GGX alpha below which pbrt-v4 treats a surface as smooth (`EffectivelySmooth`).
 const SMOOTH_ALPHA: f64 = 1e-3;
 
-/// The roughness of a coat pbrt gives as smooth: rlpt's coated material needs a
-/// GGX coat, and sqrt(SMOOTH_ALPHA) is the roughest pbrt would still call smooth.
-const SMOOTH_COAT_ROUGHNESS: f32 = 0.0316;
+/// The roughness of a conductor pbrt gives as smooth under a coat: rlpt's coated
+/// conductor needs a GGX base, and sqrt(SMOOTH_ALPHA) is the roughest pbrt would
+/// still call smooth.
+const SMOOTH_BASE_ROUGHNESS: f32 = 0.0316;
+
+/// pbrt-v4's `coatedconductor`: rlpt's coated material over a conductor base, the
+/// coat of `interface.eta` and `interface.roughness` (smooth at 0), the base of
+/// `conductor.eta`/`conductor.k` or `reflectance` and `conductor.roughness`
+/// (a roughness texture read per hit); what it approximates is noted.
+fn coated_conductor(r: &mut Reader<'_>) -> Result<(Material, String), SceneError> {
+    let ior = match r.params.get("interface.eta", &["float", "spectrum"]) {
+        None => 1.5,
+        Some(p) if p.ty == "float" => p.numbers_n(1)?[0] as f32,
+        Some(p) => {
+            let p = p.clone();
+            let v = r.spectrum(&p)?;
+            r.note(format!("{}: dispersion dropped, index {}", p.label(), v.x))?;
+            v.x
+        }
+    };
+    if !(1.0..=100.0).contains(&ior) {
+        return Err(r.loc.error(format!("{}: interface.eta {ior} must be from 1 to 100 for a coat", r.what)));
+    }
+    let mut coat = r.rough("interface.", 0.0, false, false)?;
+    if coat.texture.is_some() {
+        // The one roughness texture a material has scales its base's roughness.
+        let names = ["interface.uroughness", "interface.vroughness", "interface.roughness"];
+        let name = names.into_iter().find(|n| r.params.get(n, &["texture"]).is_some()).unwrap_or(names[2]);
+        let mean = r.scalar(name, 0.0)?;
+        let alpha = if r.params.bool("remaproughness")?.unwrap_or(true) { mean.sqrt() } else { mean };
+        r.note(format!(
+            "the coat's roughness texture read as its mean, alpha {}: rlpt textures the base's roughness alone",
+            alpha as f32
+        ))?;
+        coat = Rough { roughness: r.roughness(alpha)?, alpha, texture: None, how: String::new() };
+    }
+    let coat_how = if coat.roughness == 0.0 {
+        format!("alpha {} -> a smooth coat", coat.alpha as f32)
+    } else {
+        format!("alpha {} -> roughness {}", coat.alpha as f32, coat.roughness)
+    };
+    let (eta, k, from, textured) = r.conductor("conductor.")?;
+    let mut base = r.rough("conductor.", 0.0, false, false)?;
+    if base.roughness == 0.0 && base.texture.is_none() {
+        r.note(format!(
+            "a smooth conductor under the coat (alpha {}) given roughness {SMOOTH_BASE_ROUGHNESS}: rlpt's base is GGX",
+            base.alpha as f32
+        ))?;
+        base.roughness = SMOOTH_BASE_ROUGHNESS;
+        base.how = format!("alpha {} -> roughness {SMOOTH_BASE_ROUGHNESS}", base.alpha as f32);
+    }
+    let mut m = plain(MaterialKind::Coated, Vec3::ONE);
+    (m.ior, m.roughness, m.eta, m.k) = (ior, coat.roughness, eta, k);
+    (m.base_roughness, m.roughness_texture) = (Some(base.roughness), base.texture);
+    if let Some(refl) = textured {
+        (m.albedo, m.reflectance_conductor) = (refl.value, true);
+        refl.texture(&mut m);
+    }
+    Ok((m, format!("coat eta {ior}, {coat_how}; conductor {from}, {}", base.how)))
+}
 
 /// Maps material `ty` (its parameters in `r`) onto rlpt's; `mix` is the
 /// importer's (it needs the named materials).
@@ -382,26 +442,10 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             image.texture(&mut m);
             (m, how)
         }
-        "conductor" | "metal" | "coatedconductor" => {
-            let prefix = if ty == "coatedconductor" { "conductor." } else { "" };
-            if ty == "coatedconductor" {
-                r.note("the dielectric coat of coatedconductor dropped (the conductor alone)".to_string())?;
-                for p in [
-                    "interface.roughness",
-                    "interface.uroughness",
-                    "interface.vroughness",
-                    "interface.eta",
-                    "thickness",
-                    "albedo",
-                    "g",
-                    "maxdepth",
-                    "nsamples",
-                ] {
-                    r.params.touch(p);
-                }
-            }
-            let (eta, k, from, textured) = r.conductor(prefix)?;
-            let rough = r.rough(prefix, if v3 { 0.01 } else { 0.0 }, v3, false)?;
+        "coatedconductor" => coated_conductor(r)?,
+        "conductor" | "metal" => {
+            let (eta, k, from, textured) = r.conductor("")?;
+            let rough = r.rough("", if v3 { 0.01 } else { 0.0 }, v3, false)?;
             let mut m = plain(MaterialKind::Conductor, Vec3::ONE);
             (m.eta, m.k, m.roughness) = (eta, k, rough.roughness);
             if let Some(refl) = textured {
@@ -479,13 +523,8 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             }
             let default_roughness = if ty == "coateddiffuse" { 0.0 } else { 0.1 };
             let mut rough = r.rough("", default_roughness, v3, false)?;
-            if rough.roughness == 0.0 {
-                r.note(format!(
-                    "a smooth coat (alpha {}) given roughness {SMOOTH_COAT_ROUGHNESS}: rlpt's coat is GGX",
-                    rough.alpha as f32
-                ))?;
-                rough.roughness = SMOOTH_COAT_ROUGHNESS;
-                rough.how = format!("alpha {} -> roughness {SMOOTH_COAT_ROUGHNESS}", rough.alpha as f32);
+            if rough.roughness == 0.0 && rough.texture.is_none() {
+                rough.how = format!("alpha {} -> a smooth coat", rough.alpha as f32);
             }
             let mut m = plain(MaterialKind::Coated, albedo);
             (m.ior, m.roughness, m.roughness_texture) = (ior, rough.roughness, rough.texture);
