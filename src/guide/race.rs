@@ -202,6 +202,32 @@ impl FrameRace {
         }
     }
 
+    /// How many frames of [`next`](Self::next)'s kind come in a row, as the race
+    /// stands: the rest of a burst, a new burst, or the leader's frames until the
+    /// trailing kind's gap and share are met, each leader frame taken to last as
+    /// long as its mean (at least 1). A round of frames traced in one submission
+    /// takes no more (`crate::render::GpuRenderer::render_round`).
+    pub fn run_left(&self) -> u32 {
+        let kind = self.next();
+        let burst = RACE_BURST;
+        if self.last == Some(kind) && self.run < burst && self.leader() != Some(kind) {
+            return burst - self.run;
+        }
+        let Some(leader) = self.leader().filter(|&l| l == kind) else { return burst };
+        let (lead, trail) = match leader {
+            FrameKind::Guided => (&self.guided, &self.unguided),
+            FrameKind::Unguided => (&self.unguided, &self.guided),
+        };
+        let behind = if lead.inefficiency() > 0.0 { trail.inefficiency() / lead.inefficiency() } else { RACE_MAX_GAP };
+        let gap = (RACE_MIN_GAP * behind).clamp(RACE_MIN_GAP, RACE_MAX_GAP);
+        let noisier = if lead.variance > 0.0 { trail.variance / lead.variance } else { f64::INFINITY };
+        let frames = (noisier / RACE_TRAILING_VARIANCE).min(u32::MAX as f64);
+        let b = burst as f64;
+        let by_time = if lead.ms > 0.0 { (gap * b * trail.ms - self.since_other_ms) / lead.ms } else { 1.0 };
+        let by_frames = b * frames - self.since_other_frames as f64;
+        by_time.max(by_frames).ceil().clamp(1.0, u32::MAX as f64) as u32
+    }
+
     /// Takes in a guided frame: its relative variance, its path tracing's time,
     /// the time of the learning pass after it where there was one, and how many
     /// guided frames the table learns once in (`RecordSchedule::learning_period`).
@@ -279,6 +305,32 @@ mod tests {
             kinds.push(k);
         }
         (race, kinds)
+    }
+
+    /// `run_left` counts exactly the frames of `next`'s kind that come in a row
+    /// where each kind's frames keep their variance and time and the lead does
+    /// not change hands: a round of that many traced in one submission is what
+    /// frame-by-frame choices would trace.
+    #[test]
+    fn run_left_counts_the_frames_next_gives_in_a_row() {
+        for (guided, unguided) in [((1.0, 2.0), (4.0, 1.0)), ((4.0, 1.0), (1.0, 2.0)), ((1.0, 1.0), (1.0, 1.0))] {
+            let mut race = FrameRace::default();
+            let mut f = 0;
+            while f < 4000 {
+                let (kind, left, leader) = (race.next(), race.run_left(), race.leader());
+                for i in 0..left {
+                    assert_eq!(race.next(), kind, "{guided:?} / {unguided:?}: frame {} of a run of {left}", i + 1);
+                    let (v, ms) = if kind == FrameKind::Guided { guided } else { unguided };
+                    race.report(kind, v, ms);
+                    f += 1;
+                }
+                // Where the lead did not change hands within the run (the race's state
+                // changes with it), the next frame is of the other kind.
+                if leader.is_some() && race.leader() == leader {
+                    assert_ne!(race.next(), kind, "{guided:?} / {unguided:?}: the run of {left} ended early");
+                }
+            }
+        }
     }
 
     #[test]

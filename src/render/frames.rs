@@ -87,12 +87,18 @@ impl GpuRenderer {
     /// Renders a round of frames in one submission: as many as fill [`ROUND_MS`]
     /// at the last submission's time per frame, up to [`ROUND_MAX_FRAMES`] and
     /// `max`, and where `time_left_ms` is set, no more than fit it (each taken to
-    /// last as long; none where not one does). One frame where there are no
-    /// timestamps (the session judges the time by the wall clock), before the
-    /// first submission, and where a race chooses each frame's kernel.
+    /// last as long; none where not one does). Where a race chooses the image
+    /// frames' kernel, no more than its run of one kind (`FrameRace::run_left`),
+    /// and one frame until the image starts. One frame where there are no
+    /// timestamps (the session judges the time by the wall clock) and before the
+    /// first submission.
     pub fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
-        let per_frame = self.round_frame_ms.filter(|_| self.race.is_none() && self.ctx.info.timestamps);
+        let per_frame = self.round_frame_ms.filter(|_| self.ctx.info.timestamps);
         let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
+        if let (Some(race), Some(l)) = (&self.race, &self.learning) {
+            let image = self.frames_traced >= l.cfg.learning_frames;
+            count = count.min(if image { race.run_left() } else { 1 });
+        }
         if let (Some(ms), Some(left)) = (per_frame, time_left_ms) {
             count = count.min((left / ms).max(0.0) as u32);
             if count == 0 {
@@ -210,8 +216,9 @@ impl GpuRenderer {
         }
         if let (Some(race), Some(v), Some(l)) = (self.race.as_mut(), variance, &self.learning) {
             let n = count as f64;
+            // Each learning pass of the submission taken to last their mean.
             let (trace_ms, learn_ms) = if timestamps {
-                (t.pathtrace_ms / n, t.learn_ms)
+                (t.pathtrace_ms / n, t.learn_ms / passes.get().max(1) as f64)
             } else {
                 (wall.elapsed().as_secs_f64() * 1e3 / n, 0.0)
             };
