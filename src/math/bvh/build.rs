@@ -65,8 +65,40 @@ struct SpatialBin {
     exit: u32,
 }
 
-type SpatialBins = [[SpatialBin; BINS]; 3];
 const EMPTY_SPATIAL: SpatialBin = SpatialBin { b: Aabb::EMPTY, enter: 0, exit: 0 };
+
+/// A bin that takes in another's boxes and counts: parallel chunks' bins merge so.
+trait MergeBin {
+    fn merge(&mut self, other: &Self);
+}
+
+impl MergeBin for Bin {
+    fn merge(&mut self, o: &Bin) {
+        self.b.grow(&o.b);
+        self.n += o.n;
+    }
+}
+
+impl MergeBin for SpatialBin {
+    fn merge(&mut self, o: &SpatialBin) {
+        self.b.grow(&o.b);
+        self.enter += o.enter;
+        self.exit += o.exit;
+    }
+}
+
+/// `a` with each of `b`'s bins merged into its own, axis by axis.
+fn merge_bins<B: MergeBin, const AXES: usize>(
+    mut a: Box<[[B; BINS]; AXES]>,
+    b: Box<[[B; BINS]; AXES]>,
+) -> Box<[[B; BINS]; AXES]> {
+    for (aa, ba) in a.iter_mut().zip(b.iter()) {
+        for (x, y) in aa.iter_mut().zip(ba.iter()) {
+            x.merge(y);
+        }
+    }
+    a
+}
 
 /// The best split found at a node: its SAH cost (areas times counts, unnormalised),
 /// the children's boxes and what to partition by.
@@ -161,7 +193,6 @@ struct ObjectBins {
 
 /// The object bins' axes: the three centroid axes and size.
 const OBJECT_AXES: usize = 4;
-type Bins = [[Bin; BINS]; OBJECT_AXES];
 
 impl ObjectBins {
     fn bin(&self, it: &Item, axis: usize) -> usize {
@@ -192,15 +223,7 @@ fn object_split(items: &[Item], cb: &Aabb, node_area: f32) -> Option<(Split, Obj
             }
             bins
         },
-        |mut a: Box<Bins>, b| {
-            for (aa, ba) in a.iter_mut().zip(b.iter()) {
-                for (x, y) in aa.iter_mut().zip(ba.iter()) {
-                    x.b.grow(&y.b);
-                    x.n += y.n;
-                }
-            }
-            a
-        },
+        merge_bins::<Bin, OBJECT_AXES>,
     );
     let mut best: Option<Split> = None;
     for (axis, bins) in bins.iter().enumerate() {
@@ -311,16 +334,7 @@ fn spatial_split(prims: &[PrimBox], items: &[Item], nb: &Aabb) -> Option<Split> 
             }
             bins
         },
-        |mut a: Box<SpatialBins>, b| {
-            for (aa, ba) in a.iter_mut().zip(b.iter()) {
-                for (x, y) in aa.iter_mut().zip(ba.iter()) {
-                    x.b.grow(&y.b);
-                    x.enter += y.enter;
-                    x.exit += y.exit;
-                }
-            }
-            a
-        },
+        merge_bins::<SpatialBin, 3>,
     );
     let mut best: Option<Split> = None;
     for (axis, bins) in bins.iter().enumerate() {
