@@ -479,8 +479,11 @@ pub struct LightSample {
     pub skip: u32,
     /// Emitted radiance towards the shading point (zero if it sees the back of a one-sided light).
     pub le: Vec3,
-    /// Solid-angle density at the shading point, including the choice of the light.
+    /// Solid-angle density at the shading point, including the choice of the
+    /// light; a delta light's pmf alone (`delta`).
     pub pdf: f32,
+    /// A delta light's sample ([`super::delta`]): no MIS weight against BSDF sampling.
+    pub delta: bool,
 }
 
 /// The shadow ray of a light sample from a shading point (`p`, geometric normal
@@ -522,13 +525,16 @@ pub fn emitted(scene: &SceneArrays, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
 /// Chooses a light by power with `u_sel` and samples a point on it with `u`:
 /// spheres seen from outside by the cone of directions they subtend, spheres
 /// from inside, quads and triangles uniformly by area, the image environment by
-/// its map (`crate::math::envmap`).
+/// its map (`crate::math::envmap`), a delta light's one direction ([`super::delta`]).
 pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
     let n_lights = scene.lights.len();
     if n_lights == 0 {
         return None;
     }
     let light = &scene.lights[choose_light(scene, u_sel)];
+    if light.kind >= shared::LIGHT_DISTANT {
+        return super::delta::sample_delta_light(scene, light, p);
+    }
     // The image environment: a direction to infinity, nothing skipped.
     if light.kind == shared::LIGHT_ENV {
         let (wi, le, pdf_env) = super::envmap::env_sample(scene, u)?;
@@ -540,6 +546,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
             skip: shared::NO_PRIM,
             le,
             pdf,
+            delta: false,
         });
     }
     // The shadow ray's end and what it skips (see `LightSample::end`): the point
@@ -625,7 +632,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
         return None;
     }
     let end = if area_eps > 0.0 { offset_origin(lp, ln, area_eps, -wi) } else { lp };
-    Some(LightSample { wi, dist, end, skip, le, pdf })
+    Some(LightSample { wi, dist, end, skip, le, pdf, delta: false })
 }
 
 /// A point uniform by area on the triangle (v0, v1, v2) from `u` (the square

@@ -306,6 +306,22 @@ pub struct Scene {
     pub guiding: GuidingSettings,
     /// The images the materials' textures read, decoded ([`texture::load_textures`]).
     pub textures: Vec<TextureImage>,
+    /// Distant, point and spot lights (from pbrt files; `crate::math::delta`).
+    pub delta_lights: Vec<DeltaLight>,
+}
+
+/// A light without geometry, reached only by next-event estimation
+/// (docs/sampling.md, "Delta lights"; `crate::math::delta`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum DeltaLight {
+    /// Light from one direction: `to_light` (unit) points towards it; `radiance`
+    /// is pbrt's L, the irradiance on a surface facing it.
+    Distant { to_light: Vec3, radiance: Vec3 },
+    /// An isotropic point of `intensity` (W/sr per channel).
+    Point { position: Vec3, intensity: Vec3 },
+    /// A point shining along the unit `axis`: full `intensity` within the cone of
+    /// cosine `cos_start`, falling off (pbrt-v4's smoothstep) to 0 at `cos_end`.
+    Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_start: f32, cos_end: f32 },
 }
 
 impl Scene {
