@@ -371,7 +371,7 @@
 #define BINDING_SPHERE_UVS 25
 // The delta lights (DeltaLight; delta.glsl), indexed by Light.index; empty in a
 // scene without them.
-#define BINDING_DELTA_LIGHTS 26
+#define BINDING_DELTA_LIGHTS 27
 // TextureHeader.format: one word per texel, RGBA 8 bits each (red the low
 // byte), linear or sRGB-encoded (decoded on lookup); or two words per texel,
 // RGBA as four halves (packHalf2x16 of rg, then of ba), linear.
