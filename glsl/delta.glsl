@@ -1,5 +1,5 @@
 // Delta lights: distant, point and spot (src/math/delta.rs, the CPU twin;
-// docs/sampling.md "Delta lights"). Included by geometry.glsl after LightSample.
+// docs/correctness.md "Delta lights"). Included by geometry.glsl after LightSample.
 #ifndef RLPT_DELTA_GLSL
 #define RLPT_DELTA_GLSL
 

@@ -411,7 +411,7 @@ uint choose_light(uint n_lights, float u_sel) {
     return lo;
 }
 
-// src/math/geometry.rs `sample_triangle`: a point uniform by area, the unit
+// src/math/triangle.rs `sample_triangle`: a point uniform by area, the unit
 // geometric normal and the area.
 void sample_triangle(Triangle t, vec2 u, out vec3 p, out vec3 n, out float area) {
     float su = sqrt(u.x);

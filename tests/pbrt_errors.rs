@@ -133,7 +133,11 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
 #[test]
 fn cli_render_prints_the_notes_and_strict_renders_nothing() {
     let d = fresh_dir("cli-render");
-    let p = write(&d, "scene.pbrt", format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"goniometric\"\n{TRIANGLE}"));
+    let p = write(
+        &d,
+        "scene.pbrt",
+        format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"goniometric\"\n{TRIANGLE}"),
+    );
     let out = d.join("out.png");
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();

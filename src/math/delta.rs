@@ -1,5 +1,5 @@
 //! Delta lights: distant, point and spot (`glsl/delta.glsl`, the GPU twin;
-//! docs/sampling.md, "Delta lights"). Each sends light along one direction to a
+//! docs/correctness.md, "Delta lights"). Each sends light along one direction to a
 //! shading point, so only next-event estimation finds it: chosen by power among
 //! the lights, its one direction has probability 1 (the pdf is the light's pmf)
 //! and no MIS weight against BSDF sampling, which never meets it.
@@ -31,11 +31,19 @@ pub fn gpu_delta_light(l: &DeltaLight) -> (u32, GpuDeltaLight) {
     match *l {
         DeltaLight::Distant { to_light, radiance } => (
             shared::LIGHT_DISTANT,
-            GpuDeltaLight { position_cos_start: v(to_light, 1.0), intensity_cos_end: v(radiance, -1.0), axis: [0.0; 4] },
+            GpuDeltaLight {
+                position_cos_start: v(to_light, 1.0),
+                intensity_cos_end: v(radiance, -1.0),
+                axis: [0.0; 4],
+            },
         ),
         DeltaLight::Point { position, intensity } => (
             shared::LIGHT_POINT,
-            GpuDeltaLight { position_cos_start: v(position, 1.0), intensity_cos_end: v(intensity, -1.0), axis: [0.0; 4] },
+            GpuDeltaLight {
+                position_cos_start: v(position, 1.0),
+                intensity_cos_end: v(intensity, -1.0),
+                axis: [0.0; 4],
+            },
         ),
         DeltaLight::Spot { position, axis, intensity, cos_start, cos_end } => (
             shared::LIGHT_SPOT,

@@ -610,7 +610,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
     } else {
         let tri = &scene.triangles[light.index as usize];
         let [v0, v1, v2] = tri.vertices();
-        let (lp, n, area) = sample_triangle(v0, v1, v2, u);
+        let (lp, n, area) = super::triangle::sample_triangle(v0, v1, v2, u);
         let d = lp - p;
         let d2 = d.length_squared();
         let cos_l = n.dot(d).abs() / d2.sqrt();
@@ -633,18 +633,6 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
     }
     let end = if area_eps > 0.0 { offset_origin(lp, ln, area_eps, -wi) } else { lp };
     Some(LightSample { wi, dist, end, skip, le, pdf, delta: false })
-}
-
-/// A point uniform by area on the triangle (v0, v1, v2) from `u` (the square
-/// root warp, pbrt's `SampleUniformTriangle`), its unit geometric normal and the
-/// triangle's area. `glsl/geometry.glsl` `sample_triangle`.
-pub fn sample_triangle(v0: Vec3, v1: Vec3, v2: Vec3, u: [f32; 2]) -> (Vec3, Vec3, f32) {
-    let su = u[0].sqrt();
-    let (b0, b1) = (1.0 - su, u[1] * su);
-    let p = b0 * v0 + b1 * v1 + (1.0 - b0 - b1) * v2;
-    let c = (v1 - v0).cross(v2 - v0);
-    let len = c.length();
-    (p, c / len, 0.5 * len)
 }
 
 /// The density with which `sample_light`, called at `p`, picks the direction `w`

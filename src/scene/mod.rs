@@ -311,7 +311,7 @@ pub struct Scene {
 }
 
 /// A light without geometry, reached only by next-event estimation
-/// (docs/sampling.md, "Delta lights"; `crate::math::delta`).
+/// (docs/correctness.md, "Delta lights"; `crate::math::delta`).
 #[derive(Clone, Debug, PartialEq)]
 pub enum DeltaLight {
     /// Light from one direction: `to_light` (unit) points towards it; `radiance`

@@ -62,7 +62,7 @@ impl Importer {
         // luminous power / illuminance, dividing out the colour's luminance.
         if let Some(target) = power {
             let lum = luminance(value);
-            if !(target >= 0.0 && target.is_finite()) || !(lum > 0.0) {
+            if !(target >= 0.0 && target.is_finite() && lum > 0.0) {
                 return bad(format!("{power_name} {target} needs a finite value >= 0 and a colour of luminance > 0"));
             }
             let k = match ty {
