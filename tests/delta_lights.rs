@@ -177,6 +177,8 @@ fn pbrt_delta_lights_import_through_their_transforms() {
         ),
     );
     assert_eq!(s.delta_lights.len(), 4, "{:?}", s.delta_lights);
+    // Its only lights are delta lights: no warning of a black image.
+    assert_eq!(rlpt::scene::no_light_warning(&s), None);
     match &s.delta_lights[0] {
         DeltaLight::Point { position, intensity } => {
             assert!(close(*position, Vec3::new(-1.0, 2.0, 0.0)), "{position}");

@@ -146,7 +146,7 @@ impl PreparedScene {
                 option: "nee",
                 value: "off".into(),
                 expected: format!(
-                    "on: the scene's {} distant, point or spot lights are reached only by next-event estimation",
+                    "it must be on, as the scene's {} distant, point or spot lights are reached only by next-event estimation",
                     scene.delta_lights.len()
                 ),
             });

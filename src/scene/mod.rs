@@ -365,7 +365,7 @@ impl Scene {
     }
 
     /// Whether anything gives light: a sphere, quad or mesh triangle whose
-    /// material emits, or the environment. A scene without renders black, which
+    /// material emits, a delta light of some intensity, or the environment. A scene without renders black, which
     /// a loader cannot call wrong (a test may want it) but a user should hear about.
     pub fn emits_light(&self) -> bool {
         self.environment.max_element() > 0.0
@@ -373,6 +373,7 @@ impl Scene {
             || self.spheres.iter().any(|s| self.material_emits(s.material))
             || self.quads.iter().any(|q| self.material_emits(q.material))
             || self.meshes.iter().any(|m| m.materials.iter().any(|&i| self.material_emits(i)))
+            || self.delta_lights.iter().any(|l| crate::math::delta::delta_power(l, 1.0) > 0.0)
     }
 }
 
@@ -380,7 +381,7 @@ impl Scene {
 pub fn no_light_warning(scene: &Scene) -> Option<String> {
     (!scene.emits_light()).then(|| {
         format!(
-            "{}: no sphere, quad or mesh triangle emits light and the environment is black: the image will be black",
+            "{}: no sphere, quad, mesh triangle or delta light emits light and the environment is black: the image will be black",
             scene.source.display()
         )
     })
