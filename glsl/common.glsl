@@ -52,6 +52,12 @@
 // The image environment (src/math/envmap.rs): one light, the last of lights[],
 // whose index is 0; a kernel without it has none of its code (SCENE_KINDS).
 #define LIGHT_ENV 3
+// Delta lights (delta.glsl, src/math/delta.rs): a direction with a radiance, a
+// point, a point in a cone; Light.index into delta_lights[]. A BSDF-sampled ray
+// never meets one, so only next-event estimation reaches them, weight 1.
+#define LIGHT_DISTANT 4
+#define LIGHT_POINT 5
+#define LIGHT_SPOT 6
 #define NO_LIGHT 4294967295
 // A face of the room (src/layout.rs `Room`) that no quad covers, and the
 // shadow test's "skip no primitive" (geometry.glsl `occluded`).
@@ -363,6 +369,9 @@
 #define BINDING_TEXELS 23
 #define BINDING_TRIANGLE_UVS 24
 #define BINDING_SPHERE_UVS 25
+// The delta lights (DeltaLight; delta.glsl), indexed by Light.index; empty in a
+// scene without them.
+#define BINDING_DELTA_LIGHTS 27
 // TextureHeader.format: one word per texel, RGBA 8 bits each (red the low
 // byte), linear or sRGB-encoded (decoded on lookup); or two words per texel,
 // RGBA as four halves (packHalf2x16 of rg, then of ba), linear.
@@ -483,10 +492,17 @@ struct TriangleUvs {
 };
 
 struct Light {
-    uint kind;               // LIGHT_SPHERE, LIGHT_QUAD or LIGHT_TRIANGLE
-    uint index;              // into spheres, quads or triangles
+    uint kind;               // LIGHT_*
+    uint index;              // into spheres, quads, triangles or delta_lights
     float pmf;               // probability of choosing this light
     float cdf;               // sum of pmf up to and including this light
+};
+
+// src/layout.rs `GpuDeltaLight`: a distant, point or spot light (delta.glsl).
+struct DeltaLight {
+    vec4 position_cos_start; // xyz: the point, or the unit direction towards a distant light; w: a spot's cos of its full-intensity cone
+    vec4 intensity_cos_end;  // xyz: intensity I (point, spot) or radiance L (distant); w: a spot's cos of its cone's edge
+    vec4 axis;               // xyz: a spot's unit axis (the way it shines)
 };
 
 struct RenderParams {
@@ -539,6 +555,8 @@ bool scene_has_light(uint kind) { return (SCENE_KINDS & (1u << (uint(SCENE_KIND_
 // Whether the scene may have a mix (MAT_MIX), whose hits resolve to one of its materials.
 const bool SCENE_MIX = (SCENE_KINDS & (1u << SCENE_KIND_MIX)) != 0u;
 // Whether the scene may have a coated material over a conductor, or with a smooth coat.
+// Whether the scene has a delta light (LIGHT_DISTANT, LIGHT_POINT or LIGHT_SPOT).
+const bool SCENE_DELTA = (SCENE_KINDS & (7u << (uint(SCENE_KIND_LIGHT_SHIFT) + uint(LIGHT_DISTANT)))) != 0u;
 const bool SCENE_COATED_CONDUCTOR = (SCENE_KINDS & (1u << SCENE_KIND_COATED_CONDUCTOR)) != 0u;
 const bool SCENE_SMOOTH_COAT = (SCENE_KINDS & (1u << SCENE_KIND_SMOOTH_COAT)) != 0u;
 

@@ -357,14 +357,17 @@ struct LightSample {
     uint skip;    // the primitive the shadow ray leaves out (NO_PRIM: none)
     vec3 le;
     float pdf;
+    bool delta;   // a delta light's: no MIS against BSDF sampling (SCENE_DELTA)
 };
+
+#include "delta.glsl"
 
 // src/math/geometry.rs `shadow_ray`: the segment from the shading point (moved
 // off its surface) to the light sample's end, as origin, unit direction, length.
 void shadow_ray(vec3 p, vec3 n, float eps, LightSample ls, out vec3 origin, out vec3 dir, out float len) {
     origin = offset_origin(p, n, eps, ls.wi);
-    // The image environment's samples lie at infinity (dist), along wi.
-    if (scene_has_light(LIGHT_ENV) && isinf(ls.dist)) {
+    // The image environment's and a distant light's samples lie at infinity (dist), along wi.
+    if ((scene_has_light(LIGHT_ENV) || scene_has_light(LIGHT_DISTANT)) && isinf(ls.dist)) {
         dir = ls.wi;
         len = ls.dist;
         return;
@@ -408,7 +411,7 @@ uint choose_light(uint n_lights, float u_sel) {
     return lo;
 }
 
-// src/math/geometry.rs `sample_triangle`: a point uniform by area, the unit
+// src/math/triangle.rs `sample_triangle`: a point uniform by area, the unit
 // geometric normal and the area.
 void sample_triangle(Triangle t, vec2 u, out vec3 p, out vec3 n, out float area) {
     float su = sqrt(u.x);
@@ -425,6 +428,8 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
     uint n_lights = SCENE_LIGHTS == 1u ? 1u : params.num_lights;
     if (n_lights == 0u) return false;
     Light light = lights[choose_light(n_lights, u_sel)];
+    ls.delta = false;
+    if (SCENE_DELTA && light.kind >= LIGHT_DISTANT) return sample_delta_light(light, p, ls);
     // The image environment: a direction to infinity, nothing skipped.
     if (scene_has_light(LIGHT_ENV) && light.kind == LIGHT_ENV) {
         float pdf_env;

@@ -423,7 +423,8 @@ float light_sample(Hit hit, Bsdf bsdf, vec3 n, vec3 ns, mat3 frame, vec3 wo_loca
 #if GUIDED
                 if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_bin_pdf(frame, wo_local, bsdf, row, bin_index(ls.wi)));
 #endif
-                float w = mis_weight(ls.pdf, pdf_mix, power);
+                // A delta light is reached by no BSDF-sampled ray: weight 1.
+                float w = (SCENE_DELTA && ls.delta) ? 1.0 : mis_weight(ls.pdf, pdf_mix, power);
                 radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
                 if (MIS_TARGETS && learn) nee_here = mean3(f * abs(wi_local.z) * ls.le * (w / ls.pdf));
             }

@@ -14,5 +14,6 @@ layout(std430, set = 0, binding = BINDING_BVH_NODES) readonly buffer BvhNodes { 
 layout(std430, set = 0, binding = BINDING_PRIM_REFS) readonly buffer PrimRefs { uint prim_refs[]; };
 layout(std430, set = 0, binding = BINDING_ENV_TEXELS) readonly buffer EnvTexels { vec4 env_texels[]; };
 layout(std430, set = 0, binding = BINDING_ENV_CDF) readonly buffer EnvCdf { float env_cdf[]; };
+layout(std430, set = 0, binding = BINDING_DELTA_LIGHTS) readonly buffer DeltaLights { DeltaLight delta_lights[]; };
 
 #endif

@@ -192,6 +192,20 @@ pub struct GpuLight {
     pub cdf: f32,
 }
 
+/// A delta light (`glsl/common.glsl` `DeltaLight`; `crate::math::delta`):
+/// a distant light's unit direction towards it and radiance, or a point's or
+/// a spot's position and intensity, with a spot's axis and cone cosines.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuDeltaLight {
+    /// xyz: the point, or the unit direction towards a distant light; w: a spot's cos of its full-intensity cone.
+    pub position_cos_start: [f32; 4],
+    /// xyz: intensity (point, spot) or radiance (distant); w: a spot's cos of its cone's edge.
+    pub intensity_cos_end: [f32; 4],
+    /// xyz: a spot's unit axis.
+    pub axis: [f32; 4],
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct RenderParams {
@@ -268,6 +282,7 @@ const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuQuad>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
+const _: () = assert!(std::mem::size_of::<GpuDeltaLight>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuTriangleNormals>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
@@ -384,6 +399,8 @@ pub struct SceneArrays {
     pub triangle_uvs: Vec<GpuTriangleUvs>,
     /// Per sphere its UV frame, where the scene has textures; else empty.
     pub sphere_uvs: Vec<GpuSphereUv>,
+    /// The delta lights, indexed by their [`GpuLight::index`]; empty where there are none.
+    pub delta_lights: Vec<GpuDeltaLight>,
 }
 
 impl SceneArrays {
@@ -407,6 +424,7 @@ impl SceneArrays {
             texels: vec![],
             triangle_uvs: vec![],
             sphere_uvs: vec![],
+            delta_lights: vec![],
         }
     }
 }

@@ -262,7 +262,10 @@ fn scenes_and_cameras_that_cannot_show_light_are_warned_about() {
         ])
     };
     let (ok, err) = render(&dark);
-    assert!(ok && err.contains("no sphere, quad or mesh triangle emits light and the environment is black"), "{err}");
+    assert!(
+        ok && err.contains("no sphere, quad, mesh triangle or delta light emits light and the environment is black"),
+        "{err}"
+    );
     let (ok, err) = render(&inside);
     assert!(ok && err.contains("every pixel of") && err.contains("is black"), "{err}");
     assert!(!err.contains("emits light and the environment is black"), "{err}");

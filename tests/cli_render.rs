@@ -248,7 +248,7 @@ fn info_prints_the_meshes_lights_and_bvh_of_a_scene() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The OBJ's 16 quads, fanned into 32 triangles; the lamp's two are the lights.
     assert!(text.contains("cornell-box.obj: 32 triangles, 64 vertices, flat"), "{text}");
-    assert!(text.contains("lights: 2 (0 spheres, 0 quads, 2 triangles)"), "{text}");
+    assert!(text.contains("lights: 2 (0 spheres, 0 quads, 2 triangles, 0 distant, 0 point, 0 spot)"), "{text}");
     assert!(text.contains("BVH: ") && text.contains("32 primitive refs"), "{text}");
     assert!(text.contains("cornell-box/light: Diffuse") && text.contains("emission [17, 12, 4]"), "{text}");
     assert!(text.contains("mapped cornell-box/light: MTL `light`: diffuse") && text.contains("from Ke"), "{text}");

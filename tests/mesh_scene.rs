@@ -103,7 +103,7 @@ fn a_mesh_brings_its_materials_and_lights_the_scene() {
     assert_eq!(scene.meshes[0].materials, vec![0, 0]);
     assert!(!scene.emits_light());
     let warning = no_light_warning(&scene).unwrap();
-    assert!(warning.contains("no sphere, quad or mesh triangle emits light"), "{warning}");
+    assert!(warning.contains("no sphere, quad, mesh triangle or delta light emits light"), "{warning}");
 }
 
 #[test]

@@ -133,7 +133,11 @@ fn cli_info_prints_the_mapping_and_strict_refuses() {
 #[test]
 fn cli_render_prints_the_notes_and_strict_renders_nothing() {
     let d = fresh_dir("cli-render");
-    let p = write(&d, "scene.pbrt", format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"point\"\n{TRIANGLE}"));
+    let p = write(
+        &d,
+        "scene.pbrt",
+        format!("WorldBegin\nLightSource \"infinite\"\nLightSource \"goniometric\"\n{TRIANGLE}"),
+    );
     let out = d.join("out.png");
     let run = |strict: bool| {
         let mut c = common::cli::rlpt();
@@ -149,12 +153,12 @@ fn cli_render_prints_the_notes_and_strict_renders_nothing() {
     };
     let (ok, stderr) = run(false);
     assert!(
-        ok && stderr.contains("note: ") && stderr.contains("scene.pbrt:3: LightSource \"point\" dropped"),
+        ok && stderr.contains("note: ") && stderr.contains("scene.pbrt:3: LightSource \"goniometric\" dropped"),
         "{stderr}"
     );
     assert!(out.is_file());
     std::fs::remove_file(&out).unwrap();
     let (ok, stderr) = run(true);
-    assert!(!ok && stderr.contains("scene.pbrt:3:1: LightSource \"point\" dropped"), "{stderr}");
+    assert!(!ok && stderr.contains("scene.pbrt:3:1: LightSource \"goniometric\" dropped"), "{stderr}");
     assert!(!out.exists(), "nothing rendered under --strict");
 }

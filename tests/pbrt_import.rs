@@ -329,16 +329,16 @@ fn one_sided_emission_faces_where_pbrt_emits() {
 }
 
 #[test]
-fn lights_environment_and_dropped_delta_lights() {
+fn lights_environment_and_dropped_goniometric_and_projection_lights() {
     let s = load(
         "infinite",
         &format!(
             "WorldBegin\nLightSource \"infinite\" \"rgb L\" [0.5 0.25 0.125] \"float scale\" 2\n\
-             LightSource \"point\" \"rgb I\" [1 1 1]\nLightSource \"spot\"\nLightSource \"distant\"\n{TRIANGLE}"
+             LightSource \"goniometric\"\nLightSource \"projection\"\n{TRIANGLE}"
         ),
     );
     assert_eq!(s.environment, Vec3::new(1.0, 0.5, 0.25));
-    for ty in ["point", "spot", "distant"] {
+    for ty in ["goniometric", "projection"] {
         assert!(note(&s, &format!("LightSource \"{ty}\" dropped")).contains("scene.pbrt:"));
     }
     let s = load(

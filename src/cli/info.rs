@@ -127,14 +127,20 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         None => v(scene.environment),
     };
     println!(
-        "  lights: {} ({} spheres, {} quads, {} triangles{}); environment {}",
+        "  lights: {} ({} spheres, {} quads, {} triangles, {} distant, {} point, {} spot{}); environment {}",
         prepared.lights.len(),
         count(shared::LIGHT_SPHERE),
         count(shared::LIGHT_QUAD),
         count(shared::LIGHT_TRIANGLE),
+        count(shared::LIGHT_DISTANT),
+        count(shared::LIGHT_POINT),
+        count(shared::LIGHT_SPOT),
         if count(shared::LIGHT_ENV) > 0 { ", the image environment" } else { "" },
         environment
     );
+    for l in &scene.delta_lights {
+        println!("    {l:?}");
+    }
     if let Some((lo, hi)) = bounds(&prepared) {
         println!("  bounds {} to {}", v(lo), v(hi));
     }

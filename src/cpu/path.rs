@@ -373,7 +373,8 @@ fn light_sample(
                 } else {
                     pb
                 };
-                let w = mis_weight(ls.pdf, pdf, s.power);
+                // A delta light is reached by no BSDF-sampled ray: weight 1.
+                let w = if ls.delta { 1.0 } else { mis_weight(ls.pdf, pdf, s.power) };
                 path.radiance += path.beta * f * wi_local.z.abs() * ls.le * (w / ls.pdf);
                 if s.mis_targets {
                     nee_here = mean3(f * wi_local.z.abs() * ls.le * (w / ls.pdf));

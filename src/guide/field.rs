@@ -52,6 +52,10 @@ pub fn scene_hash(scene: &SceneArrays) -> u64 {
     eat(bytemuck::cast_slice(&scene.quads));
     eat(bytemuck::cast_slice(&scene.triangles));
     eat(bytemuck::cast_slice(&scene.lights));
+    // Only where there are any, so that the hashes of scenes without them stay as they were.
+    if !scene.delta_lights.is_empty() {
+        eat(bytemuck::cast_slice(&scene.delta_lights));
+    }
     eat(bytemuck::bytes_of(&scene.params.environment));
     h
 }

@@ -479,8 +479,11 @@ pub struct LightSample {
     pub skip: u32,
     /// Emitted radiance towards the shading point (zero if it sees the back of a one-sided light).
     pub le: Vec3,
-    /// Solid-angle density at the shading point, including the choice of the light.
+    /// Solid-angle density at the shading point, including the choice of the
+    /// light; a delta light's pmf alone (`delta`).
     pub pdf: f32,
+    /// A delta light's sample ([`super::delta`]): no MIS weight against BSDF sampling.
+    pub delta: bool,
 }
 
 /// The shadow ray of a light sample from a shading point (`p`, geometric normal
@@ -522,13 +525,16 @@ pub fn emitted(scene: &SceneArrays, mat: u32, n: Vec3, w: Vec3) -> Vec3 {
 /// Chooses a light by power with `u_sel` and samples a point on it with `u`:
 /// spheres seen from outside by the cone of directions they subtend, spheres
 /// from inside, quads and triangles uniformly by area, the image environment by
-/// its map (`crate::math::envmap`).
+/// its map (`crate::math::envmap`), a delta light's one direction ([`super::delta`]).
 pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
     let n_lights = scene.lights.len();
     if n_lights == 0 {
         return None;
     }
     let light = &scene.lights[choose_light(scene, u_sel)];
+    if light.kind >= shared::LIGHT_DISTANT {
+        return super::delta::sample_delta_light(scene, light, p);
+    }
     // The image environment: a direction to infinity, nothing skipped.
     if light.kind == shared::LIGHT_ENV {
         let (wi, le, pdf_env) = super::envmap::env_sample(scene, u)?;
@@ -540,6 +546,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
             skip: shared::NO_PRIM,
             le,
             pdf,
+            delta: false,
         });
     }
     // The shadow ray's end and what it skips (see `LightSample::end`): the point
@@ -603,7 +610,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
     } else {
         let tri = &scene.triangles[light.index as usize];
         let [v0, v1, v2] = tri.vertices();
-        let (lp, n, area) = sample_triangle(v0, v1, v2, u);
+        let (lp, n, area) = super::triangle::sample_triangle(v0, v1, v2, u);
         let d = lp - p;
         let d2 = d.length_squared();
         let cos_l = n.dot(d).abs() / d2.sqrt();
@@ -625,19 +632,7 @@ pub fn sample_light(scene: &SceneArrays, p: Vec3, u_sel: f32, u: [f32; 2]) -> Op
         return None;
     }
     let end = if area_eps > 0.0 { offset_origin(lp, ln, area_eps, -wi) } else { lp };
-    Some(LightSample { wi, dist, end, skip, le, pdf })
-}
-
-/// A point uniform by area on the triangle (v0, v1, v2) from `u` (the square
-/// root warp, pbrt's `SampleUniformTriangle`), its unit geometric normal and the
-/// triangle's area. `glsl/geometry.glsl` `sample_triangle`.
-pub fn sample_triangle(v0: Vec3, v1: Vec3, v2: Vec3, u: [f32; 2]) -> (Vec3, Vec3, f32) {
-    let su = u[0].sqrt();
-    let (b0, b1) = (1.0 - su, u[1] * su);
-    let p = b0 * v0 + b1 * v1 + (1.0 - b0 - b1) * v2;
-    let c = (v1 - v0).cross(v2 - v0);
-    let len = c.length();
-    (p, c / len, 0.5 * len)
+    Some(LightSample { wi, dist, end, skip, le, pdf, delta: false })
 }
 
 /// The density with which `sample_light`, called at `p`, picks the direction `w`

@@ -4,6 +4,7 @@
 
 pub mod bsdf;
 pub mod bvh;
+pub mod delta;
 pub mod envmap;
 pub mod geometry;
 pub mod rng;

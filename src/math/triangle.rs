@@ -102,6 +102,18 @@ pub fn triangle_blocks(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3, t_max: f3
     intersect_triangle(v0, v1, v2, o, d, t_max).is_some()
 }
 
+/// A point uniform by area on the triangle (v0, v1, v2) from `u` (the square
+/// root warp, pbrt's `SampleUniformTriangle`), its unit geometric normal and the
+/// triangle's area. `glsl/geometry.glsl` `sample_triangle`.
+pub fn sample_triangle(v0: Vec3, v1: Vec3, v2: Vec3, u: [f32; 2]) -> (Vec3, Vec3, f32) {
+    let su = u[0].sqrt();
+    let (b0, b1) = (1.0 - su, u[1] * su);
+    let p = b0 * v0 + b1 * v1 + (1.0 - b0 - b1) * v2;
+    let c = (v1 - v0).cross(v2 - v0);
+    let len = c.length();
+    (p, c / len, 0.5 * len)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

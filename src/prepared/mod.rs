@@ -141,6 +141,16 @@ impl PreparedScene {
     /// is out of range ([`RenderOptions::check`]).
     pub fn new(scene: &Scene, opts: &RenderOptions) -> Result<PreparedScene, OptionError> {
         opts.check()?;
+        if !opts.nee && !scene.delta_lights.is_empty() {
+            return Err(OptionError {
+                option: "nee",
+                value: "off".into(),
+                expected: format!(
+                    "it must be on, as the scene's {} distant, point or spot lights are reached only by next-event estimation",
+                    scene.delta_lights.len()
+                ),
+            });
+        }
         let mut materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -216,11 +226,13 @@ impl PreparedScene {
             .collect();
         let (triangles, triangle_normals, triangle_uvs) =
             mesh_triangles(scene, &mut lights, &mut powers, &power, !textures.is_empty());
+        let delta_lights = delta_lights(scene, &spheres, &quads, &triangles, &mut lights, &mut powers);
         let bvh = uses_bvh(scene);
         // Without a BVH, the quads that can block a shadow ray first, the room's
         // walls last; lights follow their quads. The BVH tests every primitive.
         // A shadow ray to the image environment leaves the scene: every quad may block it.
-        let all_quads = bvh || scene.environment_map.is_some();
+        // So may one to a delta light, which need lie on no surface (a distant one's leaves too).
+        let all_quads = bvh || scene.environment_map.is_some() || !delta_lights.is_empty();
         let (mut order, occluding_quads) = if all_quads {
             ((0..scene.quads.len()).collect(), scene.quads.len() as u32)
         } else {
@@ -374,6 +386,7 @@ impl PreparedScene {
                 texels,
                 triangle_uvs,
                 sphere_uvs,
+                delta_lights,
             },
             guide: None,
             guide_start: None,
@@ -465,3 +478,31 @@ fn set_grid(p: &mut RenderParams, cfg: &GuideConfig) {
 
 #[cfg(test)]
 mod tests;
+
+/// The scene's delta lights for `delta_lights[]`, each appended to `lights` with
+/// its power (`crate::math::delta::delta_power`; a distant light's from the
+/// bounding sphere of the primitives' box).
+fn delta_lights(
+    scene: &Scene,
+    spheres: &[GpuSphere],
+    quads: &[GpuQuad],
+    triangles: &[crate::layout::GpuTriangle],
+    lights: &mut Vec<GpuLight>,
+    powers: &mut Vec<f64>,
+) -> Vec<crate::layout::GpuDeltaLight> {
+    if scene.delta_lights.is_empty() {
+        return Vec::new();
+    }
+    let boxes = meshes::prim_boxes(spheres, quads, triangles);
+    let lo = boxes.iter().fold(glam::DVec3::INFINITY, |a, b| a.min(b.lo.as_dvec3()));
+    let hi = boxes.iter().fold(glam::DVec3::NEG_INFINITY, |a, b| a.max(b.hi.as_dvec3()));
+    let radius = if boxes.is_empty() { 0.0 } else { 0.5 * (hi - lo).length() };
+    let mut out = Vec::new();
+    for l in &scene.delta_lights {
+        let (kind, gpu) = crate::math::delta::gpu_delta_light(l);
+        lights.push(GpuLight { kind, index: out.len() as u32, pmf: 0.0, cdf: 0.0 });
+        powers.push(crate::math::delta::delta_power(l, radius));
+        out.push(gpu);
+    }
+    out
+}

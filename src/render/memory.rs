@@ -20,7 +20,7 @@ pub(super) fn mb(bytes: u64) -> u64 {
 }
 
 /// Bytes of the device-local scene data: triangles, shading normals, BVH nodes
-/// and refs, the image environment, the textures and the triangles' UVs.
+/// and refs, the image environment, the textures the triangles' UVs and the delta lights.
 pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
     (std::mem::size_of_val(scene.triangles.as_slice())
         + std::mem::size_of_val(scene.triangle_normals.as_slice())
@@ -31,7 +31,8 @@ pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
         + std::mem::size_of_val(scene.textures.as_slice())
         + std::mem::size_of_val(scene.texels.as_slice())
         + std::mem::size_of_val(scene.triangle_uvs.as_slice())
-        + std::mem::size_of_val(scene.sphere_uvs.as_slice())) as u64
+        + std::mem::size_of_val(scene.sphere_uvs.as_slice())
+        + std::mem::size_of_val(scene.delta_lights.as_slice())) as u64
 }
 
 /// The device memory a render of `scene` takes, against what `ctx`'s device has:

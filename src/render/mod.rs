@@ -179,7 +179,7 @@ fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
 }
 
 /// The bindings of the meshes and the BVH, in the order of [`geometry_buffers`].
-const GEOMETRY_BINDINGS: [u32; 10] = [
+const GEOMETRY_BINDINGS: [u32; 11] = [
     shared::BINDING_TRIANGLES,
     shared::BINDING_TRIANGLE_NORMALS,
     shared::BINDING_BVH_NODES,
@@ -190,6 +190,7 @@ const GEOMETRY_BINDINGS: [u32; 10] = [
     shared::BINDING_TEXELS,
     shared::BINDING_TRIANGLE_UVS,
     shared::BINDING_SPHERE_UVS,
+    shared::BINDING_DELTA_LIGHTS,
 ];
 
 /// The meshes and the BVH on the device (the path tracer's and `raycast`'s):
@@ -206,6 +207,7 @@ fn geometry_buffers(ctx: &Arc<Context>, scene: &crate::layout::SceneArrays) -> R
         Buffer::device_with_data(ctx, "texels", bytes(&scene.texels))?,
         Buffer::device_with_data(ctx, "triangle UVs", bytes(&scene.triangle_uvs))?,
         Buffer::device_with_data(ctx, "sphere UVs", bytes(&scene.sphere_uvs))?,
+        Buffer::device_with_data(ctx, "delta lights", bytes(&scene.delta_lights))?,
     ])
 }
 

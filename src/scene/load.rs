@@ -216,6 +216,7 @@ fn parse_named(text: &str, name: &str, base: &Path) -> Result<Scene, SceneError>
         material_mappings,
         guiding,
         textures: Vec::new(),
+        delta_lights: Vec::new(),
     };
     super::texture::load_textures(&mut scene)?;
     Ok(scene)

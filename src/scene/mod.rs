@@ -306,6 +306,22 @@ pub struct Scene {
     pub guiding: GuidingSettings,
     /// The images the materials' textures read, decoded ([`texture::load_textures`]).
     pub textures: Vec<TextureImage>,
+    /// Distant, point and spot lights (from pbrt files; `crate::math::delta`).
+    pub delta_lights: Vec<DeltaLight>,
+}
+
+/// A light without geometry, reached only by next-event estimation
+/// (docs/correctness.md, "Delta lights"; `crate::math::delta`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum DeltaLight {
+    /// Light from one direction: `to_light` (unit) points towards it; `radiance`
+    /// is pbrt's L, the irradiance on a surface facing it.
+    Distant { to_light: Vec3, radiance: Vec3 },
+    /// An isotropic point of `intensity` (W/sr per channel).
+    Point { position: Vec3, intensity: Vec3 },
+    /// A point shining along the unit `axis`: full `intensity` within the cone of
+    /// cosine `cos_start`, falling off (pbrt-v4's smoothstep) to 0 at `cos_end`.
+    Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_start: f32, cos_end: f32 },
 }
 
 impl Scene {
@@ -349,7 +365,7 @@ impl Scene {
     }
 
     /// Whether anything gives light: a sphere, quad or mesh triangle whose
-    /// material emits, or the environment. A scene without renders black, which
+    /// material emits, a delta light of some intensity, or the environment. A scene without renders black, which
     /// a loader cannot call wrong (a test may want it) but a user should hear about.
     pub fn emits_light(&self) -> bool {
         self.environment.max_element() > 0.0
@@ -357,6 +373,7 @@ impl Scene {
             || self.spheres.iter().any(|s| self.material_emits(s.material))
             || self.quads.iter().any(|q| self.material_emits(q.material))
             || self.meshes.iter().any(|m| m.materials.iter().any(|&i| self.material_emits(i)))
+            || self.delta_lights.iter().any(|l| crate::math::delta::delta_power(l, 1.0) > 0.0)
     }
 }
 
@@ -364,7 +381,7 @@ impl Scene {
 pub fn no_light_warning(scene: &Scene) -> Option<String> {
     (!scene.emits_light()).then(|| {
         format!(
-            "{}: no sphere, quad or mesh triangle emits light and the environment is black: the image will be black",
+            "{}: no sphere, quad, mesh triangle or delta light emits light and the environment is black: the image will be black",
             scene.source.display()
         )
     })

@@ -7,6 +7,7 @@
 mod camera;
 mod images;
 mod lexer;
+mod lights;
 mod material;
 mod mix;
 mod params;
@@ -500,7 +501,8 @@ impl Importer {
         // pbrt's fov spans the shorter image side; rlpt's is vertical.
         let vfov = if w >= h { fov } else { 2.0 * ((fov.to_radians() / 2.0).tan() * h / w).atan().to_degrees() };
         let camera = Camera { position: Vec3::ZERO, forward: Vec3::Z, up: Vec3::Y, vfov_deg: vfov as f32, near: 0.0 };
-        let shapes::Output { materials, spheres, meshes, mut environment, mut environment_map, .. } = self.out;
+        let shapes::Output { materials, spheres, meshes, mut environment, mut environment_map, delta_lights, .. } =
+            self.out;
         // A uniform `infinite` light beside an image one: added to its texels.
         if let Some(map) = environment_map.as_mut() {
             for t in &mut map.texels {
@@ -530,6 +532,7 @@ impl Importer {
             material_mappings: mappings,
             guiding: GuidingSettings::default(),
             textures: Vec::new(),
+            delta_lights,
         };
         crate::scene::texture::load_textures(&mut scene)?;
         Ok(scene)

@@ -34,6 +34,8 @@ pub(super) struct Output {
     pub keys: HashMap<(usize, [u32; 3], bool), u32>,
     /// PLY files read, by resolved path (instances read theirs once).
     pub files: HashMap<PathBuf, MeshFile>,
+    /// `distant`, `point` and `spot` lights, in rlpt's space.
+    pub delta_lights: Vec<crate::scene::DeltaLight>,
 }
 
 impl Importer {
@@ -279,8 +281,8 @@ impl Importer {
         Ok(map)
     }
 
-    /// `LightSource`: `infinite` becomes the uniform environment; delta lights
-    /// are dropped with a note (rlpt has none yet).
+    /// `LightSource`: `infinite` becomes the environment; `distant`, `point` and
+    /// `spot` delta lights (lights.rs); goniometric and projection lights are dropped with a note.
     pub(super) fn light(&mut self, ty: &str, p: &Params, loc: &Loc) -> Result<(), SceneError> {
         match ty {
             "infinite" => {
@@ -336,9 +338,10 @@ impl Importer {
                 }
                 Ok(())
             }
-            "distant" | "point" | "spot" | "goniometric" | "projection" => self.notes.approximated(
+            "distant" | "point" | "spot" => self.delta_light(ty, p, loc),
+            "goniometric" | "projection" => self.notes.approximated(
                 loc,
-                format!("LightSource \"{ty}\" dropped (rlpt has no point, spot or distant lights yet)"),
+                format!("LightSource \"{ty}\" dropped (rlpt has no goniometric or projection lights)"),
             ),
             _ => Err(loc.error(format!(
                 "unknown light \"{ty}\"; expected infinite, distant, point, spot, goniometric or projection"
