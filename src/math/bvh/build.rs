@@ -90,7 +90,7 @@ impl MergeBin for SpatialBin {
 /// `a` with each of `b`'s bins merged into its own, axis by axis.
 fn merge_bins<B: MergeBin, const AXES: usize>(
     mut a: Box<[[B; BINS]; AXES]>,
-    b: Box<[[B; BINS]; AXES]>,
+    b: &[[B; BINS]; AXES],
 ) -> Box<[[B; BINS]; AXES]> {
     for (aa, ba) in a.iter_mut().zip(b.iter()) {
         for (x, y) in aa.iter_mut().zip(ba.iter()) {
@@ -223,7 +223,7 @@ fn object_split(items: &[Item], cb: &Aabb, node_area: f32) -> Option<(Split, Obj
             }
             bins
         },
-        merge_bins::<Bin, OBJECT_AXES>,
+        |a, b| merge_bins(a, &b),
     );
     let mut best: Option<Split> = None;
     for (axis, bins) in bins.iter().enumerate() {
@@ -334,7 +334,7 @@ fn spatial_split(prims: &[PrimBox], items: &[Item], nb: &Aabb) -> Option<Split> 
             }
             bins
         },
-        merge_bins::<SpatialBin, 3>,
+        |a, b| merge_bins(a, &b),
     );
     let mut best: Option<Split> = None;
     for (axis, bins) in bins.iter().enumerate() {
