@@ -324,6 +324,19 @@ pub enum DeltaLight {
     Spot { position: Vec3, axis: Vec3, intensity: Vec3, cos_start: f32, cos_end: f32 },
 }
 
+impl DeltaLight {
+    /// Whether it gives any light: some channel of its radiance or intensity
+    /// above 0, and a spot's cone open.
+    pub fn emits(&self) -> bool {
+        let some = |c: Vec3| c.max_element() > 0.0;
+        match *self {
+            DeltaLight::Distant { radiance, .. } => some(radiance),
+            DeltaLight::Point { intensity, .. } => some(intensity),
+            DeltaLight::Spot { intensity, cos_end, .. } => some(intensity) && cos_end < 1.0,
+        }
+    }
+}
+
 impl Scene {
     /// Reads and validates a scene file: TOML, or a pbrt file (`.pbrt`, see
     /// `docs/pbrt.md`) whose approximations become notes.
@@ -373,7 +386,7 @@ impl Scene {
             || self.spheres.iter().any(|s| self.material_emits(s.material))
             || self.quads.iter().any(|q| self.material_emits(q.material))
             || self.meshes.iter().any(|m| m.materials.iter().any(|&i| self.material_emits(i)))
-            || self.delta_lights.iter().any(|l| crate::math::delta::delta_power(l, 1.0) > 0.0)
+            || self.delta_lights.iter().any(DeltaLight::emits)
     }
 }
 
