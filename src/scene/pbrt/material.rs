@@ -369,21 +369,27 @@ const SMOOTH_ALPHA: f64 = 1e-3;
 /// still call smooth.
 const SMOOTH_BASE_ROUGHNESS: f32 = 0.0316;
 
+/// An index of refraction `given` as a float, or as a spectrum (its first
+/// channel, the dispersion dropped with a note); pbrt's 1.5 where not given.
+fn index_of(r: &mut Reader<'_>, given: Option<Param>) -> Result<f32, SceneError> {
+    Ok(match given {
+        None => 1.5,
+        Some(p) if p.ty == "float" => p.numbers_n(1)?[0] as f32,
+        Some(p) => {
+            let v = r.spectrum(&p)?;
+            r.note(format!("{}: dispersion dropped, index {}", p.label(), v.x))?;
+            v.x
+        }
+    })
+}
+
 /// pbrt-v4's `coatedconductor`: rlpt's coated material over a conductor base, the
 /// coat of `interface.eta` and `interface.roughness` (smooth at 0), the base of
 /// `conductor.eta`/`conductor.k` or `reflectance` and `conductor.roughness`
 /// (a roughness texture read per hit); what it approximates is noted.
 fn coated_conductor(r: &mut Reader<'_>) -> Result<(Material, String), SceneError> {
-    let ior = match r.params.get("interface.eta", &["float", "spectrum"]) {
-        None => 1.5,
-        Some(p) if p.ty == "float" => p.numbers_n(1)?[0] as f32,
-        Some(p) => {
-            let p = p.clone();
-            let v = r.spectrum(&p)?;
-            r.note(format!("{}: dispersion dropped, index {}", p.label(), v.x))?;
-            v.x
-        }
-    };
+    let given = r.params.get("interface.eta", &["float", "spectrum"]).cloned();
+    let ior = index_of(r, given)?;
     if !(1.0..=100.0).contains(&ior) {
         return Err(r.loc.error(format!("{}: interface.eta {ior} must be from 1 to 100 for a coat", r.what)));
     }
@@ -465,16 +471,9 @@ pub(crate) fn map(ty: &str, r: &mut Reader<'_>) -> Result<Mapped, SceneError> {
             (m, how)
         }
         "dielectric" | "glass" | "thindielectric" => {
-            let eta = match r.params.get("eta", &["float", "spectrum"]).or_else(|| r.params.get("index", &["float"])) {
-                None => 1.5,
-                Some(p) if p.ty == "float" => p.numbers_n(1)?[0] as f32,
-                Some(p) => {
-                    let p = p.clone();
-                    let v = r.spectrum(&p)?;
-                    r.note(format!("{}: dispersion dropped, index {}", p.label(), v.x))?;
-                    v.x
-                }
-            };
+            let given =
+                r.params.get("eta", &["float", "spectrum"]).or_else(|| r.params.get("index", &["float"])).cloned();
+            let eta = index_of(r, given)?;
             if eta < 1.0 {
                 return Err(r.loc.error(format!("{}: eta {eta} below 1; rlpt's dielectrics need eta >= 1", r.what)));
             }
