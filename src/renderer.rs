@@ -84,6 +84,13 @@ pub trait Renderer {
     fn timestamps(&self) -> bool;
     /// The learned table, None without guiding.
     fn table(&self) -> Result<Option<QTable>, GpuError>;
+    /// Folds the targets recorded since the table last learned into it and
+    /// rebuilds its rows, so that a table saved after the render holds every
+    /// frame's targets (the schedule learns only after some frames). Nothing
+    /// without guiding.
+    fn learn_pending(&mut self) -> Result<(), GpuError> {
+        Ok(())
+    }
 }
 
 /// In an `impl Renderer` of a renderer that wraps another, `$inner` (an
@@ -121,6 +128,9 @@ impl<R: Renderer + ?Sized> Renderer for &mut R {
     }
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         (**self).render_round(max, time_left_ms)
+    }
+    fn learn_pending(&mut self) -> Result<(), GpuError> {
+        (**self).learn_pending()
     }
     forward_renderer_queries!(self => (**self));
 }

@@ -60,6 +60,10 @@ impl Renderer for CpuRenderer {
     fn image_spp(&self) -> u32 {
         CpuRenderer::film(self).samples_per_pixel() as u32
     }
+    fn learn_pending(&mut self) -> Result<(), GpuError> {
+        CpuRenderer::learn_pending(self);
+        Ok(())
+    }
     fn film(&self) -> Result<Film, GpuError> {
         Ok(CpuRenderer::film(self).clone())
     }
@@ -87,6 +91,9 @@ impl Renderer for GpuRenderer {
     }
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         GpuRenderer::render_round(self, max, time_left_ms)
+    }
+    fn learn_pending(&mut self) -> Result<(), GpuError> {
+        GpuRenderer::learn_pending(self)
     }
     fn image_frames(&self) -> u32 {
         self.frames()

@@ -156,3 +156,39 @@ fn fields_that_do_not_fit_are_refused_with_the_reason() {
     assert!(e.contains("cannot read the learned field") && e.contains("missing.qtab"), "{e}");
     drop(prepared);
 }
+
+/// The targets recorded after the table last learned reach it when the render
+/// asks (`Renderer::learn_pending`, which `--guide-out` calls before saving): a
+/// 40x24 door learns after its first 8 frames and then once in 128, so after 12
+/// frames the last 4 frames' targets wait; the pass folds them in (more visits,
+/// Q moved), and a second pass finds nothing left. On the CPU and the GPU.
+#[test]
+fn a_saved_field_holds_the_targets_after_the_last_pass() {
+    let scene = scene("door.toml");
+    let prepared = PreparedScene::new(&scene, &guided(&scene, 40, 24)).unwrap();
+    let visits = |t: &QTable| t.visits.iter().map(|&v| v as u64).sum::<u64>();
+    let check = |what: &str, before: QTable, after: QTable, again: QTable| {
+        assert!(visits(&after) > visits(&before), "{what}: no pending target was folded in");
+        assert!(after.q != before.q, "{what}: Q did not move");
+        assert_eq!(visits(&again), visits(&after), "{what}: a second pass found targets");
+        assert!(again.q == after.q, "{what}: a second pass moved Q");
+    };
+    let mut cpu = CpuRenderer::new(&prepared);
+    for _ in 0..12 {
+        cpu.render_frame();
+    }
+    let before = cpu.table().unwrap().clone();
+    cpu.learn_pending();
+    let after = cpu.table().unwrap().clone();
+    cpu.learn_pending();
+    check("CPU", before, after, cpu.table().unwrap().clone());
+    let ctx = gpu();
+    let mut r = GpuRenderer::new(&ctx, &prepared).unwrap();
+    r.render_frames(12).unwrap();
+    let before = r.table().unwrap().unwrap();
+    r.learn_pending().unwrap();
+    let after = r.table().unwrap().unwrap();
+    r.learn_pending().unwrap();
+    check("GPU", before, after, r.table().unwrap().unwrap());
+    assert_no_validation_messages(&ctx);
+}

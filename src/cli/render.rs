@@ -246,6 +246,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let gpu_ms_total = session.elapsed_ms;
     let spp = session.renderer.image_spp();
     stats.frames = std::mem::take(&mut session.frames);
+    // A saved field holds every frame's targets, those after the last pass too.
+    if args.guide_out.is_some() && !matches!(stop, Stop::DeviceLost(_)) {
+        session.renderer.learn_pending()?;
+    }
     let renderer = &session.renderer;
     let film = match (film, &stop) {
         (Some(f), _) => f,

@@ -182,6 +182,16 @@ impl CpuRenderer {
         self.learning.as_ref().map(|l| &l.table)
     }
 
+    /// Folds the targets recorded since the table last learned into it and
+    /// rebuilds its rows (`crate::renderer::Renderer::learn_pending`; the GPU's
+    /// is `GpuRenderer::learn_pending`).
+    pub fn learn_pending(&mut self) {
+        if let (Some(l), Some(cfg)) = (self.learning.as_mut(), self.scene.guide.as_ref()) {
+            l.table.learn(cfg, &l.pending);
+            l.pending = FrameSums::for_config(cfg);
+        }
+    }
+
     /// Sets the random numbers' frame offset of the image's frames
     /// (`crate::math::sampler::rng_frame`), before the first frame: a part of a split
     /// render (`crate::parts`).

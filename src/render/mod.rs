@@ -554,6 +554,14 @@ impl GpuRenderer {
         Ok(Film { width: self.width, height: self.height, frames: self.accum_frames, partial_spp: 0, pixels })
     }
 
+    /// Folds the targets recorded since the table last learned into it and
+    /// rebuilds its rows: one learning pass (`crate::renderer::Renderer::learn_pending`;
+    /// the CPU's is `CpuRenderer::learn_pending`).
+    pub fn learn_pending(&mut self) -> Result<(), GpuError> {
+        let Some(l) = &self.learning else { return Ok(()) };
+        self.ctx.run_commands("learn pending targets", |cmd| l.cmd_learn(&self.ctx, cmd, |_| {}))
+    }
+
     /// The learned table (None without guiding).
     pub fn table(&self) -> Result<Option<QTable>, GpuError> {
         let Some(l) = &self.learning else { return Ok(None) };

@@ -487,6 +487,11 @@ impl Renderer for MultiGpuRenderer {
 
     /// The table every device learned at the last learning pass (the first
     /// device's), with the rows read by any device since.
+    /// Every device learns from all devices' pending sums at once.
+    fn learn_pending(&mut self) -> Result<(), GpuError> {
+        self.learn_together().map(|_| ())
+    }
+
     fn table(&self) -> Result<Option<QTable>, GpuError> {
         let mut tables = self.devices.iter().map(|d| d.r.table());
         let Some(mut table) = tables.next().ok_or_else(Self::all_lost)?? else { return Ok(None) };

@@ -122,5 +122,8 @@ impl Renderer for GpuSet {
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         self.renderer_mut().render_round(max, time_left_ms)
     }
+    fn learn_pending(&mut self) -> Result<(), GpuError> {
+        self.renderer_mut().learn_pending()
+    }
     forward_renderer_queries!(self => self.renderer());
 }
