@@ -314,24 +314,8 @@ fn a_camera_moving_out_of_the_room_turns_the_entering_test_on() {
 /// glass by both refraction and NEE (it is not a delta BSDF).
 #[test]
 fn gpu_and_cpu_agree_on_conductor_rough_glass_and_coated() {
-    let mut t = String::from(
+    let t = four_spheres_in_a_lit_box(
         r#"
-[camera]
-position = [50.0, 40.0, 200.0]
-look_at = [50.0, 35.0, 0.0]
-vfov = 45.0
-
-[render]
-width = 32
-height = 24
-spp = 64
-max_bounces = 5
-
-[[material]]
-name = "white"
-type = "diffuse"
-albedo = [0.75, 0.75, 0.75]
-
 [[material]]
 name = "gold"
 type = "conductor"
@@ -357,14 +341,10 @@ type = "coated"
 albedo = [0.7, 0.2, 0.1]
 roughness = 0.2
 ior = 1.5
-
-[[material]]
-name = "lamp"
-type = "emissive"
-emission = [12.0, 12.0, 12.0]
 "#,
+        ["gold", "copper mirror", "frosted", "paint"],
+        "white",
     );
-    four_spheres_in_a_lit_box(&mut t, ["gold", "copper mirror", "frosted", "paint"], "white");
     let scene = Scene::parse(&t, "new materials").expect("the test scene loads");
     let mut opts = options(&scene, 32, 24, 512);
     let g = gpu_unguided_and_guided_agree_with_cpu(&scene, &mut opts, [41, 42], "conductor, rough glass, coated");
@@ -372,32 +352,11 @@ emission = [12.0, 12.0, 12.0]
     assert!(mean > 0.01, "the scene renders lit (mean {mean})");
 }
 
-/// Four spheres of `materials` in a row, in a white box of floor `floor` lit by a lamp in its ceiling.
-fn four_spheres_in_a_lit_box(t: &mut String, materials: [&str; 4], floor: &str) {
-    for (x, material) in [15.0, 38.0, 62.0, 85.0].into_iter().zip(materials) {
-        *t += &format!("\n[[sphere]]\ncenter = [{x}, 12.0, 60.0]\nradius = 11.0\nmaterial = \"{material}\"\n");
-    }
-    for (origin, u, v, material) in [
-        ([0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], floor),
-        ([0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"),
-        ([0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 80.0, 0.0], "white"),
-        ([0.0, 0.0, 0.0], [0.0, 80.0, 0.0], [0.0, 0.0, 160.0], "white"),
-        ([100.0, 0.0, 0.0], [0.0, 0.0, 160.0], [0.0, 80.0, 0.0], "white"),
-        ([35.0, 79.9, 40.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0], "lamp"),
-    ] {
-        *t += &format!("\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n");
-    }
-}
-
-/// Coated conductors (aluminium under smooth coats, one tinted, gold under a
-/// rough coat) and a floor of a smooth coat over a dark diffuse base (whose light
-/// is mostly its coat's),
-/// in a lit box: the GPU kernel specialized to them (`SCENE_KIND_COATED_CONDUCTOR`,
-/// `SCENE_KIND_SMOOTH_COAT`), unguided and guided (where the smooth coat's delta
-/// lobe is chosen beside guided directions), agrees with the CPU renderer.
-#[test]
-fn gpu_and_cpu_agree_on_coated_conductors_and_smooth_coats() {
-    let mut t = String::from(
+/// A scene of `own` materials (TOML) beside "white" and "lamp": four spheres of
+/// `materials` in a row, in a white box of floor `floor` lit by a lamp in its
+/// ceiling, seen from the front at 32x24.
+fn four_spheres_in_a_lit_box(own: &str, materials: [&str; 4], floor: &str) -> String {
+    let mut t = format!(
         r#"
 [camera]
 position = [50.0, 40.0, 200.0]
@@ -415,6 +374,38 @@ name = "white"
 type = "diffuse"
 albedo = [0.75, 0.75, 0.75]
 
+[[material]]
+name = "lamp"
+type = "emissive"
+emission = [12.0, 12.0, 12.0]
+{own}"#
+    );
+    for (x, material) in [15.0, 38.0, 62.0, 85.0].into_iter().zip(materials) {
+        t += &format!("\n[[sphere]]\ncenter = [{x}, 12.0, 60.0]\nradius = 11.0\nmaterial = \"{material}\"\n");
+    }
+    for (origin, u, v, material) in [
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 160.0], [100.0, 0.0, 0.0], floor),
+        ([0.0, 80.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 160.0], "white"),
+        ([0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 80.0, 0.0], "white"),
+        ([0.0, 0.0, 0.0], [0.0, 80.0, 0.0], [0.0, 0.0, 160.0], "white"),
+        ([100.0, 0.0, 0.0], [0.0, 0.0, 160.0], [0.0, 80.0, 0.0], "white"),
+        ([35.0, 79.9, 40.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0], "lamp"),
+    ] {
+        t += &format!("\n[[quad]]\norigin = {origin:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n");
+    }
+    t
+}
+
+/// Coated conductors (aluminium under smooth coats, one tinted, gold under a
+/// rough coat) and a floor of a smooth coat over a dark diffuse base (whose light
+/// is mostly its coat's),
+/// in a lit box: the GPU kernel specialized to them (`SCENE_KIND_COATED_CONDUCTOR`,
+/// `SCENE_KIND_SMOOTH_COAT`), unguided and guided (where the smooth coat's delta
+/// lobe is chosen beside guided directions), agrees with the CPU renderer.
+#[test]
+fn gpu_and_cpu_agree_on_coated_conductors_and_smooth_coats() {
+    let t = four_spheres_in_a_lit_box(
+        r#"
 [[material]]
 name = "rim"
 type = "coated"
@@ -447,14 +438,10 @@ ior = 1.3
 eta = [1.65746, 0.880369, 0.521229]
 k = [9.22387, 6.26952, 4.837]
 base_roughness = 0.2
-
-[[material]]
-name = "lamp"
-type = "emissive"
-emission = [12.0, 12.0, 12.0]
 "#,
+        ["rim", "lacquered gold", "white", "tinted rim"],
+        "black paint",
     );
-    four_spheres_in_a_lit_box(&mut t, ["rim", "lacquered gold", "white", "tinted rim"], "black paint");
     let scene = Scene::parse(&t, "coated conductors").expect("the test scene loads");
     let mut opts = options(&scene, 32, 24, 1024);
     let prepared = rlpt::prepared::PreparedScene::new(&scene, &opts).expect("prepared");

@@ -22,9 +22,6 @@ pub struct DeviceInfo {
     pub subgroup_partitioned: bool,
     pub timestamp_period_ns: f32,
     pub timestamps: bool,
-    /// `maxComputeSharedMemorySize`: bytes of shared memory a workgroup may use
-    /// (at least 16384 on every Vulkan device).
-    pub max_compute_shared_memory: u32,
     /// `maxStorageBufferRange`: the largest storage buffer a shader can address.
     pub max_storage_buffer_range: u32,
     /// Bytes of the largest device-local memory heap: what buffers that shaders
@@ -150,7 +147,6 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
             && std::env::var("RLPT_SUBGROUP_PARTITION").map_or(true, |v| v != "0"),
         timestamp_period_ns: props.limits.timestamp_period,
         timestamps,
-        max_compute_shared_memory: props.limits.max_compute_shared_memory_size,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         device_memory,
         unified_memory,
