@@ -14,6 +14,7 @@ use crate::prepared::PreparedScene;
 use crate::shared;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
+use thread_sums::{RowSums, ThreadSums};
 
 fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
@@ -78,6 +79,7 @@ impl<'a> Guide<'a> {
 
 mod passes;
 mod path;
+mod thread_sums;
 pub use passes::pass_sample;
 pub use path::{shading_side, sides_agree, trace_path};
 
@@ -295,7 +297,7 @@ impl CpuRenderer {
             FrameEnd::Whole => {
                 let (sums, counters) = setup.trace_whole(&mut self.film.pixels, weigh, &no_sums);
                 self.pass_ms = None;
-                (sums, counters, shared::SAMPLES_PER_FRAME)
+                (sums.unwrap_or_else(no_sums), counters, shared::SAMPLES_PER_FRAME)
             }
             FrameEnd::Deadline(_) | FrameEnd::Samples(_) => {
                 let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, weigh, &no_sums);
@@ -400,31 +402,33 @@ impl FrameSetup<'_> {
     }
 
     /// Traces a whole frame into `film`, each pixel's 64 samples together, rows
-    /// in parallel; returns the targets recorded (or empty sums) and the counts.
+    /// in parallel; returns the targets recorded (None where no row recorded)
+    /// and the counts.
     fn trace_whole(
         &self,
         film: &mut [crate::layout::AccumPixel],
         weigh: bool,
         no_sums: &(dyn Fn() -> FrameSums + Sync),
-    ) -> (FrameSums, FrameCounters) {
-        film.par_chunks_mut(self.scene.params.width as usize)
+    ) -> (Option<FrameSums>, FrameCounters) {
+        let sums = ThreadSums::new(no_sums);
+        let counters = film
+            .par_chunks_mut(self.scene.params.width as usize)
             .enumerate()
-            .fold(
-                || (no_sums(), FrameCounters::default()),
-                |(mut sums, mut counters), (y, row)| {
-                    let (y, record) = (y as u32, self.records(y as u32));
-                    for (x, acc) in row.iter_mut().enumerate() {
-                        let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
-                        for sample in 0..shared::SAMPLES_PER_FRAME {
-                            let learn = record.then_some(&mut sums as &mut dyn Recorder);
-                            self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
-                        }
-                        self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
+            .map(|(y, row)| {
+                let (y, mut counters) = (y as u32, FrameCounters::default());
+                let mut slot = sums.for_row(self.records(y));
+                for (x, acc) in row.iter_mut().enumerate() {
+                    let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
+                    for sample in 0..shared::SAMPLES_PER_FRAME {
+                        let learn = slot.as_mut().map(RowSums::recorder);
+                        self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
                     }
-                    (sums, counters)
-                },
-            )
-            .reduce(|| (no_sums(), FrameCounters::default()), |(a, ca), (b, cb)| (a.merge(b), ca.plus(cb)))
+                    self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
+                }
+                counters
+            })
+            .reduce(FrameCounters::default, FrameCounters::plus);
+        (sums.into_sums(), counters)
     }
 
     /// Traces sample `sample` (0..64) of pixel (x, y) into `px`, counting its rays

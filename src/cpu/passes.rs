@@ -6,14 +6,14 @@
 //! each other a few times a frame rather than 64. The reasons are in docs/cli.md,
 //! `--time`.
 
+use super::thread_sums::{RowSums, ThreadSums};
 use super::{FrameCounters, FrameEnd, FrameSetup, PixelSums};
-use crate::guide::{FrameSums, Recorder};
+use crate::guide::FrameSums;
 use crate::layout::AccumPixel;
 use crate::math::rng::pcg_hash;
 use crate::math::sampler::hash_combine;
 use crate::shared;
 use rayon::prelude::*;
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 /// The frame's sample index (0..64) that pass `pass` traces in `pixel`: the
@@ -79,7 +79,7 @@ pub(super) fn trace_passes(
     let p = &setup.scene.params;
     let width = p.width as usize;
     let mut pixels = vec![PixelSums::default(); film.len()];
-    let slots: Vec<Mutex<Option<FrameSums>>> = (0..rayon::current_num_threads()).map(|_| Mutex::new(None)).collect();
+    let sums = ThreadSums::new(no_sums);
     let mut counters = FrameCounters::default();
     let (mut samples, mut pass_ms) = (0, None);
     let last = match end {
@@ -101,18 +101,14 @@ pub(super) fn trace_passes(
             .map(|(y, (row, accs))| {
                 let mut c = FrameCounters::default();
                 let y = y as u32;
-                // This thread's sums: no other thread takes them while it traces the row.
-                let mut slot = setup.records(y).then(|| {
-                    let i = rayon::current_thread_index().unwrap_or(0) % slots.len();
-                    slots[i].lock().unwrap_or_else(|e| e.into_inner())
-                });
+                let mut slot = sums.for_row(setup.records(y));
                 for (x, (px, acc)) in row.iter_mut().zip(accs).enumerate() {
                     let x = x as u32;
                     let (first, estimate) =
                         (first_sample(p.seed, y * p.width + x, setup.rng_frame), setup.estimate(acc));
                     for pass in passes.clone() {
                         let sample = first.wrapping_add(pass) % shared::SAMPLES_PER_FRAME;
-                        let learn = slot.as_mut().map(|s| s.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                        let learn = slot.as_mut().map(RowSums::recorder);
                         setup.trace_sample((x, y), sample, estimate, learn, px, &mut c);
                     }
                 }
@@ -136,7 +132,5 @@ pub(super) fn trace_passes(
             c
         })
         .reduce(FrameCounters::default, FrameCounters::plus);
-    let sums =
-        slots.into_iter().filter_map(|s| s.into_inner().unwrap_or_else(|e| e.into_inner())).reduce(FrameSums::merge);
-    Passes { samples, pass_ms, counters: counters.plus(finished), sums }
+    Passes { samples, pass_ms, counters: counters.plus(finished), sums: sums.into_sums() }
 }
