@@ -304,32 +304,33 @@ bool meets_light(vec3 o, vec3 d) {
 // src/math/geometry.rs `occluded`: whether anything but the primitive skip (the
 // light a shadow ray ends on; NO_PRIM for none) blocks the segment; without a
 // BVH the quads that bound the scene are not tested.
+// `skip` is compared whole with each primitive's reference (SPHERE_REF, QUAD_REF),
+// a constant in the specialized slots: no decoding of it into an index per kind.
+#define SPHERE_REF(i) (uint(PRIM_SPHERE) << PRIM_KIND_SHIFT | uint(i))
+#define QUAD_REF(i) (uint(PRIM_QUAD) << PRIM_KIND_SHIFT | uint(i))
 bool occluded(vec3 o, vec3 d, float t_max, uint skip) {
     if (SCENE_BVH) return bvh_occluded(o, d, t_max, skip);
-    uint kind = skip >> PRIM_KIND_SHIFT;
-    uint skip_sphere = kind == PRIM_SPHERE && skip != NO_PRIM ? skip & PRIM_INDEX_MASK : NO_SPHERE;
-    uint skip_quad = kind == PRIM_QUAD ? skip & PRIM_INDEX_MASK : NO_QUAD;
     vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \
-    if (i < spec_sphere_count() && i != skip_sphere && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
+    if (i < spec_sphere_count() && skip != SPHERE_REF(i) && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_SPHERE)
     uint ns = const_sphere_count();
     [[dont_unroll]] for (uint i = spec_sphere_count(); i < ns; ++i) {
-        if (i != skip_sphere && const_sphere_blocks(i, o, d, t_max)) return true;
+        if (skip != SPHERE_REF(i) && const_sphere_blocks(i, o, d, t_max)) return true;
     }
     for (uint i = ns; i < SCENE_SPHERES; ++i) {
-        if (i != skip_sphere && sphere_blocks(spheres[i], o, d, t_max)) return true;
+        if (skip != SPHERE_REF(i) && sphere_blocks(spheres[i], o, d, t_max)) return true;
     }
     uint nqs = min(OCCLUDING_QUADS, uint(SPEC_QUADS));
 #define BLOCKS_SPEC_QUAD(i) \
-    if (i < nqs && i != skip_quad && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
+    if (i < nqs && skip != QUAD_REF(i) && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_QUAD)
     uint nq = min(OCCLUDING_QUADS, uint(CONST_QUADS));
     [[dont_unroll]] for (uint i = nqs; i < nq; ++i) {
-        if (i != skip_quad && const_quad(i, o, d, t_max) > 0.0) return true;
+        if (skip != QUAD_REF(i) && const_quad(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = nq; i < OCCLUDING_QUADS; ++i) {
-        if (i != skip_quad && intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
+        if (skip != QUAD_REF(i) && intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;
 }
