@@ -6,10 +6,10 @@
 //! (its offset moves it by one), or the light point within a hit epsilon of it.
 //! There the full test's answer is rounding, and such points are measure zero.
 
-use rlpt::layout::{GpuQuad, GpuSphere};
+use rlpt::layout::{prim_ref, GpuQuad, GpuSphere};
 use rlpt::math::geometry::{
     hit_epsilon, intersect, intersect_quad, intersect_sphere, occluded, offset_origin, sample_light, shadow_ray,
-    skip_sphere_quad, sphere_blocks,
+    sphere_blocks,
 };
 use rlpt::math::rng::Rng;
 use rlpt::math::sampling::uniform_sphere;
@@ -17,12 +17,12 @@ use rlpt::math::Vec3;
 use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
 use rlpt::scene::Scene;
+use rlpt::shared::{PRIM_QUAD, PRIM_SPHERE};
 
 /// The hit test against every primitive but the light the segment ends on.
 fn occluded_by_all(scene: &PreparedScene, o: Vec3, d: Vec3, t_max: f32, skip: u32) -> bool {
-    let (skip_sphere, skip_quad) = skip_sphere_quad(skip);
-    let spheres = scene.spheres.iter().enumerate().filter(|&(i, _)| i as u32 != skip_sphere);
-    let quads = scene.quads.iter().enumerate().filter(|&(i, _)| i as u32 != skip_quad);
+    let spheres = scene.spheres.iter().enumerate().filter(|&(i, _)| prim_ref(PRIM_SPHERE, i as u32) != skip);
+    let quads = scene.quads.iter().enumerate().filter(|&(i, _)| prim_ref(PRIM_QUAD, i as u32) != skip);
     spheres.into_iter().any(|(_, s)| intersect_sphere(s, o, d, t_max).is_some())
         || quads.into_iter().any(|(_, q)| intersect_quad(q, o, d, t_max).is_some())
 }

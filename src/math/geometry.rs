@@ -399,10 +399,12 @@ pub fn occluded(scene: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip: u32) ->
     if !scene.bvh_nodes.is_empty() {
         return super::bvh::occluded(scene, o, d, t_max, skip);
     }
-    let (skip_sphere, skip_quad) = skip_sphere_quad(skip);
+    // `skip` compared whole with each primitive's reference, as the GLSL does.
     let quads = &scene.quads[..scene.params.occluding_quads as usize];
-    scene.spheres.iter().enumerate().any(|(i, s)| i as u32 != skip_sphere && sphere_blocks(s, o, d, t_max))
-        || quads.iter().enumerate().any(|(i, q)| i as u32 != skip_quad && intersect_quad(q, o, d, t_max).is_some())
+    let sphere = |i: usize| prim_ref(shared::PRIM_SPHERE, i as u32);
+    let quad = |i: usize| prim_ref(shared::PRIM_QUAD, i as u32);
+    scene.spheres.iter().enumerate().any(|(i, s)| skip != sphere(i) && sphere_blocks(s, o, d, t_max))
+        || quads.iter().enumerate().any(|(i, q)| skip != quad(i) && intersect_quad(q, o, d, t_max).is_some())
 }
 
 /// Whether the line of the ray from `o` along `d` meets a light at t > 0, by the
@@ -419,18 +421,6 @@ pub fn meets_light(scene: &SceneArrays, o: Vec3, d: Vec3) -> bool {
             super::triangle::intersect_triangle(a, b, c, o, d, f32::INFINITY).is_some()
         }
     })
-}
-
-/// The sphere and the quad a shadow ray skips, from the primitive reference
-/// [`LightSample::skip`]: `shared::NO_SPHERE` / `shared::NO_QUAD` where it is of
-/// another kind. `glsl/geometry.glsl` `occluded` computes the same inline.
-pub fn skip_sphere_quad(skip: u32) -> (u32, u32) {
-    let (kind, i) = prim_kind_index(skip);
-    match kind {
-        shared::PRIM_SPHERE if skip != shared::NO_PRIM => (i, shared::NO_QUAD),
-        shared::PRIM_QUAD => (shared::NO_SPHERE, i),
-        _ => (shared::NO_SPHERE, shared::NO_QUAD),
-    }
 }
 
 /// The index of the light `u_sel` in [0, 1) picks: the first whose cdf exceeds
