@@ -45,7 +45,16 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
         reached += 1;
         max_depth = max_depth.max(depth);
         let n = &bvh.nodes[node as usize];
-        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
+        let (mut used, mut inner) = (0, 0);
+        for k in 0..4 {
+            let (child, count, (lo, hi)) = (n.child[k], n.count[k], n.slot_box(k));
+            if child == shared::BVH_EMPTY {
+                // Empty slots come last, inverted, no ray enters them.
+                assert_eq!((count, lo, hi), (0, [f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), "an empty slot");
+                continue;
+            }
+            assert_eq!(used, k, "an empty slot before a used one");
+            used += 1;
             if child & shared::BVH_LEAF != 0 {
                 let first = (child & !shared::BVH_LEAF) as usize;
                 let refs = &bvh.prim_refs[first..first + count as usize];
@@ -55,16 +64,17 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
                 }
             } else {
                 assert_eq!(count, 0);
+                inner += 1;
                 // The child's own children lie in this box.
-                let c = &bvh.nodes[child as usize];
-                for (l, h) in [(c.a_lo, c.a_hi), (c.b_lo, c.b_hi)] {
-                    if c.a_count + c.b_count > 0 || c.a_child & shared::BVH_LEAF == 0 {
-                        assert!((0..3).all(|k| lo[k] <= l[k] && h[k] <= hi[k]) || l == h, "nested boxes");
-                    }
-                }
+                let (l, h) = bvh.nodes[child as usize].bounds();
+                assert!((0..3).all(|k| lo[k] <= l[k] && h[k] <= hi[k]), "nested boxes");
                 todo.push((child, depth + 1));
             }
         }
+        // The collapse opens interior children until there are four: fewer only
+        // where all are leaves (a root that is a leaf has one).
+        assert!(used == 4 || inner == 0, "a node of {used} children, {inner} interior");
+        assert!(used >= 2 || bvh.nodes.len() == 1, "a node of {used} children");
     }
     assert_eq!(reached, bvh.nodes.len(), "every node reached once");
     let inside = |(lo, hi): &([f32; 3], [f32; 3]), p: Vec3| (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]);
@@ -105,8 +115,8 @@ fn builds_valid_trees_for_empty_single_coincident_and_random_inputs() {
     let one = tri_boxes(&random_triangles(1, 1, 1.0));
     let b = build(&one);
     assert_eq!(b.nodes.len(), 1);
-    assert_eq!((b.nodes[0].a_child, b.nodes[0].a_count), (shared::BVH_LEAF, 1));
-    assert_eq!(b.nodes[0].b_count, 0);
+    assert_eq!((b.nodes[0].child[0], b.nodes[0].count[0]), (shared::BVH_LEAF, 1));
+    assert_eq!(b.nodes[0].child[1..], [shared::BVH_EMPTY; 3]);
     check(&b, &one);
 
     // Many copies of one triangle: their centroids coincide, one leaf holds them.
@@ -120,7 +130,7 @@ fn builds_valid_trees_for_empty_single_coincident_and_random_inputs() {
         let prims = tri_boxes(&random_triangles(n, n as u32, 0.3));
         let b = build(&prims);
         check(&b, &prims);
-        let max_leaf = b.nodes.iter().flat_map(|n| [n.a_count, n.b_count]).max().unwrap();
+        let max_leaf = b.nodes.iter().flat_map(|n| n.count).max().unwrap();
         assert!(max_leaf as usize <= MAX_LEAF, "{n}: a leaf of {max_leaf}");
     }
 }
