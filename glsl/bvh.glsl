@@ -4,6 +4,7 @@
 #define RLPT_BVH_GLSL
 #include "scene.glsl"
 #include "primitives.glsl"
+#extension GL_EXT_control_flow_attributes : require
 
 // src/math/bvh.rs `EXIT_SCALE` (a box's exit distance, scaled so that rounding,
 // the reciprocal's 2.5 ulp included, never culls a box the ray meets; Ize 2013)
@@ -186,10 +187,17 @@ bool bvh_walk(vec3 o, vec3 d, float t_max, uint skip, const bool any_hit, out fl
         vec4 enter;
         uvec4 child, count;
         bvh_children(r, bvh_nodes[node], best, enter, child, count);
-        // A leaf before may bring best nearer than the children after it (not
-        // with any_hit, whose best stays t_max, which the slab test bounds).
+        // The leaves entered, nearer first, by a mask of their slots: the leaf
+        // test is inlined once. A leaf before may bring best nearer than the
+        // children after it (not with any_hit, whose best stays t_max, which the
+        // slab test bounds).
+        uint leaves = 0u;
         for (uint k = 0u; k < 4u; ++k) {
-            if (child[k] == BVH_EMPTY || (child[k] & BVH_LEAF) == 0u) continue;
+            if (child[k] != BVH_EMPTY && (child[k] & BVH_LEAF) != 0u) leaves |= 1u << k;
+        }
+        [[dont_unroll]] while (leaves != 0u) {
+            uint k = uint(findLSB(leaves));
+            leaves &= leaves - 1u;
             if (!any_hit && enter[k] > best * BVH_EXIT_SCALE) continue;
             if (bvh_leaf(r, child[k] & ~BVH_LEAF, count[k], skip, any_hit, best, prim)) {
                 t = best;

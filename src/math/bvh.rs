@@ -15,6 +15,7 @@ use super::Vec3;
 use crate::layout::{prim_kind_index, prim_ref, GpuBvhNode, GpuQuad, GpuSphere, GpuTriangle, SceneArrays};
 use crate::shared;
 pub use build::{Tree, MAX_DEPTH, MAX_LEAF};
+use glam::Vec4;
 
 mod build;
 #[cfg(test)]
@@ -247,10 +248,10 @@ impl WalkRay {
     /// the near plane is the low one where the direction is positive, so that an
     /// inverted (empty) box is entered at +inf and left at -inf. On a box it is
     /// min and max of the two distances, rounding being monotonic.
-    fn planes(&self, lo: &[f32; 4], hi: &[f32; 4], axis: usize) -> ([f32; 4], [f32; 4]) {
-        let (o, inv) = (self.o[axis], self.inv_d[axis]);
-        let (near, far) = if inv < 0.0 { (hi, lo) } else { (lo, hi) };
-        (near.map(|x| (x - o) * inv), far.map(|x| (x - o) * inv))
+    fn planes(&self, lo: [f32; 4], hi: [f32; 4], axis: usize) -> (Vec4, Vec4) {
+        let (o, inv) = (Vec4::splat(self.o[axis]), Vec4::splat(self.inv_d[axis]));
+        let (near, far) = if self.inv_d[axis] < 0.0 { (hi, lo) } else { (lo, hi) };
+        ((Vec4::from(near) - o) * inv, (Vec4::from(far) - o) * inv)
     }
 
     /// The slab test of node `n`'s four boxes against (0, t_max), the exits scaled
@@ -258,19 +259,19 @@ impl WalkRay {
     /// children it enters, nearest first (a sorting network: the GPU's registers
     /// hold it). `glsl/bvh.glsl` `bvh_children`.
     fn children(&self, n: &GpuBvhNode, t_max: f32) -> Children {
-        let (nx, fx) = self.planes(&n.lo_x, &n.hi_x, 0);
-        let (ny, fy) = self.planes(&n.lo_y, &n.hi_y, 1);
-        let (nz, fz) = self.planes(&n.lo_z, &n.hi_z, 2);
-        let mut c: Children = [(0.0, 0, 0); 4];
-        for k in 0..4 {
-            let enter = nx[k].max(ny[k]).max(nz[k].max(0.0));
-            let exit = fx[k].min(fy[k]).min(fz[k].min(t_max)) * EXIT_SCALE;
-            c[k] = if enter <= exit {
-                (enter, n.child[k], n.count[k])
+        let (nx, fx) = self.planes(n.lo_x, n.hi_x, 0);
+        let (ny, fy) = self.planes(n.lo_y, n.hi_y, 1);
+        let (nz, fz) = self.planes(n.lo_z, n.hi_z, 2);
+        let enter = nx.max(ny).max(nz.max(Vec4::ZERO));
+        let exit = fx.min(fy).min(fz.min(Vec4::splat(t_max))) * EXIT_SCALE;
+        let inside = enter.cmple(exit).bitmask();
+        let mut c: Children = std::array::from_fn(|k| {
+            if inside & (1 << k) != 0 {
+                (enter[k], n.child[k], n.count[k])
             } else {
                 (f32::INFINITY, shared::BVH_EMPTY, n.count[k])
-            };
-        }
+            }
+        });
         for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
             if c[j].0 < c[i].0 {
                 c.swap(i, j);

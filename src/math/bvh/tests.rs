@@ -38,14 +38,19 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
     let index: std::collections::HashMap<u32, usize> = prims.iter().enumerate().map(|(i, p)| (p.prim, i)).collect();
     // The boxes of the leaves that hold each primitive.
     let mut leaves = vec![Vec::<([f32; 3], [f32; 3])>::new(); prims.len()];
-    let mut todo = vec![(0u32, 1u32)];
+    // (node, level, the entries the walk's stack may hold on reaching it: the
+    // interior siblings pending at each level above)
+    let mut todo = vec![(0u32, 1u32, 0u32)];
+    let mut max_pending = 0;
     let mut max_depth = 0;
     let mut reached = 0;
-    while let Some((node, depth)) = todo.pop() {
+    while let Some((node, depth, pending)) = todo.pop() {
+        max_pending = max_pending.max(pending);
         reached += 1;
         max_depth = max_depth.max(depth);
         let n = &bvh.nodes[node as usize];
-        let (mut used, mut inner) = (0, 0);
+        let (mut used, mut inner) = (0, 0u32);
+        let inner_here = (0..4).filter(|&k| n.child[k] & shared::BVH_LEAF == 0).count() as u32;
         for k in 0..4 {
             let (child, count, (lo, hi)) = (n.child[k], n.count[k], n.slot_box(k));
             if child == shared::BVH_EMPTY {
@@ -68,7 +73,7 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
                 // The child's own children lie in this box.
                 let (l, h) = bvh.nodes[child as usize].bounds();
                 assert!((0..3).all(|k| lo[k] <= l[k] && h[k] <= hi[k]), "nested boxes");
-                todo.push((child, depth + 1));
+                todo.push((child, depth + 1, pending + inner_here - 1));
             }
         }
         // The collapse opens interior children until there are four: fewer only
@@ -105,6 +110,7 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
     assert!(bvh.prim_refs.len() >= prims.len());
     assert_eq!(max_depth, bvh.depth);
     assert!(bvh.depth <= MAX_DEPTH);
+    assert!(max_pending <= shared::BVH_STACK && max_pending <= 3 * (bvh.depth.max(1) - 1));
 }
 
 #[test]
