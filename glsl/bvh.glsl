@@ -129,7 +129,10 @@ void bvh_children(WalkRay r, BvhNode n, float t_max, out vec4 enter, out uvec4 c
         float te = enter[i]; enter[i] = enter[j]; enter[j] = te; \
         uint tc = child[i]; child[i] = child[j]; child[j] = tc; \
         tc = count[i]; count[i] = count[j]; count[j] = tc; }
-    BVH_ORDER(0, 1) BVH_ORDER(2, 3) BVH_ORDER(0, 2) BVH_ORDER(1, 3) BVH_ORDER(1, 2)
+    // One child or none entered: nothing to order.
+    if (bitCount(uint(in_box.x) | uint(in_box.y) << 1 | uint(in_box.z) << 2 | uint(in_box.w) << 3) > 1) {
+        BVH_ORDER(0, 1) BVH_ORDER(2, 3) BVH_ORDER(0, 2) BVH_ORDER(1, 3) BVH_ORDER(1, 2)
+    }
 #undef BVH_ORDER
 }
 

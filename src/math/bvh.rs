@@ -272,9 +272,12 @@ impl WalkRay {
                 (f32::INFINITY, shared::BVH_EMPTY, n.count[k])
             }
         });
-        for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
-            if c[j].0 < c[i].0 {
-                c.swap(i, j);
+        // One child or none entered: nothing to order.
+        if inside.count_ones() > 1 {
+            for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                if c[j].0 < c[i].0 {
+                    c.swap(i, j);
+                }
             }
         }
         c
