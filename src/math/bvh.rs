@@ -67,7 +67,7 @@ pub struct Bvh {
     pub nodes: Vec<GpuBvhNode>,
     pub prim_refs: Vec<u32>,
     /// Nodes on the longest path from the root (the root alone: 1; empty: 0). The
-    /// walk's stack holds at most depth - 1 entries.
+    /// walk's stack holds at most 3 (depth - 1) entries.
     pub depth: u32,
 }
 
@@ -176,9 +176,10 @@ fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>, refs: &mut
 /// clip the triangles, within a budget of added references (a triangle may then
 /// lie in several leaves, at most once in each); leaves of up to `MAX_LEAF` where
 /// the SAH prefers them, more only where the centroids coincide; subtrees in
-/// parallel. Its depth stays at most `BVH_STACK - 8`: near that, nodes split at
+/// parallel. Its depth stays at most `MAX_DEPTH`: near that, nodes split at
 /// the median. No primitives, no nodes; one leaf (a single primitive, or a few the
-/// SAH keeps together) becomes a root whose second child is an empty leaf.
+/// SAH keeps together) becomes a root of that leaf and three empty slots. The
+/// binary tree is then collapsed into the 4-wide one the walk takes ([`from_tree`]).
 pub fn build(prims: &[PrimBox]) -> Bvh {
     build_with(prims, true)
 }
@@ -192,9 +193,10 @@ pub fn build_with(prims: &[PrimBox], spatial_splits: bool) -> Bvh {
     from_tree(&tree, bounds)
 }
 
-/// Lays a binary tree out as the 4-wide BVH the walk takes ([`collapse`]): a
-/// root that is a leaf (whose primitives' box is `bounds`) becomes a node of that
-/// leaf and three empty slots.
+/// Lays a binary tree out as the 4-wide BVH the walk takes: each node takes its
+/// binary node's two children and opens the interior child of the largest area
+/// until it has four (`collapse`). A root that is a leaf (whose primitives' box
+/// is `bounds`) becomes a node of that leaf and three empty slots.
 pub fn from_tree(tree: &Tree, bounds: Aabb) -> Bvh {
     let mut nodes = Vec::new();
     let mut prim_refs = Vec::new();
