@@ -136,8 +136,9 @@ fn bvh_crate_tree(shapes: &mut [BvhShape]) -> Tree {
 }
 
 /// What a tree is made of: nodes, leaves, references, depth (nodes on the longest
-/// path) and its SAH cost with rlpt's costs (a node visit 1, a primitive test 1):
-/// each node's visit and each leaf's tests weighted by its box's area over the root's.
+/// path) and its SAH cost with rlpt's costs (a visit of a 4-wide node 1, a
+/// primitive test 1): each node's visit and each leaf's tests weighted by its
+/// box's area over the root's.
 struct Shape {
     nodes: usize,
     leaves: usize,
