@@ -124,6 +124,16 @@ fn builds_valid_trees_for_empty_single_coincident_and_random_inputs() {
     assert_eq!((b.nodes[0].child[0], b.nodes[0].count[0]), (shared::BVH_LEAF, 1));
     assert_eq!(b.nodes[0].child[1..], [shared::BVH_EMPTY; 3]);
     check(&b, &one);
+    // The walks find the one triangle through its root's single slot, and the
+    // empty slots' inverted boxes let nothing through.
+    let s = scene(random_triangles(1, 1, 1.0));
+    let [v0, v1, v2] = s.triangles[0].vertices();
+    let n = (v1 - v0).cross(v2 - v0).normalize();
+    let o = (v0 + v1 + v2) / 3.0 - n;
+    let hit = closest_hit(&s, o, n, f32::INFINITY).expect("the one triangle");
+    assert!((hit.0 - 1.0).abs() < 1e-4 && hit.1 == prim_ref(shared::PRIM_TRIANGLE, 0), "{hit:?}");
+    assert!(occluded(&s, o, n, 2.0, shared::NO_PRIM) && !occluded(&s, o, n, 0.5, shared::NO_PRIM));
+    assert_eq!(closest_hit(&s, o, -n, f32::INFINITY), None);
 
     // Many copies of one triangle: their centroids coincide, one leaf holds them.
     let t = random_triangles(1, 2, 1.0)[0];
