@@ -4,6 +4,7 @@
 #define RLPT_BVH_GLSL
 #include "scene.glsl"
 #include "primitives.glsl"
+#extension GL_EXT_control_flow_attributes : require
 
 // src/math/bvh.rs `EXIT_SCALE` (a box's exit distance, scaled so that rounding,
 // the reciprocal's 2.5 ulp included, never culls a box the ray meets; Ize 2013)
@@ -104,16 +105,35 @@ WalkRay walk_ray(vec3 o, vec3 d) {
     return r;
 }
 
-// src/math/bvh.rs `WalkRay::enters`: the slab test; the entry distance, or -1
-// where the ray misses the box within (0, t_max).
-float box_enter(WalkRay r, vec3 lo, vec3 hi, float t_max) {
-    vec3 t0 = (lo - r.o) * r.inv_d;
-    vec3 t1 = (hi - r.o) * r.inv_d;
-    vec3 near = min(t0, t1);
-    vec3 far = max(t0, t1);
-    float enter = max(max(near.x, near.y), max(near.z, 0.0));
-    float exit = min(min(far.x, far.y), min(far.z, t_max)) * BVH_EXIT_SCALE;
-    return enter <= exit ? enter : -1.0;
+// src/math/bvh.rs `WalkRay::children`: the slab test of node n's four boxes
+// against (0, t_max), the exits scaled by BVH_EXIT_SCALE so that rounding never
+// culls a box the ray meets; the children entered, nearest first (a sorting
+// network), with their entry distances; a slot not entered is (+inf, BVH_EMPTY).
+// The near plane is the low one where the direction is positive: an inverted
+// (empty) box is entered at +inf, left at -inf; on a box, the min and the max.
+void bvh_children(WalkRay r, BvhNode n, float t_max, out vec4 enter, out uvec4 child, out uvec4 count) {
+    bvec3 neg = lessThan(r.inv_d, vec3(0.0));
+    vec4 nx = ((neg.x ? n.hi_x : n.lo_x) - r.o.x) * r.inv_d.x;
+    vec4 fx = ((neg.x ? n.lo_x : n.hi_x) - r.o.x) * r.inv_d.x;
+    vec4 ny = ((neg.y ? n.hi_y : n.lo_y) - r.o.y) * r.inv_d.y;
+    vec4 fy = ((neg.y ? n.lo_y : n.hi_y) - r.o.y) * r.inv_d.y;
+    vec4 nz = ((neg.z ? n.hi_z : n.lo_z) - r.o.z) * r.inv_d.z;
+    vec4 fz = ((neg.z ? n.lo_z : n.hi_z) - r.o.z) * r.inv_d.z;
+    vec4 e = max(max(nx, ny), max(nz, vec4(0.0)));
+    vec4 x = min(min(fx, fy), min(fz, vec4(t_max))) * BVH_EXIT_SCALE;
+    bvec4 in_box = lessThanEqual(e, x);
+    enter = mix(vec4(uintBitsToFloat(0x7f800000u)), e, in_box);
+    child = mix(uvec4(BVH_EMPTY), n.child, in_box);
+    count = n.count;
+#define BVH_ORDER(i, j) if (enter[j] < enter[i]) { \
+        float te = enter[i]; enter[i] = enter[j]; enter[j] = te; \
+        uint tc = child[i]; child[i] = child[j]; child[j] = tc; \
+        tc = count[i]; count[i] = count[j]; count[j] = tc; }
+    // One child or none entered: nothing to order.
+    if (bitCount(uint(in_box.x) | uint(in_box.y) << 1 | uint(in_box.z) << 2 | uint(in_box.w) << 3) > 1) {
+        BVH_ORDER(0, 1) BVH_ORDER(2, 3) BVH_ORDER(0, 2) BVH_ORDER(1, 3) BVH_ORDER(1, 2)
+    }
+#undef BVH_ORDER
 }
 
 // src/math/bvh.rs `WalkRay::prim_t`: the distance to primitive ref in (0, t_max), or -1.
@@ -135,14 +155,30 @@ bool bvh_prim_blocks(WalkRay r, uint ref, float t_max) {
     return bvh_prim_t(r, ref, t_max) > 0.0;
 }
 
-// src/math/bvh.rs `walk`, with the leaf tests of `closest_hit` (any_hit false:
-// the nearest primitive in (0, t_max), its distance t and reference prim) or of
-// `occluded` (any_hit true: whether anything but the primitive skip blocks
-// (0, t_max); the first blocker ends the walk). Callers pass any_hit as a
-// constant: the inlined walk keeps only its own tests. Each node is read once;
-// the leaves the ray enters are tested there, the nearer first; of the interior
-// children it enters, the walk descends into the nearer and pushes the farther.
-// The BVH has a node at least (callers walk it where params.bvh_nodes > 0).
+// src/math/bvh.rs `WalkRay::leaf`: the leaf of count references from first in
+// prim_refs. any_hit: whether one but skip blocks (0, best); else best and prim
+// brought to its nearest hit nearer than best, and false.
+bool bvh_leaf(WalkRay r, uint first, uint count, uint skip, const bool any_hit, inout float best, inout uint prim) {
+    for (uint j = first; j < first + count; ++j) {
+        uint ref = prim_refs[j];
+        if (any_hit) {
+            if (ref != skip && bvh_prim_blocks(r, ref, best)) return true;
+        } else {
+            float h = bvh_prim_t(r, ref, best);
+            if (h > 0.0) { best = h; prim = ref; }
+        }
+    }
+    return false;
+}
+
+// src/math/bvh.rs `walk`: with any_hit false, the nearest primitive in
+// (0, t_max), its distance t and reference prim; with any_hit true, whether
+// anything but the primitive skip blocks (0, t_max) (the first blocker ends the
+// walk). Callers pass any_hit as a constant: the inlined walk keeps only its own
+// tests. Each node is read once; the leaves the ray enters are tested there, the
+// nearer first; of the interior children it enters, the walk goes on with the
+// nearest and pushes the others, farthest first. The BVH has a node at least
+// (callers walk it where params.bvh_nodes > 0).
 bool bvh_walk(vec3 o, vec3 d, float t_max, uint skip, const bool any_hit, out float t, out uint prim) {
     WalkRay r = walk_ray(o, d);
     float best = t_max;
@@ -151,45 +187,37 @@ bool bvh_walk(vec3 o, vec3 d, float t_max, uint skip, const bool any_hit, out fl
     uint sp = 0u;
     uint node = 0u;
     while (true) {
-        BvhNode n = bvh_nodes[node];
-        float ta = box_enter(r, n.a_lo, n.a_hi, best);
-        float tb = box_enter(r, n.b_lo, n.b_hi, best);
-        bool b_first = tb >= 0.0 && (ta < 0.0 || tb < ta);
-        // The interior children entered, nearer first (no array: registers).
-        uint near_child = 0u, far_child = 0u;
-        uint inner = 0u;
-        for (uint k = 0u; k < 2u; ++k) {
-            bool is_b = (k == 0u) == b_first;
-            float te = is_b ? tb : ta;
-            uint child = is_b ? n.b_child : n.a_child;
-            // A leaf before may have brought best nearer than this child (not
-            // with any_hit, whose best stays t_max, which box_enter bounds).
-            if (any_hit ? te < 0.0 : (te < 0.0 || te > best * BVH_EXIT_SCALE)) continue;
-            if ((child & BVH_LEAF) != 0u) {
-                uint first = child & ~BVH_LEAF;
-                uint end = first + (is_b ? n.b_count : n.a_count);
-                for (uint j = first; j < end; ++j) {
-                    uint ref = prim_refs[j];
-                    if (any_hit) {
-                        if (ref != skip && bvh_prim_blocks(r, ref, best)) {
-                            t = best;
-                            return true;
-                        }
-                    } else {
-                        float h = bvh_prim_t(r, ref, best);
-                        if (h > 0.0) { best = h; prim = ref; }
-                    }
-                }
-            } else {
-                if (inner == 0u) near_child = child; else far_child = child;
-                ++inner;
+        vec4 enter;
+        uvec4 child, count;
+        bvh_children(r, bvh_nodes[node], best, enter, child, count);
+        // The leaves entered, nearer first, by a mask of their slots: the leaf
+        // test is inlined once. A leaf before may bring best nearer than the
+        // children after it (not with any_hit, whose best stays t_max, which the
+        // slab test bounds).
+        uint leaves = 0u;
+        for (uint k = 0u; k < 4u; ++k) {
+            if (child[k] != BVH_EMPTY && (child[k] & BVH_LEAF) != 0u) leaves |= 1u << k;
+        }
+        [[dont_unroll]] while (leaves != 0u) {
+            uint k = uint(findLSB(leaves));
+            leaves &= leaves - 1u;
+            if (!any_hit && enter[k] > best * BVH_EXIT_SCALE) continue;
+            if (bvh_leaf(r, child[k] & ~BVH_LEAF, count[k], skip, any_hit, best, prim)) {
+                t = best;
+                return true;
             }
         }
-        if (inner == 2u) {
-            stack[sp++] = far_child;
-            node = near_child;
-        } else if (inner == 1u) {
-            node = near_child;
+        // The interior children, farthest first: all but the nearest pushed
+        // (BVH_EMPTY has the leaf bit).
+        uint next = BVH_EMPTY;
+        for (int k = 3; k >= 0; --k) {
+            if ((child[k] & BVH_LEAF) != 0u) continue;
+            if (!any_hit && enter[k] > best * BVH_EXIT_SCALE) continue;
+            if (next != BVH_EMPTY) stack[sp++] = next;
+            next = child[k];
+        }
+        if (next != BVH_EMPTY) {
+            node = next;
         } else if (sp == 0u) {
             break;
         } else {

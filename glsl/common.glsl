@@ -75,11 +75,13 @@
 // Triangle.normals of a flat triangle: it has no shading normals.
 #define NO_NORMALS 4294967295
 // BvhNode child words: bit 31 set for a leaf, whose first reference in
-// prim_refs is the rest and whose count is the child's count word; else the
-// index of an interior node. The traversal's stack holds at most BVH_STACK
-// entries; the builder keeps the depth below it (src/math/bvh/build.rs).
+// prim_refs is the rest and whose count is the child's count word; BVH_EMPTY for
+// an unused slot; else the index of an interior node. The walk pushes up to
+// three children per node: its stack holds BVH_STACK entries, at least 3 per
+// level of the deepest tree the builder makes (src/math/bvh/build.rs MAX_DEPTH).
 #define BVH_LEAF 2147483648
-#define BVH_STACK 64
+#define BVH_EMPTY 4294967295
+#define BVH_STACK 168
 // RenderParams.scene_kinds: bit (1 << MAT_*) for each material kind of the scene,
 // bit (1 << (SCENE_KIND_LIGHT_SHIFT + LIGHT_*)) for each kind of light, and bit
 // (1 << SCENE_KIND_GUIDED_GLOSSY) where a glossy material's lobe is wide enough
@@ -452,18 +454,19 @@ struct TriangleNormals {
     vec4 n2;
 };
 
-// Two children of an interior node of the BVH, with their boxes, so that one
-// node read gives both boxes (src/layout.rs `GpuBvhNode`). child: BVH_LEAF | first
-// ref for a leaf (count refs), else a node index (count 0).
+// A node of the 4-wide BVH (src/layout.rs `GpuBvhNode`): its four children's
+// boxes as vec4s of each coordinate, so that one read tests all four, and their
+// words. child: BVH_LEAF | first ref for a leaf (count refs), BVH_EMPTY for an
+// unused slot (its box inverted: no ray enters it), else a node index (count 0).
 struct BvhNode {
-    vec3 a_lo;
-    uint a_child;
-    vec3 a_hi;
-    uint a_count;
-    vec3 b_lo;
-    uint b_child;
-    vec3 b_hi;
-    uint b_count;
+    vec4 lo_x;
+    vec4 lo_y;
+    vec4 lo_z;
+    vec4 hi_x;
+    vec4 hi_y;
+    vec4 hi_z;
+    uvec4 child;
+    uvec4 count;
 };
 
 // A texture's texels in texels[] from `offset` (words), rows from the top of

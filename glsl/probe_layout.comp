@@ -40,8 +40,7 @@ void main() {
     TriangleNormals tn = triangle_normals[1];
     put4(tn.n0); put4(tn.n1); put4(tn.n2);
     BvhNode b = bvh_nodes[1];
-    putf(b.a_lo.x); putf(b.a_lo.y); putf(b.a_lo.z); put(b.a_child);
-    putf(b.a_hi.x); putf(b.a_hi.y); putf(b.a_hi.z); put(b.a_count);
-    putf(b.b_lo.x); putf(b.b_lo.y); putf(b.b_lo.z); put(b.b_child);
-    putf(b.b_hi.x); putf(b.b_hi.y); putf(b.b_hi.z); put(b.b_count);
+    put4(b.lo_x); put4(b.lo_y); put4(b.lo_z); put4(b.hi_x); put4(b.hi_y); put4(b.hi_z);
+    put(b.child.x); put(b.child.y); put(b.child.z); put(b.child.w);
+    put(b.count.x); put(b.count.y); put(b.count.z); put(b.count.w);
 }

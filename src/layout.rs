@@ -154,21 +154,67 @@ pub struct GpuTriangleNormals {
     pub n: [[f32; 4]; 3],
 }
 
-/// One interior node of the BVH with both children's boxes (`glsl/common.glsl`
-/// `BvhNode`; `crate::math::bvh` builds and walks it). A child word with
-/// `shared::BVH_LEAF` set is a leaf of `count` refs from `child & !BVH_LEAF` in
-/// [`SceneArrays::prim_refs`]; else it is the index of a node (count 0).
+/// One node of the 4-wide BVH: its four children's boxes as structures of arrays
+/// (slot k's box is `lo_x[k]..hi_x[k]` and so on: one read tests all four), and
+/// their words (`glsl/common.glsl` `BvhNode`; `crate::math::bvh` builds and walks
+/// it). A child word with `shared::BVH_LEAF` set is a leaf of `count` refs from
+/// `child & !BVH_LEAF` in [`SceneArrays::prim_refs`]; `shared::BVH_EMPTY` is an
+/// unused slot, whose box is inverted (lo +inf, hi -inf: no ray enters it); any
+/// other word is the index of a node (count 0).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuBvhNode {
-    pub a_lo: [f32; 3],
-    pub a_child: u32,
-    pub a_hi: [f32; 3],
-    pub a_count: u32,
-    pub b_lo: [f32; 3],
-    pub b_child: u32,
-    pub b_hi: [f32; 3],
-    pub b_count: u32,
+    pub lo_x: [f32; 4],
+    pub lo_y: [f32; 4],
+    pub lo_z: [f32; 4],
+    pub hi_x: [f32; 4],
+    pub hi_y: [f32; 4],
+    pub hi_z: [f32; 4],
+    pub child: [u32; 4],
+    pub count: [u32; 4],
+}
+
+impl Default for GpuBvhNode {
+    /// A node of four empty slots.
+    fn default() -> GpuBvhNode {
+        let (lo, hi) = ([f32::INFINITY; 4], [f32::NEG_INFINITY; 4]);
+        GpuBvhNode {
+            lo_x: lo,
+            lo_y: lo,
+            lo_z: lo,
+            hi_x: hi,
+            hi_y: hi,
+            hi_z: hi,
+            child: [shared::BVH_EMPTY; 4],
+            count: [0; 4],
+        }
+    }
+}
+
+impl GpuBvhNode {
+    /// Slot `k`'s box (inverted where the slot is empty).
+    pub fn slot_box(&self, k: usize) -> ([f32; 3], [f32; 3]) {
+        ([self.lo_x[k], self.lo_y[k], self.lo_z[k]], [self.hi_x[k], self.hi_y[k], self.hi_z[k]])
+    }
+
+    /// Sets slot `k`'s box.
+    pub fn set_box(&mut self, k: usize, lo: [f32; 3], hi: [f32; 3]) {
+        (self.lo_x[k], self.lo_y[k], self.lo_z[k]) = (lo[0], lo[1], lo[2]);
+        (self.hi_x[k], self.hi_y[k], self.hi_z[k]) = (hi[0], hi[1], hi[2]);
+    }
+
+    /// The box around the four slots' boxes (empty slots add nothing).
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let mut b = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for k in 0..4 {
+            let (lo, hi) = self.slot_box(k);
+            for a in 0..3 {
+                b.0[a] = b.0[a].min(lo[a]);
+                b.1[a] = b.1[a].max(hi[a]);
+            }
+        }
+        b
+    }
 }
 
 /// A primitive reference as the BVH's leaves hold it: kind (`shared::PRIM_*`) in
@@ -285,7 +331,7 @@ const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuDeltaLight>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuTriangleNormals>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 128);
 const _: () = assert!(std::mem::size_of::<RenderParams>() == 256);
 const _: () = assert!(std::mem::size_of::<AccumPixel>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 32);

@@ -213,7 +213,12 @@ fn measure_build_and_walk() {
         }
         times.sort_by(f64::total_cmp);
         let b = built.unwrap();
-        let leaves = b.nodes.iter().flat_map(|n| [n.a_child, n.b_child]).filter(|c| c & shared::BVH_LEAF != 0).count();
+        let leaves = b
+            .nodes
+            .iter()
+            .flat_map(|n| n.child)
+            .filter(|&c| c != shared::BVH_EMPTY && c & shared::BVH_LEAF != 0)
+            .count();
         eprintln!(
             "{name}: {} triangles, build {:.3} s (median of 5, {} threads), {} nodes, {leaves} leaves, depth {}",
             tris.len(),

@@ -127,16 +127,16 @@ fn struct_layout_matches_the_rust_mirrors() {
     let tri = GpuTriangle { v0: v3(), material: 601, v1: v3(), light: 602, v2: v3(), normals: 603 };
     let mut v4 = || [next(), next(), next(), next()];
     let normals = GpuTriangleNormals { n: [v4(), v4(), v4()] };
-    let mut v3 = || [next(), next(), next()];
+    let mut v4 = || [next(), next(), next(), next()];
     let node = GpuBvhNode {
-        a_lo: v3(),
-        a_child: 701,
-        a_hi: v3(),
-        a_count: 702,
-        b_lo: v3(),
-        b_child: 703,
-        b_hi: v3(),
-        b_count: 704,
+        lo_x: v4(),
+        lo_y: v4(),
+        lo_z: v4(),
+        hi_x: v4(),
+        hi_y: v4(),
+        hi_z: v4(),
+        child: [701, 702, 703, 704],
+        count: [705, 706, 707, 708],
     };
     let bufs = [
         Buffer::with_data(&ctx, "params", bytemuck::bytes_of(&params), true).unwrap(),
@@ -235,12 +235,11 @@ fn struct_layout_matches_the_rust_mirrors() {
     for v in normals.n {
         want.extend(f(v));
     }
-    for (v, w) in
-        [(node.a_lo, node.a_child), (node.a_hi, node.a_count), (node.b_lo, node.b_child), (node.b_hi, node.b_count)]
-    {
-        want.extend(f3(v));
-        want.push(w);
+    for v in [node.lo_x, node.lo_y, node.lo_z, node.hi_x, node.hi_y, node.hi_z] {
+        want.extend(f(v));
     }
+    want.extend(node.child);
+    want.extend(node.count);
     assert_eq!(&got[..want.len()], &want[..]);
     common::assert_no_validation_messages(&ctx);
 }

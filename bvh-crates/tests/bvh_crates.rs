@@ -1,7 +1,7 @@
 //! rlpt's BVH builder (src/math/bvh.rs) against the BVH crates of crates.io, on
 //! the bunny and the BMW M6 (issue 36: keep the builder, or take a crate's if it
-//! measures better). Each crate's binary tree is laid out as rlpt's nodes
-//! (`GpuBvhNode`, its leaves' primitives as rlpt's references) and walked by
+//! measures better). Each crate's binary tree is collapsed and laid out as rlpt's
+//! 4-wide nodes (`GpuBvhNode`, its leaves' primitives as rlpt's references) and walked by
 //! rlpt's own `closest_hit` and `occluded`, the walk the GPU twin repeats, so
 //! that the rays per second and the SAH cost measure the trees and nothing else.
 //! Ignored (it prints figures): `cargo test -p rlpt-bvh-crates -- --ignored --nocapture`;
@@ -13,7 +13,7 @@ mod bvh_support;
 use bvh_support::*;
 use rayon::prelude::*;
 use rlpt::layout::{prim_ref, GpuBvhNode, SceneArrays};
-use rlpt::math::bvh::{self, closest_hit, occluded, PrimBox};
+use rlpt::math::bvh::{self, closest_hit, occluded, Aabb, PrimBox};
 use rlpt::math::rng::Rng;
 use rlpt::math::Vec3;
 use rlpt::shared;
@@ -32,51 +32,25 @@ enum Child {
     Leaf(Vec<u32>),
 }
 
-/// The boxes grow as `rlpt::math::bvh` grows its own (`BOX_PAD`: 2^-20 of the
-/// largest coordinate), so that every tree meets the walk's rounding alike.
-fn padded(lo: Vec3, hi: Vec3) -> ([f32; 3], [f32; 3]) {
-    let pad = lo.abs().max(hi.abs()).max_element() / (1u32 << 20) as f32;
-    ((lo - pad).into(), (hi + pad).into())
-}
-
-/// Lays a crate's binary tree out as rlpt's, depth first as `bvh::build` does:
-/// `expand` gives a crate node's two children.
+/// Lays a crate's binary tree out as rlpt's: the same collapse into 4-wide nodes
+/// and the same layout as `bvh::build` (`bvh::from_tree`, which also grows the
+/// boxes as rlpt grows its own); `expand` gives a crate node's two children.
 fn lay_out(root: [(Vec3, Vec3, Child); 2], expand: &dyn Fn(usize) -> [(Vec3, Vec3, Child); 2]) -> Tree {
-    fn node(
-        children: [(Vec3, Vec3, Child); 2],
-        expand: &dyn Fn(usize) -> [(Vec3, Vec3, Child); 2],
-        tree: &mut Tree,
-    ) -> u32 {
-        let index = tree.nodes.len();
-        tree.nodes.push(GpuBvhNode::default());
-        let mut words = [(0u32, 0u32); 2];
-        let mut boxes = [([0.0; 3], [0.0; 3]); 2];
-        for (k, (lo, hi, child)) in children.into_iter().enumerate() {
-            boxes[k] = padded(lo, hi);
-            words[k] = match child {
+    fn binary(children: [(Vec3, Vec3, Child); 2], expand: &dyn Fn(usize) -> [(Vec3, Vec3, Child); 2]) -> bvh::Tree {
+        let [a, b] = children.map(|(lo, hi, child)| {
+            let t = match child {
                 Child::Leaf(tris) => {
-                    let first = tree.prim_refs.len() as u32;
-                    tree.prim_refs.extend(tris.iter().map(|&t| prim_ref(shared::PRIM_TRIANGLE, t)));
-                    (shared::BVH_LEAF | first, tris.len() as u32)
+                    bvh::Tree::Leaf(tris.iter().map(|&t| prim_ref(shared::PRIM_TRIANGLE, t)).collect())
                 }
-                Child::Node(n) => (node(expand(n), expand, tree), 0),
+                Child::Node(n) => binary(expand(n), expand),
             };
-        }
-        tree.nodes[index] = GpuBvhNode {
-            a_lo: boxes[0].0,
-            a_child: words[0].0,
-            a_hi: boxes[0].1,
-            a_count: words[0].1,
-            b_lo: boxes[1].0,
-            b_child: words[1].0,
-            b_hi: boxes[1].1,
-            b_count: words[1].1,
-        };
-        index as u32
+            (Aabb { lo, hi }, t)
+        });
+        bvh::Tree::Inner(Box::new([a, b]))
     }
-    let mut tree = Tree { nodes: vec![], prim_refs: vec![] };
-    node(root, expand, &mut tree);
-    tree
+    let bounds = Aabb { lo: root[0].0.min(root[1].0), hi: root[0].1.max(root[1].1) };
+    let b = bvh::from_tree(&binary(root, expand), bounds);
+    Tree { nodes: b.nodes, prim_refs: b.prim_refs }
 }
 
 /// rlpt's tree, with spatial splits (`bvh::build`) or without.
@@ -162,8 +136,9 @@ fn bvh_crate_tree(shapes: &mut [BvhShape]) -> Tree {
 }
 
 /// What a tree is made of: nodes, leaves, references, depth (nodes on the longest
-/// path) and its SAH cost with rlpt's costs (a node visit 1, a primitive test 1):
-/// each node's visit and each leaf's tests weighted by its box's area over the root's.
+/// path) and its SAH cost with rlpt's costs (a visit of a 4-wide node 1, a
+/// primitive test 1): each node's visit and each leaf's tests weighted by its
+/// box's area over the root's.
 struct Shape {
     nodes: usize,
     leaves: usize,
@@ -180,9 +155,8 @@ fn shape(t: &Tree) -> Shape {
         let e: [f64; 3] = std::array::from_fn(|k| (hi[k] - lo[k]).max(0.0) as f64);
         e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
     };
-    let r = &t.nodes[0];
-    let root =
-        area(std::array::from_fn(|k| r.a_lo[k].min(r.b_lo[k])), std::array::from_fn(|k| r.a_hi[k].max(r.b_hi[k])));
+    let (lo, hi) = t.nodes[0].bounds();
+    let root = area(lo, hi);
     let mut s = Shape { nodes: t.nodes.len(), leaves: 0, refs: t.prim_refs.len(), depth: 0, sah: 0.0, levels: vec![] };
     // (node, the area of its box, its level)
     let mut todo = vec![(0u32, root, 0usize)];
@@ -194,7 +168,8 @@ fn shape(t: &Tree) -> Shape {
         s.sah += a;
         s.levels[level][0] += a / root;
         let n = &t.nodes[i as usize];
-        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
+        for k in (0..4).filter(|&k| n.child[k] != shared::BVH_EMPTY) {
+            let (child, count, (lo, hi)) = (n.child[k], n.count[k], n.slot_box(k));
             if child & shared::BVH_LEAF != 0 {
                 s.leaves += 1;
                 s.sah += count as f64 * area(lo, hi);
@@ -430,8 +405,8 @@ fn compare_bvh_builders() {
         let mut walkable = vec![true; built.len()];
         for (k, (name, _, _, tree)) in built.iter().enumerate() {
             let depth = shape(tree).depth;
-            // The walk's stack holds depth - 1 entries.
-            walkable[k] = depth <= shared::BVH_STACK + 1;
+            // The walk's stack holds up to 3 entries per level above the deepest node.
+            walkable[k] = 3 * depth.saturating_sub(1) <= shared::BVH_STACK;
             if !walkable[k] {
                 eprintln!(
                     "{scene}, {name}: depth {depth} overflows the walk's stack of {}: not walked",

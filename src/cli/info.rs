@@ -6,14 +6,13 @@ use rlpt::options::RenderOptions;
 use rlpt::prepared::PreparedScene;
 use rlpt::shared;
 
-/// The depth of the BVH below node `i` (a leaf counts 1).
+/// The depth of the BVH: nodes on its longest path, and one for the leaves below.
 fn bvh_depth(nodes: &[GpuBvhNode]) -> u32 {
     let mut deepest = 0;
     let mut stack = vec![(0usize, 1u32)];
     while let Some((i, depth)) = stack.pop() {
-        let n = &nodes[i];
         deepest = deepest.max(depth + 1);
-        for child in [n.a_child, n.b_child] {
+        for &child in &nodes[i].child {
             if child & shared::BVH_LEAF == 0 {
                 stack.push((child as usize, depth + 1));
             }
@@ -148,7 +147,7 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         println!("  no BVH: the kernel walks the {} primitives itself", scene.spheres.len() + scene.quads.len());
     } else {
         println!(
-            "  BVH: {} nodes, depth {}, {} primitive refs",
+            "  BVH: {} nodes (4-wide), depth {}, {} primitive refs",
             prepared.bvh_nodes.len(),
             bvh_depth(&prepared.bvh_nodes),
             prepared.prim_refs.len()

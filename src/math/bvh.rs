@@ -2,18 +2,20 @@
 //! SAH with spatial splits), walked by [`closest_hit`] and [`occluded`] here and by their twins in
 //! `glsl/bvh.glsl` (`bvh_closest`, `bvh_occluded`), the same walk and the same tests.
 //!
-//! Each node holds both children's boxes (`GpuBvhNode`), so one read of 64 bytes
-//! decides which children a ray enters. The walk keeps a stack of node indices:
-//! at each node it tests the leaves it enters at once (the nearer first), then
-//! descends into the nearer interior child and pushes the farther.
+//! The tree is 4-wide: each node holds its four children's boxes (`GpuBvhNode`,
+//! as vec4s of each coordinate), so that one read of 128 bytes tests all four.
+//! The builder makes a binary tree, which `lay_out` collapses. The walk keeps a
+//! stack of node indices: at each node it tests the leaves it enters at once
+//! (the nearer first), then goes on with the nearest interior child it enters and
+//! pushes the others, farthest first.
 
 use super::geometry::{intersect_quad, intersect_sphere, sphere_blocks};
 use super::triangle::TriangleRay;
 use super::Vec3;
 use crate::layout::{prim_kind_index, prim_ref, GpuBvhNode, GpuQuad, GpuSphere, GpuTriangle, SceneArrays};
 use crate::shared;
-use build::Tree;
-pub use build::{MAX_DEPTH, MAX_LEAF};
+pub use build::{Tree, MAX_DEPTH, MAX_LEAF};
+use glam::Vec4;
 
 mod build;
 #[cfg(test)]
@@ -65,7 +67,7 @@ pub struct Bvh {
     pub nodes: Vec<GpuBvhNode>,
     pub prim_refs: Vec<u32>,
     /// Nodes on the longest path from the root (the root alone: 1; empty: 0). The
-    /// walk's stack holds at most depth - 1 entries.
+    /// walk's stack holds at most 3 (depth - 1) entries.
     pub depth: u32,
 }
 
@@ -83,10 +85,11 @@ const EXIT_SCALE: f32 = 1.0 + 1.0 / (1u32 << 19) as f32;
 /// and the ray moves off its line by 1e-30 t, far below `BOX_PAD`.
 const MIN_DIR: f32 = 1e-30;
 
+/// An axis-aligned box: a node's bounds while the tree is built.
 #[derive(Clone, Copy, Debug)]
-struct Aabb {
-    lo: Vec3,
-    hi: Vec3,
+pub struct Aabb {
+    pub lo: Vec3,
+    pub hi: Vec3,
 }
 
 impl Aabb {
@@ -123,15 +126,33 @@ fn padded(b: &Aabb) -> ([f32; 3], [f32; 3]) {
     ((b.lo - pad).into(), (b.hi + pad).into())
 }
 
-/// Lays the tree out depth first (a node's first child right after it, a leaf's
-/// references appended as it is met); returns the node's index and the depth below it.
+/// The children a node of the 4-wide tree takes from its binary node's two:
+/// while fewer than 4, the interior child of the largest area is opened (replaced
+/// in place by its own two). Leaves stay leaves.
+fn collapse(children: &[(Aabb, Tree); 2]) -> Vec<&(Aabb, Tree)> {
+    let mut wide: Vec<&(Aabb, Tree)> = children.iter().collect();
+    while wide.len() < 4 {
+        let largest = wide
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, t))| matches!(t, Tree::Inner(_)))
+            .max_by(|a, b| a.1 .0.half_area().total_cmp(&b.1 .0.half_area()));
+        let Some((k, &(_, Tree::Inner(c)))) = largest else { break };
+        wide.splice(k..=k, c.iter());
+    }
+    wide
+}
+
+/// Lays the 4-wide tree out depth first (a node's first interior child right
+/// after it, a leaf's references appended as it is met), collapsing the binary
+/// tree as it goes ([`collapse`]); returns the node's index and the depth below it.
 fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>, refs: &mut Vec<u32>) -> (u32, u32) {
     let index = nodes.len() as u32;
     nodes.push(GpuBvhNode::default());
-    let mut words = [(0u32, 0u32); 2];
+    let mut node = GpuBvhNode::default();
     let mut depth = 1;
-    for (k, (_, tree)) in children.iter().enumerate() {
-        words[k] = match tree {
+    for (k, (b, tree)) in collapse(children).into_iter().enumerate() {
+        (node.child[k], node.count[k]) = match tree {
             Tree::Leaf(prims) => {
                 let first = refs.len() as u32;
                 refs.extend_from_slice(prims);
@@ -143,18 +164,10 @@ fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>, refs: &mut
                 (child, 0)
             }
         };
+        let (lo, hi) = padded(b);
+        node.set_box(k, lo, hi);
     }
-    let ((a_lo, a_hi), (b_lo, b_hi)) = (padded(&children[0].0), padded(&children[1].0));
-    nodes[index as usize] = GpuBvhNode {
-        a_lo,
-        a_child: words[0].0,
-        a_hi,
-        a_count: words[0].1,
-        b_lo,
-        b_child: words[1].0,
-        b_hi,
-        b_count: words[1].1,
-    };
+    nodes[index as usize] = node;
     (index, depth)
 }
 
@@ -163,9 +176,10 @@ fn lay_out(children: &[(Aabb, Tree); 2], nodes: &mut Vec<GpuBvhNode>, refs: &mut
 /// clip the triangles, within a budget of added references (a triangle may then
 /// lie in several leaves, at most once in each); leaves of up to `MAX_LEAF` where
 /// the SAH prefers them, more only where the centroids coincide; subtrees in
-/// parallel. Its depth stays at most `BVH_STACK - 8`: near that, nodes split at
+/// parallel. Its depth stays at most `MAX_DEPTH`: near that, nodes split at
 /// the median. No primitives, no nodes; one leaf (a single primitive, or a few the
-/// SAH keeps together) becomes a root whose second child is an empty leaf.
+/// SAH keeps together) becomes a root of that leaf and three empty slots. The
+/// binary tree is then collapsed into the 4-wide one the walk takes ([`from_tree`]).
 pub fn build(prims: &[PrimBox]) -> Bvh {
     build_with(prims, true)
 }
@@ -176,15 +190,28 @@ pub fn build_with(prims: &[PrimBox], spatial_splits: bool) -> Bvh {
         return Bvh::default();
     }
     let (tree, bounds) = build::build_tree(prims, spatial_splits);
-    let children = match tree {
-        Tree::Inner(c) => c,
-        // The root as a leaf: the second child holds nothing (count 0; its box, a
-        // point, costs a ray that meets it no primitive test).
-        leaf => Box::new([(bounds, leaf), (Aabb { lo: bounds.lo, hi: bounds.lo }, Tree::Leaf(vec![]))]),
+    from_tree(&tree, bounds)
+}
+
+/// Lays a binary tree out as the 4-wide BVH the walk takes: each node takes its
+/// binary node's two children and opens the interior child of the largest area
+/// until it has four (`collapse`). A root that is a leaf (whose primitives' box
+/// is `bounds`) becomes a node of that leaf and three empty slots.
+pub fn from_tree(tree: &Tree, bounds: Aabb) -> Bvh {
+    let mut nodes = Vec::new();
+    let mut prim_refs = Vec::new();
+    let depth = match tree {
+        Tree::Inner(children) => lay_out(children, &mut nodes, &mut prim_refs).1,
+        Tree::Leaf(prims) => {
+            let mut root = GpuBvhNode::default();
+            (root.child[0], root.count[0]) = (shared::BVH_LEAF, prims.len() as u32);
+            let (lo, hi) = padded(&bounds);
+            root.set_box(0, lo, hi);
+            nodes.push(root);
+            prim_refs.extend_from_slice(prims);
+            1
+        }
     };
-    let mut nodes = Vec::with_capacity(2 * prims.len() / MAX_LEAF.max(2) + 1);
-    let mut prim_refs = Vec::with_capacity(prims.len());
-    let (_, depth) = lay_out(&children, &mut nodes, &mut prim_refs);
     Bvh { nodes, prim_refs, depth }
 }
 
@@ -196,6 +223,11 @@ struct WalkRay {
     inv_d: Vec3,
     tri: TriangleRay,
 }
+
+/// A node's children as the walk takes them: (entry distance, child word, count)
+/// of each slot, nearest first; a slot the ray does not enter is
+/// (+inf, `shared::BVH_EMPTY`, count).
+type Children = [(f32, u32, u32); 4];
 
 impl WalkRay {
     fn new(o: Vec3, d: Vec3) -> WalkRay {
@@ -214,15 +246,43 @@ impl WalkRay {
         WalkRay { o, d, inv_d, tri: TriangleRay::new(o, d) }
     }
 
-    /// The slab test: the distance where the ray enters the box, if it meets it
-    /// within (0, t_max), the exit scaled by [`EXIT_SCALE`] so that rounding never culls.
-    fn enters(&self, lo: [f32; 3], hi: [f32; 3], t_max: f32) -> Option<f32> {
-        let t0 = (Vec3::from(lo) - self.o) * self.inv_d;
-        let t1 = (Vec3::from(hi) - self.o) * self.inv_d;
-        let (near, far) = (t0.min(t1), t0.max(t1));
-        let enter = near.x.max(near.y).max(near.z.max(0.0));
-        let exit = far.x.min(far.y).min(far.z.min(t_max)) * EXIT_SCALE;
-        (enter <= exit).then_some(enter)
+    /// The distances to the near and the far planes of four boxes along one axis:
+    /// the near plane is the low one where the direction is positive, so that an
+    /// inverted (empty) box is entered at +inf and left at -inf. On a box it is
+    /// min and max of the two distances, rounding being monotonic.
+    fn planes(&self, lo: [f32; 4], hi: [f32; 4], axis: usize) -> (Vec4, Vec4) {
+        let (o, inv) = (Vec4::splat(self.o[axis]), Vec4::splat(self.inv_d[axis]));
+        let (near, far) = if self.inv_d[axis] < 0.0 { (hi, lo) } else { (lo, hi) };
+        ((Vec4::from(near) - o) * inv, (Vec4::from(far) - o) * inv)
+    }
+
+    /// The slab test of node `n`'s four boxes against (0, t_max), the exits scaled
+    /// by [`EXIT_SCALE`] so that rounding never culls a box the ray meets; the
+    /// children it enters, nearest first (a sorting network: the GPU's registers
+    /// hold it). `glsl/bvh.glsl` `bvh_children`.
+    fn children(&self, n: &GpuBvhNode, t_max: f32) -> Children {
+        let (nx, fx) = self.planes(n.lo_x, n.hi_x, 0);
+        let (ny, fy) = self.planes(n.lo_y, n.hi_y, 1);
+        let (nz, fz) = self.planes(n.lo_z, n.hi_z, 2);
+        let enter = nx.max(ny).max(nz.max(Vec4::ZERO));
+        let exit = fx.min(fy).min(fz.min(Vec4::splat(t_max))) * EXIT_SCALE;
+        let inside = enter.cmple(exit).bitmask();
+        let mut c: Children = std::array::from_fn(|k| {
+            if inside & (1 << k) != 0 {
+                (enter[k], n.child[k], n.count[k])
+            } else {
+                (f32::INFINITY, shared::BVH_EMPTY, n.count[k])
+            }
+        });
+        // One child or none entered: nothing to order.
+        if inside.count_ones() > 1 {
+            for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                if c[j].0 < c[i].0 {
+                    c.swap(i, j);
+                }
+            }
+        }
+        c
     }
 
     /// The distance to primitive `r` in (0, t_max).
@@ -248,101 +308,95 @@ impl WalkRay {
         }
         self.prim_t(s, r, t_max).is_some()
     }
-}
 
-/// One node's children as the walk sees them: which it enters, where, nearer first.
-struct Children {
-    /// (child word, count, entry distance) of each child the ray enters, nearer first.
-    entered: [(u32, u32, f32); 2],
-    len: usize,
-}
-
-fn children(ray: &WalkRay, n: &GpuBvhNode, t_max: f32) -> Children {
-    let a = ray.enters(n.a_lo, n.a_hi, t_max).map(|t| (n.a_child, n.a_count, t));
-    let b = ray.enters(n.b_lo, n.b_hi, t_max).map(|t| (n.b_child, n.b_count, t));
-    let none = (0, 0, 0.0);
-    match (a, b) {
-        (Some(a), Some(b)) if b.2 < a.2 => Children { entered: [b, a], len: 2 },
-        (Some(a), Some(b)) => Children { entered: [a, b], len: 2 },
-        (Some(x), None) | (None, Some(x)) => Children { entered: [x, none], len: 1 },
-        (None, None) => Children { entered: [none, none], len: 0 },
+    /// The leaf of `count` references from `first` in `prim_refs`: with `ANY_HIT`,
+    /// whether one but `skip` blocks (0, best); else `best` and `prim` brought to
+    /// its nearest hit nearer than `best`, and false. `glsl/bvh.glsl` `bvh_leaf`.
+    fn leaf<const ANY_HIT: bool>(
+        &self,
+        s: &SceneArrays,
+        first: u32,
+        count: u32,
+        skip: u32,
+        best: &mut f32,
+        prim: &mut u32,
+    ) -> bool {
+        for &r in &s.prim_refs[first as usize..(first + count) as usize] {
+            if ANY_HIT {
+                if r != skip && self.prim_blocks(s, r, *best) {
+                    return true;
+                }
+            } else if let Some(t) = self.prim_t(s, r, *best) {
+                (*best, *prim) = (t, r);
+            }
+        }
+        false
     }
 }
 
-/// The walk shared by [`closest_hit`] and [`occluded`]: `leaf` tests a leaf's
-/// references against the current `t_max` and returns the new one (or `None` to
-/// stop the walk). Leaves are tested where they are met, nearer first; of the
-/// interior children met, the nearer is walked next and the farther pushed.
-/// `glsl/bvh.glsl` `bvh_walk` (its `any_hit` picking the leaf test).
-fn walk(s: &SceneArrays, ray: &WalkRay, mut t_max: f32, mut leaf: impl FnMut(&[u32], f32) -> Option<f32>) {
+/// The walk shared by [`closest_hit`] (`ANY_HIT` false: the nearest primitive in
+/// (0, t_max), its distance and reference, or `shared::NO_PRIM`) and [`occluded`]
+/// (`ANY_HIT` true: whether anything but `skip` blocks (0, t_max); the first
+/// blocker ends the walk). Each node is read once; the leaves the ray enters are
+/// tested there, the nearer first; of the interior children it enters, the walk
+/// goes on with the nearest and pushes the others, farthest first.
+/// `glsl/bvh.glsl` `bvh_walk`.
+fn walk<const ANY_HIT: bool>(s: &SceneArrays, ray: &WalkRay, t_max: f32, skip: u32) -> (bool, f32, u32) {
+    let (mut best, mut prim) = (t_max, shared::NO_PRIM);
     if s.bvh_nodes.is_empty() {
-        return;
+        return (false, best, prim);
     }
     let mut stack = [0u32; shared::BVH_STACK as usize];
     let mut sp = 0;
     let mut node = 0u32;
     loop {
-        let c = children(ray, &s.bvh_nodes[node as usize], t_max);
-        let mut next = [0u32; 2];
-        let mut inner = 0;
-        for &(child, count, enter) in &c.entered[..c.len] {
-            // A leaf before may have brought t_max nearer than this child.
-            if enter > t_max * EXIT_SCALE {
+        let c = ray.children(&s.bvh_nodes[node as usize], best);
+        // A leaf before may bring best nearer than the children after it (not
+        // with ANY_HIT, whose best stays t_max, which the slab test bounds).
+        let beyond = |enter: f32, best: f32| !ANY_HIT && enter > best * EXIT_SCALE;
+        for &(enter, child, count) in &c {
+            if child == shared::BVH_EMPTY || child & shared::BVH_LEAF == 0 || beyond(enter, best) {
                 continue;
             }
-            if child & shared::BVH_LEAF != 0 {
-                let first = (child & !shared::BVH_LEAF) as usize;
-                match leaf(&s.prim_refs[first..first + count as usize], t_max) {
-                    Some(t) => t_max = t,
-                    None => return,
-                }
-            } else {
-                next[inner] = child;
-                inner += 1;
+            if ray.leaf::<ANY_HIT>(s, child & !shared::BVH_LEAF, count, skip, &mut best, &mut prim) {
+                return (true, best, prim);
             }
         }
-        node = match inner {
-            2 => {
-                stack[sp] = next[1];
+        // The interior children, farthest first: all but the nearest pushed.
+        let mut next = shared::BVH_EMPTY;
+        for &(enter, child, _) in c.iter().rev() {
+            // BVH_EMPTY has the leaf bit.
+            if child & shared::BVH_LEAF != 0 || beyond(enter, best) {
+                continue;
+            }
+            if next != shared::BVH_EMPTY {
+                stack[sp] = next;
                 sp += 1;
-                next[0]
             }
-            1 => next[0],
-            _ if sp == 0 => return,
-            _ => {
-                sp -= 1;
-                stack[sp]
-            }
+            next = child;
+        }
+        node = if next != shared::BVH_EMPTY {
+            next
+        } else if sp == 0 {
+            break;
+        } else {
+            sp -= 1;
+            stack[sp]
         };
     }
+    (prim != shared::NO_PRIM, best, prim)
 }
 
 /// The nearest primitive the ray from `o` along unit `d` meets in (0, t_max):
 /// its distance and reference. `glsl/bvh.glsl` `bvh_closest`.
 pub fn closest_hit(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, u32)> {
-    let ray = WalkRay::new(o, d);
-    let mut found = None;
-    walk(s, &ray, t_max, |refs, mut best| {
-        for &r in refs {
-            if let Some(t) = ray.prim_t(s, r, best) {
-                best = t;
-                found = Some((t, r));
-            }
-        }
-        Some(best)
-    });
-    found
+    let (hit, t, prim) = walk::<false>(s, &WalkRay::new(o, d), t_max, shared::NO_PRIM);
+    hit.then_some((t, prim))
 }
 
 /// Whether anything but the primitive `skip` (a reference, or `shared::NO_PRIM`)
 /// blocks the segment from `o` to `o + t_max d` (`d` unit): the walk stops at the
 /// first blocker. `glsl/bvh.glsl` `bvh_occluded`.
 pub fn occluded(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip: u32) -> bool {
-    let ray = WalkRay::new(o, d);
-    let mut blocked = false;
-    walk(s, &ray, t_max, |refs, t| {
-        blocked = refs.iter().any(|&r| r != skip && ray.prim_blocks(s, r, t));
-        (!blocked).then_some(t)
-    });
-    blocked
+    walk::<true>(s, &WalkRay::new(o, d), t_max, skip).0
 }

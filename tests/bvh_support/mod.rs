@@ -261,12 +261,10 @@ pub fn triangle_scene(triangles: Vec<GpuTriangle>) -> SceneArrays {
     SceneArrays { bvh_nodes: built.nodes, prim_refs: built.prim_refs, ..SceneArrays::of_triangles(triangles) }
 }
 
-/// The box around the scene: the union of the root's two boxes.
+/// The box around the scene: the union of the root's boxes.
 pub fn bounds(s: &SceneArrays) -> (Vec3, Vec3) {
-    let n = &s.bvh_nodes[0];
-    let lo = Vec3::from(n.a_lo).min(Vec3::from(n.b_lo));
-    let hi = Vec3::from(n.a_hi).max(Vec3::from(n.b_hi));
-    (lo, hi)
+    let (lo, hi) = s.bvh_nodes[0].bounds();
+    (Vec3::from(lo), Vec3::from(hi))
 }
 
 /// A conservative cone: the primitives whose bounding sphere it may meet.

@@ -15,8 +15,10 @@ const COST_NODE: f32 = 1.0;
 const COST_PRIM: f32 = 1.0;
 /// Leaves of up to this many primitives where the SAH prefers them to a split.
 pub const MAX_LEAF: usize = 4;
-/// The most nodes on a path; kept below `BVH_STACK` with room to spare.
-pub const MAX_DEPTH: u32 = shared::BVH_STACK - 8;
+/// The most nodes on a path of the binary tree, and so of the 4-wide one made
+/// from it; the walk pushes up to 3 children per level, which its stack holds.
+pub const MAX_DEPTH: u32 = 56;
+const _: () = assert!(3 * (MAX_DEPTH - 1) <= shared::BVH_STACK);
 /// Spatial splits are tried where the object split's children overlap by more
 /// than this fraction of the root's area (Stich et al.'s alpha).
 const SPATIAL_ALPHA: f32 = 1e-3;
@@ -43,8 +45,9 @@ impl Item {
     }
 }
 
-/// The build's tree before it is laid out: a leaf's primitive references, or two children.
-pub(super) enum Tree {
+/// The binary tree the builder makes, before `super::from_tree` collapses and lays
+/// it out: a leaf's primitive references, or two children with their boxes.
+pub enum Tree {
     Leaf(Vec<u32>),
     Inner(Box<[(Aabb, Tree); 2]>),
 }

@@ -38,14 +38,28 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
     let index: std::collections::HashMap<u32, usize> = prims.iter().enumerate().map(|(i, p)| (p.prim, i)).collect();
     // The boxes of the leaves that hold each primitive.
     let mut leaves = vec![Vec::<([f32; 3], [f32; 3])>::new(); prims.len()];
-    let mut todo = vec![(0u32, 1u32)];
+    // (node, level, the entries the walk's stack may hold on reaching it: the
+    // interior siblings pending at each level above)
+    let mut todo = vec![(0u32, 1u32, 0u32)];
+    let mut max_pending = 0;
     let mut max_depth = 0;
     let mut reached = 0;
-    while let Some((node, depth)) = todo.pop() {
+    while let Some((node, depth, pending)) = todo.pop() {
+        max_pending = max_pending.max(pending);
         reached += 1;
         max_depth = max_depth.max(depth);
         let n = &bvh.nodes[node as usize];
-        for (child, count, lo, hi) in [(n.a_child, n.a_count, n.a_lo, n.a_hi), (n.b_child, n.b_count, n.b_lo, n.b_hi)] {
+        let (mut used, mut inner) = (0, 0u32);
+        let inner_here = (0..4).filter(|&k| n.child[k] & shared::BVH_LEAF == 0).count() as u32;
+        for k in 0..4 {
+            let (child, count, (lo, hi)) = (n.child[k], n.count[k], n.slot_box(k));
+            if child == shared::BVH_EMPTY {
+                // Empty slots come last, inverted, no ray enters them.
+                assert_eq!((count, lo, hi), (0, [f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), "an empty slot");
+                continue;
+            }
+            assert_eq!(used, k, "an empty slot before a used one");
+            used += 1;
             if child & shared::BVH_LEAF != 0 {
                 let first = (child & !shared::BVH_LEAF) as usize;
                 let refs = &bvh.prim_refs[first..first + count as usize];
@@ -55,16 +69,17 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
                 }
             } else {
                 assert_eq!(count, 0);
+                inner += 1;
                 // The child's own children lie in this box.
-                let c = &bvh.nodes[child as usize];
-                for (l, h) in [(c.a_lo, c.a_hi), (c.b_lo, c.b_hi)] {
-                    if c.a_count + c.b_count > 0 || c.a_child & shared::BVH_LEAF == 0 {
-                        assert!((0..3).all(|k| lo[k] <= l[k] && h[k] <= hi[k]) || l == h, "nested boxes");
-                    }
-                }
-                todo.push((child, depth + 1));
+                let (l, h) = bvh.nodes[child as usize].bounds();
+                assert!((0..3).all(|k| lo[k] <= l[k] && h[k] <= hi[k]), "nested boxes");
+                todo.push((child, depth + 1, pending + inner_here - 1));
             }
         }
+        // The collapse opens interior children until there are four: fewer only
+        // where all are leaves (a root that is a leaf has one).
+        assert!(used == 4 || inner == 0, "a node of {used} children, {inner} interior");
+        assert!(used >= 2 || bvh.nodes.len() == 1, "a node of {used} children");
     }
     assert_eq!(reached, bvh.nodes.len(), "every node reached once");
     let inside = |(lo, hi): &([f32; 3], [f32; 3]), p: Vec3| (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]);
@@ -95,6 +110,7 @@ fn check(bvh: &Bvh, prims: &[PrimBox]) {
     assert!(bvh.prim_refs.len() >= prims.len());
     assert_eq!(max_depth, bvh.depth);
     assert!(bvh.depth <= MAX_DEPTH);
+    assert!(max_pending <= shared::BVH_STACK && max_pending <= 3 * (bvh.depth.max(1) - 1));
 }
 
 #[test]
@@ -105,9 +121,19 @@ fn builds_valid_trees_for_empty_single_coincident_and_random_inputs() {
     let one = tri_boxes(&random_triangles(1, 1, 1.0));
     let b = build(&one);
     assert_eq!(b.nodes.len(), 1);
-    assert_eq!((b.nodes[0].a_child, b.nodes[0].a_count), (shared::BVH_LEAF, 1));
-    assert_eq!(b.nodes[0].b_count, 0);
+    assert_eq!((b.nodes[0].child[0], b.nodes[0].count[0]), (shared::BVH_LEAF, 1));
+    assert_eq!(b.nodes[0].child[1..], [shared::BVH_EMPTY; 3]);
     check(&b, &one);
+    // The walks find the one triangle through its root's single slot, and the
+    // empty slots' inverted boxes let nothing through.
+    let s = scene(random_triangles(1, 1, 1.0));
+    let [v0, v1, v2] = s.triangles[0].vertices();
+    let n = (v1 - v0).cross(v2 - v0).normalize();
+    let o = (v0 + v1 + v2) / 3.0 - n;
+    let hit = closest_hit(&s, o, n, f32::INFINITY).expect("the one triangle");
+    assert!((hit.0 - 1.0).abs() < 1e-4 && hit.1 == prim_ref(shared::PRIM_TRIANGLE, 0), "{hit:?}");
+    assert!(occluded(&s, o, n, 2.0, shared::NO_PRIM) && !occluded(&s, o, n, 0.5, shared::NO_PRIM));
+    assert_eq!(closest_hit(&s, o, -n, f32::INFINITY), None);
 
     // Many copies of one triangle: their centroids coincide, one leaf holds them.
     let t = random_triangles(1, 2, 1.0)[0];
@@ -120,7 +146,7 @@ fn builds_valid_trees_for_empty_single_coincident_and_random_inputs() {
         let prims = tri_boxes(&random_triangles(n, n as u32, 0.3));
         let b = build(&prims);
         check(&b, &prims);
-        let max_leaf = b.nodes.iter().flat_map(|n| [n.a_count, n.b_count]).max().unwrap();
+        let max_leaf = b.nodes.iter().flat_map(|n| n.count).max().unwrap();
         assert!(max_leaf as usize <= MAX_LEAF, "{n}: a leaf of {max_leaf}");
     }
 }
