@@ -14,7 +14,6 @@ use crate::prepared::PreparedScene;
 use crate::shared;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
-use thread_sums::{RowSums, ThreadSums};
 
 fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
@@ -401,34 +400,47 @@ impl FrameSetup<'_> {
         }
     }
 
-    /// Traces a whole frame into `film`, each pixel's 64 samples together, rows
-    /// in parallel; returns the targets recorded (None where no row recorded)
-    /// and the counts.
+    /// Traces a whole frame into `film`, each pixel's 64 samples together; returns
+    /// the targets recorded (None where no row recorded) and the counts. The rows
+    /// go round-robin to one group per thread, each with its own sums, added in
+    /// group order: a table's sums are tens of megabytes, too large for one set
+    /// per row, and fixed groups keep a seed's guided render the same run to run.
     fn trace_whole(
         &self,
         film: &mut [crate::layout::AccumPixel],
         weigh: bool,
         no_sums: &(dyn Fn() -> FrameSums + Sync),
     ) -> (Option<FrameSums>, FrameCounters) {
-        let sums = ThreadSums::new(no_sums);
-        let counters = film
-            .par_chunks_mut(self.scene.params.width as usize)
-            .enumerate()
-            .map(|(y, row)| {
-                let (y, mut counters) = (y as u32, FrameCounters::default());
-                let mut slot = sums.for_row(self.records(y));
-                for (x, acc) in row.iter_mut().enumerate() {
-                    let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
-                    for sample in 0..shared::SAMPLES_PER_FRAME {
-                        let learn = slot.as_mut().map(RowSums::recorder);
-                        self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
+        let groups = rayon::current_num_threads().max(1);
+        let mut rows: Vec<Vec<(u32, &mut [crate::layout::AccumPixel])>> = (0..groups).map(|_| Vec::new()).collect();
+        for (y, row) in film.chunks_mut(self.scene.params.width as usize).enumerate() {
+            rows[y % groups].push((y as u32, row));
+        }
+        let traced: Vec<(Option<FrameSums>, FrameCounters)> = rows
+            .into_par_iter()
+            .map(|group| {
+                let (mut sums, mut counters) = (None::<FrameSums>, FrameCounters::default());
+                for (y, row) in group {
+                    let record = self.records(y);
+                    for (x, acc) in row.iter_mut().enumerate() {
+                        let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
+                        for sample in 0..shared::SAMPLES_PER_FRAME {
+                            let learn = record.then(|| sums.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                            self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
+                        }
+                        self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
                     }
-                    self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
                 }
-                counters
+                (sums, counters)
             })
-            .reduce(FrameCounters::default, FrameCounters::plus);
-        (sums.into_sums(), counters)
+            .collect();
+        traced.into_iter().fold((None, FrameCounters::default()), |(all, c), (sums, counters)| {
+            let all = match (all, sums) {
+                (Some(a), Some(b)) => Some(FrameSums::merge(a, b)),
+                (a, b) => a.or(b),
+            };
+            (all, c.plus(counters))
+        })
     }
 
     /// Traces sample `sample` (0..64) of pixel (x, y) into `px`, counting its rays

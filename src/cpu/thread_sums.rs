@@ -1,6 +1,8 @@
-//! The targets a CPU frame records, one set of sums per rayon thread: a table's
-//! sums are tens of megabytes, too large to make one per row or per split of a
-//! parallel loop, and a thread traces one row at a time.
+//! The targets a CPU frame traced in passes records (`super::passes`), one set of
+//! sums per rayon thread: a table's sums are tens of megabytes, too large to make
+//! one per row or per split of a parallel loop, and a thread traces one row at a
+//! time. Whole frames group their rows by thread instead (`FrameSetup::trace_whole`),
+//! which also fixes the order the sums are added in.
 
 use crate::guide::{FrameSums, Recorder};
 use std::sync::{Mutex, MutexGuard};
