@@ -59,10 +59,8 @@
 #define LIGHT_POINT 5
 #define LIGHT_SPOT 6
 #define NO_LIGHT 4294967295
-// A face of the room (src/layout.rs `Room`) that no quad covers, and the
-// shadow test's "skip no primitive" (geometry.glsl `occluded`).
+// A face of the room (src/layout.rs `Room`) that no quad covers.
 #define NO_QUAD 4294967295
-#define NO_SPHERE 4294967295
 // A primitive reference (the BVH's leaves, prim_refs[]; src/math/bvh.rs):
 // its kind in the top two bits, its index in spheres, quads or triangles below.
 #define PRIM_TRIANGLE 0

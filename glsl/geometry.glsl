@@ -40,6 +40,9 @@ vec3 shading_normal(TriangleNormals tn, Triangle t, vec3 p, vec3 n) {
     return dot(ns, n) < 0.0 ? -ns : ns;
 }
 
+// src/layout.rs `prim_ref`: the reference of primitive i of a kind (PRIM_*).
+#define PRIM_REF(kind, i) (uint(kind) << PRIM_KIND_SHIFT | uint(i))
+
 // src/math/geometry.rs `prim_hit`: the hit at distance t on primitive r.
 Hit prim_hit(uint r, vec3 o, vec3 d, float t) {
     Hit hit;
@@ -276,7 +279,7 @@ bool intersect_scene(vec3 o, vec3 d, float t_max, out Hit hit) {
         if (t > 0.0) { best = t; found = int(i); is_sphere = false; }
     }
     if (found < 0) return false;
-    hit = prim_hit((is_sphere ? uint(PRIM_SPHERE) : uint(PRIM_QUAD)) << PRIM_KIND_SHIFT | uint(found), o, d, best);
+    hit = prim_hit(PRIM_REF(is_sphere ? PRIM_SPHERE : PRIM_QUAD, found), o, d, best);
     return true;
 }
 
@@ -304,33 +307,31 @@ bool meets_light(vec3 o, vec3 d) {
 // src/math/geometry.rs `occluded`: whether anything but the primitive skip (the
 // light a shadow ray ends on; NO_PRIM for none) blocks the segment; without a
 // BVH the quads that bound the scene are not tested.
-// `skip` is compared whole with each primitive's reference (SPHERE_REF, QUAD_REF),
-// a constant in the specialized slots: no decoding of it into an index per kind.
-#define SPHERE_REF(i) (uint(PRIM_SPHERE) << PRIM_KIND_SHIFT | uint(i))
-#define QUAD_REF(i) (uint(PRIM_QUAD) << PRIM_KIND_SHIFT | uint(i))
+// `skip` is compared whole with each primitive's reference (PRIM_REF), a
+// constant in the specialized slots: no decoding of it into an index per kind.
 bool occluded(vec3 o, vec3 d, float t_max, uint skip) {
     if (SCENE_BVH) return bvh_occluded(o, d, t_max, skip);
     vec3 inv_d = 1.0 / d;
 #define BLOCKS_SPEC_SPHERE(i) \
-    if (i < spec_sphere_count() && skip != SPHERE_REF(i) && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
+    if (i < spec_sphere_count() && skip != PRIM_REF(PRIM_SPHERE, i) && SPEC_SPHERE_BLOCKS(i, o, d, t_max)) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_SPHERE)
     uint ns = const_sphere_count();
     [[dont_unroll]] for (uint i = spec_sphere_count(); i < ns; ++i) {
-        if (skip != SPHERE_REF(i) && const_sphere_blocks(i, o, d, t_max)) return true;
+        if (skip != PRIM_REF(PRIM_SPHERE, i) && const_sphere_blocks(i, o, d, t_max)) return true;
     }
     for (uint i = ns; i < SCENE_SPHERES; ++i) {
-        if (skip != SPHERE_REF(i) && sphere_blocks(spheres[i], o, d, t_max)) return true;
+        if (skip != PRIM_REF(PRIM_SPHERE, i) && sphere_blocks(spheres[i], o, d, t_max)) return true;
     }
     uint nqs = min(OCCLUDING_QUADS, uint(SPEC_QUADS));
 #define BLOCKS_SPEC_QUAD(i) \
-    if (i < nqs && skip != QUAD_REF(i) && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
+    if (i < nqs && skip != PRIM_REF(PRIM_QUAD, i) && SPEC_QUAD_HIT(i, o, d, t_max) > 0.0) return true;
     FOR_SPEC_SLOTS(BLOCKS_SPEC_QUAD)
     uint nq = min(OCCLUDING_QUADS, uint(CONST_QUADS));
     [[dont_unroll]] for (uint i = nqs; i < nq; ++i) {
-        if (skip != QUAD_REF(i) && const_quad(i, o, d, t_max) > 0.0) return true;
+        if (skip != PRIM_REF(PRIM_QUAD, i) && const_quad(i, o, d, t_max) > 0.0) return true;
     }
     for (uint i = nq; i < OCCLUDING_QUADS; ++i) {
-        if (skip != QUAD_REF(i) && intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
+        if (skip != PRIM_REF(PRIM_QUAD, i) && intersect_quad(quads[i], o, d, t_max) > 0.0) return true;
     }
     return false;
 }
@@ -476,7 +477,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
             ln = -to_world(frame, vec3(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha));
             lp = c + r * ln;
             pdf_solid = 1.0 / (2.0 * PI * omc);
-            ls.skip = uint(PRIM_SPHERE) << PRIM_KIND_SHIFT | light.index;
+            ls.skip = PRIM_REF(PRIM_SPHERE, light.index);
         } else {
             ln = uniform_sphere(u);
             lp = c + r * ln;
@@ -497,7 +498,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
         float cos_l = abs(dot(ln, d)) / sqrt(d2);
         if (cos_l <= 0.0) return false;
         pdf_solid = d2 / (q.origin.w * cos_l);
-        ls.skip = uint(PRIM_QUAD) << PRIM_KIND_SHIFT | light.index;
+        ls.skip = PRIM_REF(PRIM_QUAD, light.index);
         mat = q.material;
     } else {
         Triangle t = triangles[light.index];
@@ -508,7 +509,7 @@ bool sample_light(vec3 p, float u_sel, vec2 u, out LightSample ls) {
         float cos_l = abs(dot(ln, d)) / sqrt(d2);
         if (!(cos_l > 0.0 && area > 0.0)) return false;
         pdf_solid = d2 / (area * cos_l);
-        ls.skip = uint(PRIM_TRIANGLE) << PRIM_KIND_SHIFT | light.index;
+        ls.skip = PRIM_REF(PRIM_TRIANGLE, light.index);
         mat = t.material;
     }
     vec3 d = lp - p;

@@ -219,6 +219,7 @@ impl GpuBvhNode {
 
 /// A primitive reference as the BVH's leaves hold it: kind (`shared::PRIM_*`) in
 /// the top two bits, the index in its array below.
+/// `glsl/geometry.glsl` `PRIM_REF`.
 pub fn prim_ref(kind: u32, index: u32) -> u32 {
     debug_assert!(index <= shared::PRIM_INDEX_MASK);
     (kind << shared::PRIM_KIND_SHIFT) | index
