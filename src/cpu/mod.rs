@@ -78,7 +78,6 @@ impl<'a> Guide<'a> {
 
 mod passes;
 mod path;
-mod thread_sums;
 pub use passes::pass_sample;
 pub use path::{shading_side, sides_agree, trace_path};
 
@@ -379,6 +378,28 @@ pub(super) struct FrameSetup<'a> {
     roulette_frames: u32,
 }
 
+/// A frame's rows (each with its index) dealt round-robin to one group per thread
+/// of the pool. Each group records its targets into sums of its own, added in
+/// group order ([`add_sums`]): a table's sums are tens of megabytes, too large for
+/// one set per row or per split of a parallel loop, and fixed groups keep a seed's
+/// guided render the same run to run.
+pub(super) fn row_groups<T>(rows: impl Iterator<Item = T>) -> Vec<Vec<(u32, T)>> {
+    let n = rayon::current_num_threads().max(1);
+    let mut groups: Vec<Vec<(u32, T)>> = (0..n).map(|_| Vec::new()).collect();
+    for (y, row) in rows.enumerate() {
+        groups[y % n].push((y as u32, row));
+    }
+    groups
+}
+
+/// Two groups' target sums added (None: a group that recorded nothing).
+pub(super) fn add_sums(a: Option<FrameSums>, b: Option<FrameSums>) -> Option<FrameSums> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.merge(b)),
+        (a, b) => a.or(b),
+    }
+}
+
 /// One pixel's radiance sum over a frame's samples so far, and its mean3 squares.
 #[derive(Clone, Copy, Default)]
 pub(super) struct PixelSums {
@@ -400,46 +421,36 @@ impl FrameSetup<'_> {
         }
     }
 
-    /// Traces a whole frame into `film`, each pixel's 64 samples together; returns
-    /// the targets recorded (None where no row recorded) and the counts. The rows
-    /// go round-robin to one group per thread, each with its own sums, added in
-    /// group order: a table's sums are tens of megabytes, too large for one set
-    /// per row, and fixed groups keep a seed's guided render the same run to run.
+    /// Traces a whole frame into `film`, each pixel's 64 samples together, its
+    /// rows in the groups of [`row_groups`]; returns the targets recorded (None
+    /// where no row recorded) and the counts.
     fn trace_whole(
         &self,
         film: &mut [crate::layout::AccumPixel],
         weigh: bool,
         no_sums: &(dyn Fn() -> FrameSums + Sync),
     ) -> (Option<FrameSums>, FrameCounters) {
-        let groups = rayon::current_num_threads().max(1);
-        let mut rows: Vec<Vec<(u32, &mut [crate::layout::AccumPixel])>> = (0..groups).map(|_| Vec::new()).collect();
-        for (y, row) in film.chunks_mut(self.scene.params.width as usize).enumerate() {
-            rows[y % groups].push((y as u32, row));
-        }
-        let traced: Vec<(Option<FrameSums>, FrameCounters)> = rows
-            .into_par_iter()
-            .map(|group| {
-                let (mut sums, mut counters) = (None::<FrameSums>, FrameCounters::default());
-                for (y, row) in group {
-                    let record = self.records(y);
-                    for (x, acc) in row.iter_mut().enumerate() {
-                        let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
-                        for sample in 0..shared::SAMPLES_PER_FRAME {
-                            let learn = record.then(|| sums.get_or_insert_with(no_sums) as &mut dyn Recorder);
-                            self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
+        let traced: Vec<(Option<FrameSums>, FrameCounters)> =
+            row_groups(film.chunks_mut(self.scene.params.width as usize))
+                .into_par_iter()
+                .map(|rows| {
+                    let (mut sums, mut counters) = (None::<FrameSums>, FrameCounters::default());
+                    for (y, row) in rows {
+                        let record = self.records(y);
+                        for (x, acc) in row.iter_mut().enumerate() {
+                            let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
+                            for sample in 0..shared::SAMPLES_PER_FRAME {
+                                let learn = record.then(|| sums.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                                self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
+                            }
+                            self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
                         }
-                        self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
                     }
-                }
-                (sums, counters)
-            })
-            .collect();
+                    (sums, counters)
+                })
+                .collect();
         traced.into_iter().fold((None, FrameCounters::default()), |(all, c), (sums, counters)| {
-            let all = match (all, sums) {
-                (Some(a), Some(b)) => Some(FrameSums::merge(a, b)),
-                (a, b) => a.or(b),
-            };
-            (all, c.plus(counters))
+            (add_sums(all, sums), c.plus(counters))
         })
     }
 

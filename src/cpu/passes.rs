@@ -6,9 +6,8 @@
 //! each other a few times a frame rather than 64. The reasons are in docs/cli.md,
 //! `--time`.
 
-use super::thread_sums::{RowSums, ThreadSums};
-use super::{FrameCounters, FrameEnd, FrameSetup, PixelSums};
-use crate::guide::FrameSums;
+use super::{add_sums, row_groups, FrameCounters, FrameEnd, FrameSetup, PixelSums};
+use crate::guide::{FrameSums, Recorder};
 use crate::layout::AccumPixel;
 use crate::math::rng::pcg_hash;
 use crate::math::sampler::hash_combine;
@@ -67,7 +66,7 @@ fn group(end: FrameEnd, done: u32, last: u32, pass_ms: Option<f64>, now: Instant
 /// `film` until 64 are done, or those `end` asks for, or at its deadline the next
 /// is predicted, by the last pass's time, to end past it (the first always runs),
 /// then adds each pixel's samples to `film` (weighed where `weigh` and the frame
-/// is whole). The targets go to one set of sums per thread, kept over the
+/// is whole). The targets go to one set of sums per group of rows, kept over the
 /// passes, as a table's sums are large.
 pub(super) fn trace_passes(
     setup: &FrameSetup,
@@ -79,7 +78,11 @@ pub(super) fn trace_passes(
     let p = &setup.scene.params;
     let width = p.width as usize;
     let mut pixels = vec![PixelSums::default(); film.len()];
-    let sums = ThreadSums::new(no_sums);
+    // The rows in fixed groups, each with its sums kept over the passes (`row_groups`).
+    let mut groups: Vec<_> = row_groups(pixels.chunks_mut(width).zip(film.chunks(width)))
+        .into_iter()
+        .map(|rows| (rows, None::<FrameSums>))
+        .collect();
     let mut counters = FrameCounters::default();
     let (mut samples, mut pass_ms) = (0, None);
     let last = match end {
@@ -94,22 +97,21 @@ pub(super) fn trace_passes(
             }
         }
         let passes = samples..samples + group(end, samples, last, pass_ms, start);
-        let traced = pixels
-            .par_chunks_mut(width)
-            .zip(film.par_chunks(width))
-            .enumerate()
-            .map(|(y, (row, accs))| {
+        let traced = groups
+            .par_iter_mut()
+            .map(|(rows, sums)| {
                 let mut c = FrameCounters::default();
-                let y = y as u32;
-                let mut slot = sums.for_row(setup.records(y));
-                for (x, (px, acc)) in row.iter_mut().zip(accs).enumerate() {
-                    let x = x as u32;
-                    let (first, estimate) =
-                        (first_sample(p.seed, y * p.width + x, setup.rng_frame), setup.estimate(acc));
-                    for pass in passes.clone() {
-                        let sample = first.wrapping_add(pass) % shared::SAMPLES_PER_FRAME;
-                        let learn = slot.as_mut().map(RowSums::recorder);
-                        setup.trace_sample((x, y), sample, estimate, learn, px, &mut c);
+                for (y, (row, accs)) in rows.iter_mut() {
+                    let (y, record) = (*y, setup.records(*y));
+                    for (x, (px, acc)) in row.iter_mut().zip(accs.iter()).enumerate() {
+                        let x = x as u32;
+                        let (first, estimate) =
+                            (first_sample(p.seed, y * p.width + x, setup.rng_frame), setup.estimate(acc));
+                        for pass in passes.clone() {
+                            let sample = first.wrapping_add(pass) % shared::SAMPLES_PER_FRAME;
+                            let learn = record.then(|| sums.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                            setup.trace_sample((x, y), sample, estimate, learn, px, &mut c);
+                        }
                     }
                 }
                 c
@@ -119,6 +121,7 @@ pub(super) fn trace_passes(
         samples = passes.end;
         pass_ms = Some(start.elapsed().as_secs_f64() * 1e3 / passes.len() as f64);
     }
+    let sums = groups.into_iter().map(|(_, sums)| sums).fold(None, add_sums);
     // Each pixel's samples into its accumulation; a frame cut short is not weighed.
     let weigh = weigh && samples == shared::SAMPLES_PER_FRAME;
     let finished = film
@@ -132,5 +135,5 @@ pub(super) fn trace_passes(
             c
         })
         .reduce(FrameCounters::default, FrameCounters::plus);
-    Passes { samples, pass_ms, counters: counters.plus(finished), sums: sums.into_sums() }
+    Passes { samples, pass_ms, counters: counters.plus(finished), sums }
 }
