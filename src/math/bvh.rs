@@ -339,9 +339,9 @@ impl WalkRay {
 
     /// The slab test of node `n`'s four boxes against (0, t_max), the exits scaled
     /// by [`EXIT_SCALE`] so that rounding never culls a box the ray meets; the
-    /// children it enters, nearest first (a sorting network: the GPU's registers
-    /// hold it). `glsl/bvh.glsl` `bvh_children`.
-    fn children(&self, n: &GpuBvhNode, t_max: f32) -> Children {
+    /// children it enters, nearest first with `SORTED` (a sorting network: the
+    /// GPU's registers hold it), else in slot order. `glsl/bvh.glsl` `bvh_children`.
+    fn children<const SORTED: bool>(&self, n: &GpuBvhNode, t_max: f32) -> Children {
         let (nx, fx) = self.planes(n.lo_x, n.hi_x, 0);
         let (ny, fy) = self.planes(n.lo_y, n.hi_y, 1);
         let (nz, fz) = self.planes(n.lo_z, n.hi_z, 2);
@@ -356,7 +356,7 @@ impl WalkRay {
             }
         });
         // One child or none entered: nothing to order.
-        if inside.count_ones() > 1 {
+        if SORTED && inside.count_ones() > 1 {
             for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
                 if c[j].0 < c[i].0 {
                     c.swap(i, j);
@@ -428,7 +428,8 @@ impl WalkRay {
 /// The walk shared by [`closest_hit`] (`ANY_HIT` false: the nearest primitive in
 /// (0, t_max), its distance and reference, or `shared::NO_PRIM`) and [`occluded`]
 /// (`ANY_HIT` true: whether anything but `skip` blocks (0, t_max); the first
-/// blocker ends the walk). Each node is read once; the leaves the ray enters are
+/// blocker ends the walk; its children are taken in slot order, unsorted). Each
+/// node is read once; the leaves the ray enters are
 /// tested there, the nearer first; of the interior children it enters, the walk
 /// goes on with the nearest and pushes the others, farthest first.
 /// `glsl/bvh.glsl` `bvh_walk`.
@@ -447,8 +448,11 @@ fn walk<const ANY_HIT: bool>(
     let mut sp = 0;
     let mut node = 0u32;
     loop {
-        let c = ray.children(&s.bvh_nodes[node as usize], best);
-        tally.node(&s.bvh_nodes[node as usize], &c);
+        // Shadow rays take the children in slot order: any blocker ends the walk, and
+        // the nearest first walked bunny-door's bunny before the wall that blocks (docs/meshes.md).
+        let n = &s.bvh_nodes[node as usize];
+        let c = if ANY_HIT { ray.children::<false>(n, best) } else { ray.children::<true>(n, best) };
+        tally.node(n, &c);
         // A leaf before may bring best nearer than the children after it (not
         // with ANY_HIT, whose best stays t_max, which the slab test bounds).
         let beyond = |enter: f32, best: f32| !ANY_HIT && enter > best * EXIT_SCALE;
