@@ -107,11 +107,13 @@ WalkRay walk_ray(vec3 o, vec3 d) {
 
 // src/math/bvh.rs `WalkRay::children`: the slab test of node n's four boxes
 // against (0, t_max), the exits scaled by BVH_EXIT_SCALE so that rounding never
-// culls a box the ray meets; the children entered, nearest first (a sorting
-// network), with their entry distances; a slot not entered is (+inf, BVH_EMPTY).
+// culls a box the ray meets; the children entered, nearest first where sorted (a
+// sorting network) else in slot order, with their entry distances; a slot not
+// entered is (+inf, BVH_EMPTY).
 // The near plane is the low one where the direction is positive: an inverted
 // (empty) box is entered at +inf, left at -inf; on a box, the min and the max.
-void bvh_children(WalkRay r, BvhNode n, float t_max, out vec4 enter, out uvec4 child, out uvec4 count) {
+void bvh_children(WalkRay r, BvhNode n, float t_max, const bool sorted, out vec4 enter, out uvec4 child,
+                  out uvec4 count) {
     bvec3 neg = lessThan(r.inv_d, vec3(0.0));
     vec4 nx = ((neg.x ? n.hi_x : n.lo_x) - r.o.x) * r.inv_d.x;
     vec4 fx = ((neg.x ? n.lo_x : n.hi_x) - r.o.x) * r.inv_d.x;
@@ -130,7 +132,7 @@ void bvh_children(WalkRay r, BvhNode n, float t_max, out vec4 enter, out uvec4 c
         uint tc = child[i]; child[i] = child[j]; child[j] = tc; \
         tc = count[i]; count[i] = count[j]; count[j] = tc; }
     // One child or none entered: nothing to order.
-    if (bitCount(uint(in_box.x) | uint(in_box.y) << 1 | uint(in_box.z) << 2 | uint(in_box.w) << 3) > 1) {
+    if (sorted && bitCount(uint(in_box.x) | uint(in_box.y) << 1 | uint(in_box.z) << 2 | uint(in_box.w) << 3) > 1) {
         BVH_ORDER(0, 1) BVH_ORDER(2, 3) BVH_ORDER(0, 2) BVH_ORDER(1, 3) BVH_ORDER(1, 2)
     }
 #undef BVH_ORDER
@@ -189,7 +191,8 @@ bool bvh_walk(vec3 o, vec3 d, float t_max, uint skip, const bool any_hit, out fl
     while (true) {
         vec4 enter;
         uvec4 child, count;
-        bvh_children(r, bvh_nodes[node], best, enter, child, count);
+        // Shadow rays take the children in slot order (src/math/bvh.rs `walk`).
+        bvh_children(r, bvh_nodes[node], best, !any_hit, enter, child, count);
         // The leaves entered, nearer first, by a mask of their slots: the leaf
         // test is inlined once. A leaf before may bring best nearer than the
         // children after it (not with any_hit, whose best stays t_max, which the

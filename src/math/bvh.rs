@@ -229,6 +229,87 @@ struct WalkRay {
 /// (+inf, `shared::BVH_EMPTY`, count).
 type Children = [(f32, u32, u32); 4];
 
+/// What walks did, summed by [`closest_hit_counted`] and [`occluded_counted`]
+/// (the walk's tool for comparing trees and walks; docs/meshes.md).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WalkStats {
+    /// Walks summed.
+    pub rays: u64,
+    /// Interior nodes read.
+    pub nodes: u64,
+    /// Child boxes slab-tested (slots holding a child).
+    pub boxes: u64,
+    /// Child boxes the ray entered within its interval.
+    pub entered: u64,
+    /// Nodes where two children or more were entered at distance 0 (the origin in their boxes).
+    pub zero_ties: u64,
+    /// Leaves tested.
+    pub leaves: u64,
+    pub triangles: u64,
+    pub quads: u64,
+    pub spheres: u64,
+    /// Node indices pushed on the stack.
+    pub pushes: u64,
+    /// Nodes read after the closest hit was found (closest-hit walks that hit).
+    pub nodes_after_hit: u64,
+    nodes_at_hit: u64,
+}
+
+impl WalkStats {
+    /// Adds another sum to this one.
+    pub fn add(&mut self, o: &WalkStats) {
+        self.rays += o.rays;
+        self.nodes += o.nodes;
+        self.boxes += o.boxes;
+        self.entered += o.entered;
+        self.zero_ties += o.zero_ties;
+        self.leaves += o.leaves;
+        self.triangles += o.triangles;
+        self.quads += o.quads;
+        self.spheres += o.spheres;
+        self.pushes += o.pushes;
+        self.nodes_after_hit += o.nodes_after_hit;
+    }
+}
+
+/// What the walk reports as it goes: nothing for `()`, the normal walk (its
+/// calls compile away); counts for [`WalkStats`].
+trait Tally {
+    fn node(&mut self, _n: &GpuBvhNode, _c: &Children) {}
+    fn leaf(&mut self) {}
+    fn prim(&mut self, _r: u32) {}
+    fn push(&mut self) {}
+    fn hit(&mut self) {}
+}
+
+impl Tally for () {}
+
+impl Tally for WalkStats {
+    fn node(&mut self, n: &GpuBvhNode, c: &Children) {
+        self.nodes += 1;
+        self.boxes += n.child.iter().filter(|&&w| w != shared::BVH_EMPTY).count() as u64;
+        let entered = c.iter().filter(|e| e.1 != shared::BVH_EMPTY);
+        self.entered += entered.clone().count() as u64;
+        self.zero_ties += (entered.filter(|e| e.0 == 0.0).count() > 1) as u64;
+    }
+    fn leaf(&mut self) {
+        self.leaves += 1;
+    }
+    fn prim(&mut self, r: u32) {
+        match prim_kind_index(r).0 {
+            shared::PRIM_TRIANGLE => self.triangles += 1,
+            shared::PRIM_SPHERE => self.spheres += 1,
+            _ => self.quads += 1,
+        }
+    }
+    fn push(&mut self) {
+        self.pushes += 1;
+    }
+    fn hit(&mut self) {
+        self.nodes_at_hit = self.nodes;
+    }
+}
+
 impl WalkRay {
     fn new(o: Vec3, d: Vec3) -> WalkRay {
         let safe = |x: f32| {
@@ -258,9 +339,9 @@ impl WalkRay {
 
     /// The slab test of node `n`'s four boxes against (0, t_max), the exits scaled
     /// by [`EXIT_SCALE`] so that rounding never culls a box the ray meets; the
-    /// children it enters, nearest first (a sorting network: the GPU's registers
-    /// hold it). `glsl/bvh.glsl` `bvh_children`.
-    fn children(&self, n: &GpuBvhNode, t_max: f32) -> Children {
+    /// children it enters, nearest first with `SORTED` (a sorting network: the
+    /// GPU's registers hold it), else in slot order. `glsl/bvh.glsl` `bvh_children`.
+    fn children<const SORTED: bool>(&self, n: &GpuBvhNode, t_max: f32) -> Children {
         let (nx, fx) = self.planes(n.lo_x, n.hi_x, 0);
         let (ny, fy) = self.planes(n.lo_y, n.hi_y, 1);
         let (nz, fz) = self.planes(n.lo_z, n.hi_z, 2);
@@ -275,7 +356,7 @@ impl WalkRay {
             }
         });
         // One child or none entered: nothing to order.
-        if inside.count_ones() > 1 {
+        if SORTED && inside.count_ones() > 1 {
             for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
                 if c[j].0 < c[i].0 {
                     c.swap(i, j);
@@ -312,6 +393,7 @@ impl WalkRay {
     /// The leaf of `count` references from `first` in `prim_refs`: with `ANY_HIT`,
     /// whether one but `skip` blocks (0, best); else `best` and `prim` brought to
     /// its nearest hit nearer than `best`, and false. `glsl/bvh.glsl` `bvh_leaf`.
+    #[allow(clippy::too_many_arguments)]
     fn leaf<const ANY_HIT: bool>(
         &self,
         s: &SceneArrays,
@@ -320,14 +402,23 @@ impl WalkRay {
         skip: u32,
         best: &mut f32,
         prim: &mut u32,
+        tally: &mut impl Tally,
     ) -> bool {
+        tally.leaf();
         for &r in &s.prim_refs[first as usize..(first + count) as usize] {
             if ANY_HIT {
-                if r != skip && self.prim_blocks(s, r, *best) {
-                    return true;
+                if r != skip {
+                    tally.prim(r);
+                    if self.prim_blocks(s, r, *best) {
+                        return true;
+                    }
                 }
-            } else if let Some(t) = self.prim_t(s, r, *best) {
-                (*best, *prim) = (t, r);
+            } else {
+                tally.prim(r);
+                if let Some(t) = self.prim_t(s, r, *best) {
+                    (*best, *prim) = (t, r);
+                    tally.hit();
+                }
             }
         }
         false
@@ -337,11 +428,18 @@ impl WalkRay {
 /// The walk shared by [`closest_hit`] (`ANY_HIT` false: the nearest primitive in
 /// (0, t_max), its distance and reference, or `shared::NO_PRIM`) and [`occluded`]
 /// (`ANY_HIT` true: whether anything but `skip` blocks (0, t_max); the first
-/// blocker ends the walk). Each node is read once; the leaves the ray enters are
+/// blocker ends the walk; its children are taken in slot order, unsorted). Each
+/// node is read once; the leaves the ray enters are
 /// tested there, the nearer first; of the interior children it enters, the walk
 /// goes on with the nearest and pushes the others, farthest first.
 /// `glsl/bvh.glsl` `bvh_walk`.
-fn walk<const ANY_HIT: bool>(s: &SceneArrays, ray: &WalkRay, t_max: f32, skip: u32) -> (bool, f32, u32) {
+fn walk<const ANY_HIT: bool>(
+    s: &SceneArrays,
+    ray: &WalkRay,
+    t_max: f32,
+    skip: u32,
+    tally: &mut impl Tally,
+) -> (bool, f32, u32) {
     let (mut best, mut prim) = (t_max, shared::NO_PRIM);
     if s.bvh_nodes.is_empty() {
         return (false, best, prim);
@@ -350,7 +448,11 @@ fn walk<const ANY_HIT: bool>(s: &SceneArrays, ray: &WalkRay, t_max: f32, skip: u
     let mut sp = 0;
     let mut node = 0u32;
     loop {
-        let c = ray.children(&s.bvh_nodes[node as usize], best);
+        // Shadow rays take the children in slot order: any blocker ends the walk, and
+        // the nearest first walked bunny-door's bunny before the wall that blocks (docs/meshes.md).
+        let n = &s.bvh_nodes[node as usize];
+        let c = if ANY_HIT { ray.children::<false>(n, best) } else { ray.children::<true>(n, best) };
+        tally.node(n, &c);
         // A leaf before may bring best nearer than the children after it (not
         // with ANY_HIT, whose best stays t_max, which the slab test bounds).
         let beyond = |enter: f32, best: f32| !ANY_HIT && enter > best * EXIT_SCALE;
@@ -358,7 +460,7 @@ fn walk<const ANY_HIT: bool>(s: &SceneArrays, ray: &WalkRay, t_max: f32, skip: u
             if child == shared::BVH_EMPTY || child & shared::BVH_LEAF == 0 || beyond(enter, best) {
                 continue;
             }
-            if ray.leaf::<ANY_HIT>(s, child & !shared::BVH_LEAF, count, skip, &mut best, &mut prim) {
+            if ray.leaf::<ANY_HIT>(s, child & !shared::BVH_LEAF, count, skip, &mut best, &mut prim, tally) {
                 return (true, best, prim);
             }
         }
@@ -372,6 +474,7 @@ fn walk<const ANY_HIT: bool>(s: &SceneArrays, ray: &WalkRay, t_max: f32, skip: u
             if next != shared::BVH_EMPTY {
                 stack[sp] = next;
                 sp += 1;
+                tally.push();
             }
             next = child;
         }
@@ -390,7 +493,7 @@ fn walk<const ANY_HIT: bool>(s: &SceneArrays, ray: &WalkRay, t_max: f32, skip: u
 /// The nearest primitive the ray from `o` along unit `d` meets in (0, t_max):
 /// its distance and reference. `glsl/bvh.glsl` `bvh_closest`.
 pub fn closest_hit(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, u32)> {
-    let (hit, t, prim) = walk::<false>(s, &WalkRay::new(o, d), t_max, shared::NO_PRIM);
+    let (hit, t, prim) = walk::<false>(s, &WalkRay::new(o, d), t_max, shared::NO_PRIM, &mut ());
     hit.then_some((t, prim))
 }
 
@@ -398,5 +501,24 @@ pub fn closest_hit(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32
 /// blocks the segment from `o` to `o + t_max d` (`d` unit): the walk stops at the
 /// first blocker. `glsl/bvh.glsl` `bvh_occluded`.
 pub fn occluded(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip: u32) -> bool {
-    walk::<true>(s, &WalkRay::new(o, d), t_max, skip).0
+    walk::<true>(s, &WalkRay::new(o, d), t_max, skip, &mut ()).0
+}
+
+/// [`closest_hit`], its walk counted into `stats`.
+pub fn closest_hit_counted(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, stats: &mut WalkStats) -> Option<(f32, u32)> {
+    let mut one = WalkStats { rays: 1, ..WalkStats::default() };
+    let (hit, t, prim) = walk::<false>(s, &WalkRay::new(o, d), t_max, shared::NO_PRIM, &mut one);
+    if hit {
+        one.nodes_after_hit = one.nodes - one.nodes_at_hit;
+    }
+    stats.add(&one);
+    hit.then_some((t, prim))
+}
+
+/// [`occluded`], its walk counted into `stats`.
+pub fn occluded_counted(s: &SceneArrays, o: Vec3, d: Vec3, t_max: f32, skip: u32, stats: &mut WalkStats) -> bool {
+    let mut one = WalkStats { rays: 1, ..WalkStats::default() };
+    let blocked = walk::<true>(s, &WalkRay::new(o, d), t_max, skip, &mut one).0;
+    stats.add(&one);
+    blocked
 }
