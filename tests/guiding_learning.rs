@@ -506,3 +506,31 @@ fn the_gpu_image_starts_after_the_learning_frames() {
     assert!(r.film().unwrap().pixels.iter().all(|p| p.sum[3] == 0.0));
     assert_no_validation_messages(&ctx);
 }
+
+/// The default grid covers where light goes: smallpt framed wider than 4:3 starts
+/// its edge rays behind the side walls, in an unlit gap that reaches far out
+/// (what the camera sees spans hundreds of units there), and the grid still
+/// covers the room alone, as at 4:3. Door, lit through a gap, keeps the box of
+/// all it sees.
+#[test]
+fn the_default_grid_covers_the_lit_room_at_any_aspect() {
+    let grid = |name: &str, w: u32, h: u32| {
+        let scene = scene(name);
+        let mut o = options(&scene, w, h, 64);
+        o.guiding = GuidingMode::Sphere;
+        let prepared = PreparedScene::new(&scene, &o).unwrap();
+        (prepared.guide.as_ref().unwrap().grid, rlpt::guide::probe_bounds(&prepared))
+    };
+    let (wide, seen) = grid("smallpt.toml", 64, 40);
+    assert!(seen.0.x < -100.0 && seen.1.x > 200.0, "the camera sees the gap behind the walls: {seen:?}");
+    // The room spans x 1 to 99, y 0 to 81.6 and z 0 to 170, and the camera is at z 295.6.
+    let margin = 0.01 * (Vec3::new(98.0, 81.6, 295.6).length() + 10.0);
+    assert!(wide.min.cmpge(Vec3::new(1.0, 0.0, 0.0) - margin).all(), "{wide:?}");
+    assert!(wide.max.cmple(Vec3::new(99.0, 81.6, 295.6) + margin).all(), "{wide:?}");
+    let (square, _) = grid("smallpt.toml", 64, 48);
+    assert_eq!(wide.res, square.res);
+    assert!((wide.min - square.min).abs().max_element() < 0.01 && (wide.max - square.max).abs().max_element() < 0.01);
+    let (door, door_seen) = grid("door.toml", 64, 40);
+    let off = (door.min - door_seen.0).abs().max((door.max - door_seen.1).abs()).max_element();
+    assert!(off < 1e-3, "door's grid {door:?} against what it sees {door_seen:?}");
+}

@@ -47,11 +47,12 @@ impl Grid {
 
     /// The grid of a scene: the `[guiding]` table where it says so; otherwise the
     /// box around the points that camera rays and their first diffuse bounce reach
-    /// (so huge wall spheres do not stretch it), and 16 cells along its longest axis.
+    /// on paths that meet light ([`guide_bounds`]; so huge wall spheres do not
+    /// stretch it), and 16 cells along its longest axis.
     pub fn for_scene(scene: &SceneArrays, settings: &GuidingSettings) -> Grid {
         let (min, max) = match (settings.bounds_min, settings.bounds_max) {
             (Some(a), Some(b)) => (a, b),
-            _ => probe_bounds(scene),
+            _ => guide_bounds(scene),
         };
         let res = settings.resolution.unwrap_or_else(|| {
             let e = max - min;
@@ -94,11 +95,47 @@ pub fn grid_warning(scene: &SceneArrays, cfg: Option<&GuideConfig>, settings: &G
 /// The bounding box of the camera and of the surface points seen from it
 /// directly and after one bounce, enlarged by 1% of its diagonal.
 pub fn probe_bounds(scene: &SceneArrays) -> (Vec3, Vec3) {
+    probe(scene).seen
+}
+
+/// The box the grid covers by default: [`probe_bounds`] less the points of probe
+/// paths that meet no light, where at least 1/64 of the paths meet some. Points
+/// that no light reaches need no guiding, and can lie far out: smallpt framed
+/// wider than 4:3 starts its edge rays behind the side walls, in an unlit gap
+/// that reaches hundreds of units out, and the grid over it gave the room a few
+/// cells (docs/guiding.md, "Small images").
+pub fn guide_bounds(scene: &SceneArrays) -> (Vec3, Vec3) {
+    let p = probe(scene);
+    if p.lit_paths * 64 >= p.paths {
+        p.lit
+    } else {
+        p.seen
+    }
+}
+
+/// What [`probe`] found: the boxes of all the points and of those of paths that
+/// met light, and how many paths there were and met light.
+struct Probe {
+    seen: (Vec3, Vec3),
+    lit: (Vec3, Vec3),
+    paths: u32,
+    lit_paths: u32,
+}
+
+/// Traces 64x64 camera rays and one cosine-distributed bounce from each hit. A
+/// path meets light where its bounce escapes into a sky that is not black, or
+/// at one of its two hits ([`meets_light_at`]). The tests for light draw from
+/// their own stream, so the points are those of the camera rays and bounces alone.
+fn probe(scene: &SceneArrays) -> Probe {
     let p = &scene.params;
     let eye = Vec3::new(p.cam_position_near[0], p.cam_position_near[1], p.cam_position_near[2]);
     let (mut lo, mut hi) = (eye, eye);
+    let (mut lit_lo, mut lit_hi) = (eye, eye);
+    let sky = p.env_width > 0 || Vec3::new(p.environment[0], p.environment[1], p.environment[2]).max_element() > 0.0;
     let n = 64u32;
     let mut rng = Rng::new(0x5eed, 0, 0, 0);
+    let mut light_rng = Rng::new(0x5eed, 1, 0, 0);
+    let mut lit_paths = 0;
     let mut probe = p.to_owned();
     probe.width = n;
     probe.height = n;
@@ -106,17 +143,58 @@ pub fn probe_bounds(scene: &SceneArrays) -> (Vec3, Vec3) {
         for x in 0..n {
             let (o, d) = crate::camera::camera_ray(&probe, x, y, rng.next_2d());
             let Some(h) = intersect(scene, o, d, f32::INFINITY) else { continue };
-            lo = lo.min(h.p);
-            hi = hi.max(h.p);
+            let mut lit = meets_light_at(scene, &h, d, sky, &mut light_rng);
             let nrm = if h.n.dot(d) < 0.0 { h.n } else { -h.n };
             let dir = Frame::from_normal(nrm).to_world(crate::math::sampling::cosine_hemisphere(rng.next_2d()));
             let o2 = crate::math::geometry::offset_origin(h.p, h.n, h.eps, dir);
-            if let Some(h2) = intersect(scene, o2, dir, f32::INFINITY) {
-                lo = lo.min(h2.p);
-                hi = hi.max(h2.p);
+            let h2 = intersect(scene, o2, dir, f32::INFINITY);
+            lit |= match &h2 {
+                Some(h2) => meets_light_at(scene, h2, dir, sky, &mut light_rng),
+                None => sky,
+            };
+            let points = [Some(h.p), h2.map(|h2| h2.p)];
+            for q in points.into_iter().flatten() {
+                lo = lo.min(q);
+                hi = hi.max(q);
+                if lit {
+                    lit_lo = lit_lo.min(q);
+                    lit_hi = lit_hi.max(q);
+                }
             }
+            lit_paths += lit as u32;
         }
     }
-    let margin = 0.01 * (hi - lo).length().max(1e-3);
-    (lo - Vec3::splat(margin), hi + Vec3::splat(margin))
+    let grow = |(lo, hi): (Vec3, Vec3)| {
+        let margin = 0.01 * (hi - lo).length().max(1e-3);
+        (lo - Vec3::splat(margin), hi + Vec3::splat(margin))
+    };
+    Probe { seen: grow((lo, hi)), lit: grow((lit_lo, lit_hi)), paths: n * n, lit_paths }
+}
+
+/// Whether the ray along `d` that reached `h` met light there: an emitter facing
+/// it, or one of two light samples from `h` on the ray's side of the surface
+/// that nothing blocks (a lamp above a ceiling lights its top, not the room), or
+/// where the `sky` is not black, one of two cosine-distributed rays that escape.
+fn meets_light_at(scene: &SceneArrays, h: &crate::math::geometry::Hit, d: Vec3, sky: bool, rng: &mut Rng) -> bool {
+    use crate::math::geometry::{emitted, occluded, offset_origin, sample_light, shadow_ray};
+    if emitted(scene, h.material, h.n, -d).max_element() > 0.0 {
+        return true;
+    }
+    let side = if h.n.dot(d) < 0.0 { h.n } else { -h.n };
+    let escapes = |u: [f32; 2]| {
+        let w = Frame::from_normal(side).to_world(crate::math::sampling::cosine_hemisphere(u));
+        intersect(scene, offset_origin(h.p, h.n, h.eps, w), w, f32::INFINITY).is_none()
+    };
+    if sky && (0..2).any(|_| escapes(rng.next_2d())) {
+        return true;
+    }
+    (0..2).any(|_| {
+        let u_sel = rng.next_f32();
+        let Some(ls) = sample_light(scene, h.p, u_sel, rng.next_2d()) else { return false };
+        if !(ls.le.max_element() > 0.0) || ls.wi.dot(h.n) * d.dot(h.n) >= 0.0 {
+            return false;
+        }
+        let (o, dir, len) = shadow_ray(h.p, h.n, h.eps, &ls);
+        !occluded(scene, o, dir, len, ls.skip)
+    })
 }
