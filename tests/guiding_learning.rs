@@ -195,11 +195,12 @@ fn recording_stride_doubles_as_the_table_fills() {
     assert_eq!((RECORD_ALL_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 8, 32), "the schedule documented");
     let frames = 20000u32;
     // (pixels, entries): a thumbnail and door.toml's size over door's table of 8x16
-    // bins, door's size over its default table (20x40 bins: door has Russian
-    // roulette), a large image over a small table.
+    // bins, door's size over its table of 20x40 bins (door has Russian roulette),
+    // a large image over a small table. Door's tables are those of its 16-cell grid
+    // (a small image's: `default_grid_cells`).
     let door_scene = scene("door.toml");
     let door_entries = |bins: Option<Bins>| {
-        let mut o = guided(&options(&door_scene, 480, 320, 64), GuidingMode::Sphere);
+        let mut o = guided(&options(&door_scene, 48, 32, 64), GuidingMode::Sphere);
         o.bins = bins;
         PreparedScene::new(&door_scene, &o).expect("valid options").guide.unwrap().entries() as u64
     };
@@ -523,14 +524,45 @@ fn the_default_grid_covers_the_lit_room_at_any_aspect() {
     };
     let (wide, seen) = grid("smallpt.toml", 64, 40);
     assert!(seen.0.x < -100.0 && seen.1.x > 200.0, "the camera sees the gap behind the walls: {seen:?}");
-    // The room spans x 1 to 99, y 0 to 81.6 and z 0 to 170, and the camera is at z 295.6.
-    let margin = 0.01 * (Vec3::new(98.0, 81.6, 295.6).length() + 10.0);
+    // The room spans x 1 to 99, y 0 to 81.6 and z 0 to 170; the camera, at z 295.6,
+    // is no vertex and stays out.
+    let margin = 0.01 * (Vec3::new(98.0, 81.6, 170.0).length() + 10.0);
     assert!(wide.min.cmpge(Vec3::new(1.0, 0.0, 0.0) - margin).all(), "{wide:?}");
-    assert!(wide.max.cmple(Vec3::new(99.0, 81.6, 295.6) + margin).all(), "{wide:?}");
+    assert!(wide.max.cmple(Vec3::new(99.0, 81.6, 170.0) + margin).all(), "{wide:?}");
     let (square, _) = grid("smallpt.toml", 64, 48);
     assert_eq!(wide.res, square.res);
     assert!((wide.min - square.min).abs().max_element() < 0.01 && (wide.max - square.max).abs().max_element() < 0.01);
     let (door, door_seen) = grid("door.toml", 64, 40);
     let off = (door.min - door_seen.0).abs().max((door.max - door_seen.1).abs()).max_element();
     assert!(off < 1e-3, "door's grid {door:?} against what it sees {door_seen:?}");
+}
+
+/// The default grid: 24 cells along the longest axis with Russian roulette over
+/// an image of at least LEARN_PIXEL_FRAMES pixels, 16 over smaller images and
+/// without roulette, and fewer where the sampling rows would pass the storage
+/// buffer every device allows.
+#[test]
+fn the_default_grid_is_finer_over_large_images_with_roulette() {
+    use rlpt::guide::{default_grid_cells, LEARN_PIXEL_FRAMES, NORMAL_CLASSES, PORTABLE_BUFFER_BYTES};
+    let cfg = |name: &str, w: u32, h: u32| {
+        let scene = scene(name);
+        let o = guided(&options(&scene, w, h, 64), GuidingMode::Sphere);
+        *PreparedScene::new(&scene, &o).unwrap().guide.as_ref().unwrap()
+    };
+    assert_eq!(
+        (default_grid_cells(true, LEARN_PIXEL_FRAMES), default_grid_cells(true, LEARN_PIXEL_FRAMES - 1)),
+        (24, 16)
+    );
+    assert_eq!(default_grid_cells(false, 1 << 30), 16);
+    // Door's box is 9.2 x 3.2 x 6.2.
+    assert_eq!(cfg("door.toml", 480, 320).grid.res, [24, 8, 16]);
+    assert_eq!(cfg("door.toml", 48, 32).grid.res, [16, 6, 11]);
+    let exp1 = cfg("seed-exp1.toml", 360, 240).grid.res;
+    assert_eq!(exp1.into_iter().max(), Some(16), "seed-exp1 has no roulette: {exp1:?}");
+    // smallpt's room at 24 along z would take 14x12x24 cells, whose 20x40-bin rows pass 128 MiB.
+    let big = cfg("smallpt.toml", 640, 480);
+    let rows = |c: u32| c as u64 * big.bins.count() as u64 * NORMAL_CLASSES as u64 * 8;
+    assert!(rows(14 * 12 * 24) > PORTABLE_BUFFER_BYTES);
+    assert!(rows(big.grid.cells()) <= PORTABLE_BUFFER_BYTES, "{:?}", big.grid);
+    assert_eq!(big.grid.res[2], 23, "{:?}", big.grid);
 }

@@ -143,6 +143,19 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
     if let Some((lo, hi)) = bounds(&prepared) {
         println!("  bounds {} to {}", v(lo), v(hi));
     }
+    // The grid guiding learns on at the scene's size (docs/guiding.md, "The table").
+    let roulette = RenderOptions::from_scene(&scene).russian_roulette_depth.is_some();
+    let bins = rlpt::guide::default_bins(roulette);
+    let grid = rlpt::guide::Grid::for_render(&prepared, &scene.guiding, roulette, bins);
+    println!(
+        "  guide grid (--guiding sphere, default bins): {}x{}x{} cells, {}, over {} to {}",
+        grid.res[0],
+        grid.res[1],
+        grid.res[2],
+        scene.guiding.grid.unwrap_or_default().name(),
+        v(grid.min),
+        v(grid.max)
+    );
     if prepared.bvh_nodes.is_empty() {
         println!("  no BVH: the kernel walks the {} primitives itself", scene.spheres.len() + scene.quads.len());
     } else {

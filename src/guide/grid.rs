@@ -4,6 +4,10 @@
 use super::*;
 use crate::scene::GridKind;
 
+/// The storage buffer size every Vulkan device allows (the least
+/// `maxStorageBufferRange` the specification permits).
+pub const PORTABLE_BUFFER_BYTES: u64 = 1 << 27;
+
 /// The voxel grid whose cells are the states.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grid {
@@ -45,19 +49,38 @@ impl Grid {
         cell_in_tree(self, &[], p)
     }
 
+    /// The grid a render of `bins` guides on: [`for_scene`](Self::for_scene) with
+    /// [`default_grid_cells`] along the longest axis, fewer where the sampling rows
+    /// would pass [`PORTABLE_BUFFER_BYTES`], which every Vulkan device lets a
+    /// storage buffer hold (no fewer than 16: more bins than that fits are the
+    /// user's choice, and the device's own limit decides).
+    pub fn for_render(scene: &SceneArrays, settings: &GuidingSettings, roulette: bool, bins: Bins) -> Grid {
+        let pixels = scene.params.width as u64 * scene.params.height as u64;
+        let mut longest = default_grid_cells(roulette, pixels);
+        loop {
+            let grid = Grid::for_scene(scene, settings, longest);
+            let rows = grid.capacity as u64 * bins.count() as u64 * NORMAL_CLASSES as u64 * 8;
+            if rows <= PORTABLE_BUFFER_BYTES || longest <= 16 {
+                return grid;
+            }
+            longest -= 1;
+        }
+    }
+
     /// The grid of a scene: the `[guiding]` table where it says so; otherwise the
     /// box around the points that camera rays and their first diffuse bounce reach
     /// on paths that meet light ([`guide_bounds`]; so huge wall spheres do not
-    /// stretch it), and 16 cells along its longest axis.
-    pub fn for_scene(scene: &SceneArrays, settings: &GuidingSettings) -> Grid {
+    /// stretch it), and `longest` cells along its longest axis
+    /// ([`default_grid_cells`]), proportionally fewer along the others.
+    pub fn for_scene(scene: &SceneArrays, settings: &GuidingSettings, longest: u32) -> Grid {
         let (min, max) = match (settings.bounds_min, settings.bounds_max) {
             (Some(a), Some(b)) => (a, b),
             _ => guide_bounds(scene),
         };
         let res = settings.resolution.unwrap_or_else(|| {
             let e = max - min;
-            let longest = e.max_element();
-            let n = |x: f32| ((16.0 * x / longest).round() as u32).clamp(1, 16);
+            let size = e.max_element();
+            let n = |x: f32| ((longest as f32 * x / size).round() as u32).clamp(1, longest);
             [n(e.x), n(e.y), n(e.z)]
         });
         let grid = Grid { min, max, res, capacity: res[0] * res[1] * res[2] };
@@ -98,8 +121,9 @@ pub fn probe_bounds(scene: &SceneArrays) -> (Vec3, Vec3) {
     probe(scene).seen
 }
 
-/// The box the grid covers by default: [`probe_bounds`] less the points of probe
-/// paths that meet no light, where at least 1/64 of the paths meet some. Points
+/// The box the grid covers by default: [`probe_bounds`] less the camera and the
+/// points of probe paths that meet no light, where at least 1/64 of the paths
+/// meet some. Points
 /// that no light reaches need no guiding, and can lie far out: smallpt framed
 /// wider than 4:3 starts its edge rays behind the side walls, in an unlit gap
 /// that reaches hundreds of units out, and the grid over it gave the room a few
@@ -130,7 +154,8 @@ fn probe(scene: &SceneArrays) -> Probe {
     let p = &scene.params;
     let eye = Vec3::new(p.cam_position_near[0], p.cam_position_near[1], p.cam_position_near[2]);
     let (mut lo, mut hi) = (eye, eye);
-    let (mut lit_lo, mut lit_hi) = (eye, eye);
+    // The eye is no vertex: a camera outside the room (smallpt's) would stretch the box.
+    let (mut lit_lo, mut lit_hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     let sky = p.env_width > 0 || Vec3::new(p.environment[0], p.environment[1], p.environment[2]).max_element() > 0.0;
     let n = 64u32;
     let mut rng = Rng::new(0x5eed, 0, 0, 0);

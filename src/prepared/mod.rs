@@ -399,7 +399,7 @@ impl PreparedScene {
         if let Some(bins) = bins {
             let settings =
                 crate::scene::GuidingSettings { grid: opts.guide_grid.or(scene.guiding.grid), ..scene.guiding.clone() };
-            let grid = Grid::for_scene(&prepared, &settings);
+            let grid = Grid::for_render(&prepared, &settings, roulette, bins);
             let cfg = GuideConfig {
                 mode: opts.guiding,
                 bins,
