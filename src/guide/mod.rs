@@ -278,7 +278,7 @@ pub fn check_learning_period(n: u32) -> Result<(), String> {
 /// learns in time: at equal time it lowered door's, bunny-door's and smallpt's
 /// error at their own sizes. Small images learn it too slowly (bunny-door at
 /// 64x40 in its first 0.1 s), and the seed's scenes, which guide two vertices,
-/// gained nothing (docs/guiding.md, "Defaults").
+/// gained nothing (docs/guiding.md, "Cells").
 pub fn default_grid_cells(roulette: bool, pixels: u64) -> u32 {
     if roulette && pixels >= LEARN_PIXEL_FRAMES {
         24
