@@ -38,7 +38,8 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
     let scene = Scene::load_with(path, strict)?;
     let loaded = start.elapsed();
     let start = std::time::Instant::now();
-    let prepared = PreparedScene::new(&scene, &RenderOptions::from_scene(&scene))?;
+    let opts = RenderOptions::from_scene(&scene);
+    let prepared = PreparedScene::new(&scene, &opts)?;
     let prepare_time = start.elapsed();
     let v = |p: glam::Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
     println!("{}", path.display());
@@ -144,7 +145,7 @@ pub(crate) fn info(path: &Path, strict: bool) -> Result<()> {
         println!("  bounds {} to {}", v(lo), v(hi));
     }
     // The grid guiding learns on at the scene's size (docs/guiding.md, "The table").
-    let roulette = RenderOptions::from_scene(&scene).russian_roulette_depth.is_some();
+    let roulette = opts.russian_roulette_depth.is_some();
     let bins = rlpt::guide::default_bins(roulette);
     let grid = rlpt::guide::Grid::for_render(&prepared, &scene.guiding, roulette, bins);
     println!(

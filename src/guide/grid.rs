@@ -49,34 +49,36 @@ impl Grid {
         cell_in_tree(self, &[], p)
     }
 
-    /// The grid a render of `bins` guides on: [`for_scene`](Self::for_scene) with
-    /// [`default_grid_cells`] along the longest axis, fewer where the sampling rows
-    /// would pass [`PORTABLE_BUFFER_BYTES`], which every Vulkan device lets a
-    /// storage buffer hold (no fewer than 16: more bins than that fits are the
-    /// user's choice, and the device's own limit decides).
+    /// The grid a render of `bins` guides on: the `[guiding]` table where it says
+    /// so; otherwise the box around the points that camera rays and their first
+    /// diffuse bounce reach on paths that meet light ([`guide_bounds`]; so huge
+    /// wall spheres do not stretch it), and [`default_grid_cells`] along its
+    /// longest axis, proportionally fewer along the others, fewer still where the
+    /// sampling rows would pass [`PORTABLE_BUFFER_BYTES`], which every Vulkan
+    /// device lets a storage buffer hold (no fewer than 16: more bins than that
+    /// fits are the user's choice, and the device's own limit decides).
     pub fn for_render(scene: &SceneArrays, settings: &GuidingSettings, roulette: bool, bins: Bins) -> Grid {
+        // The probe behind the box runs once; only the cells vary below.
+        let (min, max) = match (settings.bounds_min, settings.bounds_max) {
+            (Some(a), Some(b)) => (a, b),
+            _ => guide_bounds(scene),
+        };
         let pixels = scene.params.width as u64 * scene.params.height as u64;
         let mut longest = default_grid_cells(roulette, pixels);
         loop {
-            let grid = Grid::for_scene(scene, settings, longest);
+            let grid = Grid::over(min, max, settings, longest);
             let rows = grid.capacity as u64 * bins.count() as u64 * NORMAL_CLASSES as u64 * 8;
-            if rows <= PORTABLE_BUFFER_BYTES || longest <= 16 {
+            if settings.resolution.is_some() || rows <= PORTABLE_BUFFER_BYTES || longest <= 16 {
                 return grid;
             }
             longest -= 1;
         }
     }
 
-    /// The grid of a scene: the `[guiding]` table where it says so; otherwise the
-    /// box around the points that camera rays and their first diffuse bounce reach
-    /// on paths that meet light ([`guide_bounds`]; so huge wall spheres do not
-    /// stretch it), and `longest` cells along its longest axis
-    /// ([`default_grid_cells`]), proportionally fewer along the others.
-    pub fn for_scene(scene: &SceneArrays, settings: &GuidingSettings, longest: u32) -> Grid {
-        let (min, max) = match (settings.bounds_min, settings.bounds_max) {
-            (Some(a), Some(b)) => (a, b),
-            _ => guide_bounds(scene),
-        };
+    /// The grid over the box from `min` to `max`: the `[guiding]` resolution where
+    /// it gives one, else `longest` cells along the box's longest axis and
+    /// proportionally fewer along the others; adaptive where the settings say so.
+    fn over(min: Vec3, max: Vec3, settings: &GuidingSettings, longest: u32) -> Grid {
         let res = settings.resolution.unwrap_or_else(|| {
             let e = max - min;
             let size = e.max_element();
