@@ -67,7 +67,7 @@ impl Grid {
         let mut longest = default_grid_cells(roulette, pixels);
         loop {
             let grid = Grid::over(min, max, settings, longest);
-            let rows = grid.capacity as u64 * bins.count() as u64 * NORMAL_CLASSES as u64 * 8;
+            let rows = sampling_rows_bytes(grid.capacity, bins);
             if settings.resolution.is_some() || rows <= PORTABLE_BUFFER_BYTES || longest <= 16 {
                 return grid;
             }

@@ -205,6 +205,11 @@ impl GuideConfig {
     pub fn sampling_rows(&self) -> usize {
         self.cells() as usize * NORMAL_CLASSES as usize
     }
+
+    /// Bytes of the table's sampling rows ([`sampling_rows_bytes`]).
+    pub fn sampling_rows_bytes(&self) -> u64 {
+        sampling_rows_bytes(self.cells(), self.bins)
+    }
 }
 
 /// The vertices that mix guided sampling in: those of depth below this. The

@@ -4,6 +4,12 @@
 
 use super::*;
 
+/// Bytes of a table's sampling rows, the largest of its buffers: an [`AliasBin`]
+/// per bin of each of the [`NORMAL_CLASSES`] rows of `cells` cells.
+pub fn sampling_rows_bytes(cells: u32, bins: Bins) -> u64 {
+    cells as u64 * NORMAL_CLASSES as u64 * bins.count() as u64 * std::mem::size_of::<AliasBin>() as u64
+}
+
 /// One bin of a guided sampling row: its column of the row's alias table
 /// (Walker's alias method, built by Vose's algorithm) and its density.
 ///

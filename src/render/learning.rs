@@ -96,11 +96,6 @@ pub(super) fn tree_of_words(bytes: &[u8]) -> (Vec<CellNode>, u32) {
     (nodes, used)
 }
 
-/// Bytes of the guiding table's sampling rows, the largest of its buffers.
-pub(super) fn sampling_rows_bytes(cfg: &crate::guide::GuideConfig) -> u64 {
-    cfg.entries() as u64 * shared::NORMAL_CLASSES as u64 * std::mem::size_of::<AliasBin>() as u64
-}
-
 /// Whether one storage buffer can hold the guiding table's sampling rows
 /// (`fits_one_buffer`): a table past the device's buffer range is refused as such.
 pub(super) fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) -> Result<(), GpuError> {
@@ -112,7 +107,7 @@ pub(super) fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) 
             cfg.bins.count(),
             shared::NORMAL_CLASSES
         ),
-        sampling_rows_bytes(cfg),
+        cfg.sampling_rows_bytes(),
         "use fewer cells (the scene's [guiding] resolution) or bins (--bins)",
     )
 }

@@ -51,7 +51,7 @@ pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result
             + 2 * 4 * (entries + cells)
             + 2 * 4 * rows
             + cells * std::mem::size_of::<crate::guide::FractionState>() as u64
-            + sampling_rows_bytes(cfg)
+            + cfg.sampling_rows_bytes()
             + super::learning::tree_bytes(cfg)
     });
     let uploads = [

@@ -276,7 +276,7 @@ impl GpuRenderer {
                 let size = 4 * entries as u64;
                 let sums_size = 4 * (entries + cells) as u64;
                 let rows = cfg.sampling_rows() as u64;
-                let sampler_size = sampling_rows_bytes(cfg);
+                let sampler_size = cfg.sampling_rows_bytes();
                 let bindings: Vec<(u32, Binding)> = (0..9).map(|i| (i, Binding::Storage)).collect();
                 let learn = |name: &str, group: u32, stage_words: u32| {
                     Pipeline::new_specialized(
