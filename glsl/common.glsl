@@ -334,10 +334,11 @@
 // learn.comp's refine phase: one workgroup of this many invocations.
 #define REFINE_GROUP 64
 // Which paths hand their Q-learning targets to the table (src/guide/record.rs
-// `RecordSchedule`): all of them in the first RECORD_ALL_FRAMES frames, then those
-// of one pixel row in a stride, a different row each frame. The stride starts at
+// `RecordSchedule`): in the first RECORD_FIRST_FRAMES frames all of them, or one row
+// in a first stride over large images, then those of one pixel row in a stride, a
+// different row each frame. The stride starts at
 // RECORD_ROW_STRIDE and doubles, up to RECORD_MAX_STRIDE, as the table fills.
-#define RECORD_ALL_FRAMES 8
+#define RECORD_FIRST_FRAMES 8
 #define RECORD_ROW_STRIDE 8
 #define RECORD_MAX_STRIDE 32
 // Which pixel rows a dispatch of pathtrace.comp traces (push constant `rows`:

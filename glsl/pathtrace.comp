@@ -52,12 +52,15 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // learned_frames: frames left out of the image whose radiance the pixels' sum.w
 // keeps for learned roulette's estimate (guide::GuideConfig::learning_frames):
 // where accum_frames is 0, the frames the buffer still holds, which the first
-// accumulation replaces;
+// accumulation replaces or folds in (fold_learned);
 // table_frames: frames the table learned from before this render (a loaded field);
 // rng_frame: the frame index of the random numbers: frame, plus a part's offset on
-// the image's frames (src/math/sampler.rs `rng_frame`), so that parts draw disjoint samples.
+// the image's frames (src/math/sampler.rs `rng_frame`), so that parts draw disjoint samples;
+// fold_learned: 1 where the first image frame takes the learning frames' mean in as
+// one frame of the image (src/film.rs `accumulate`), 0 where it writes over them.
 layout(push_constant) uniform Push {
     uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames; uint rng_frame;
+    uint fold_learned;
 } push;
 
 // src/render/dispatch.rs `pixel_row`: the pixel row of workgroup row `g`.
@@ -71,12 +74,17 @@ uint pixel_row(uint g) {
 }
 
 // src/film.rs `accumulate`. The first frame of an accumulation writes over what
-// the buffer holds; after the learning frames, it keeps their mean3 sum in sum.w
+// the buffer holds; after the learning frames, it either takes their mean in as the
+// image's first frame (fold_learned) or keeps their mean3 sum in sum.w
 // (src/guide/roulette.rs `roulette_estimate` reads it).
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
     uint n = push.accum_frames;
-    if (n == 0u) {
+    if (n == 0u && push.learned_frames > 0u && push.fold_learned != 0u) {
+        accum[pixel].sum = vec4(accum[pixel].sum.xyz / float(push.learned_frames), 0.0);
+        accum[pixel].m2_frame_mean = vec4(0.0);
+        n = 1u;
+    } else if (n == 0u) {
         float learned = 0.0;
         if (push.learned_frames > 0u) learned = mean3(accum[pixel].sum.xyz);
         accum[pixel].sum = vec4(sum, learned);

@@ -27,11 +27,38 @@ pub struct Film {
 ///
 /// The first frame of an accumulation (`frames` 0) writes over what the pixel
 /// holds. Where that is the learning frames' radiance (`learned_frames` > 0,
-/// `GuideConfig::learning_frames`), their mean3 sum stays in `sum[3]`, the
-/// learning frames' share of learned roulette's estimate
-/// (`crate::cpu::roulette_estimate`); the image is `sum[..3]` alone.
-pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3]) {
-    accumulate_samples(acc, frames, learned_frames, sum, shared::SAMPLES_PER_FRAME);
+/// `GuideConfig::learning_frames`), [`Learned::Fold`] takes their mean in as
+/// the image's first frame, this one its second (docs/guiding.md, "Learning
+/// frames in the image"); [`Learned::Keep`] keeps their mean3 sum in `sum[3]`,
+/// the learning frames' share of learned roulette's estimate
+/// (`crate::guide::roulette_estimate`), and the image is `sum[..3]` alone.
+pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, learned: Learned, sum: [f32; 3]) {
+    accumulate_samples(acc, frames, learned_frames, learned, sum, shared::SAMPLES_PER_FRAME);
+}
+
+/// What the image's first frame does with the learning frames the pixel holds
+/// ([`accumulate`]; the kernel's `fold_learned`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Learned {
+    /// Their mean becomes the image's first frame: one frame's weight, however
+    /// many they were, fixed before the render, so the image stays unbiased.
+    Fold,
+    /// Left out of the image (a part of a split render, whose learning frames
+    /// every part repeats; a render on several GPUs, each holding some of them).
+    Keep,
+}
+
+impl Learned {
+    /// A render's own choice: every part of a split render (`crate::parts`)
+    /// traces the same learning frames, and folded into each part they would
+    /// not average down; a whole render folds them.
+    pub fn for_render(part: bool) -> Learned {
+        if part {
+            Learned::Keep
+        } else {
+            Learned::Fold
+        }
+    }
 }
 
 /// [`accumulate`] of a frame of `samples` samples per pixel (1 to 64) after
@@ -39,9 +66,21 @@ pub fn accumulate(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [
 /// weighted by its share of a whole frame's samples, so that
 /// [`Film::variance_of_mean`] stays unbiased (docs/cli.md, `--time`). With 64
 /// samples every weight is 1 and the arithmetic is [`accumulate`]'s, bit for bit.
-pub fn accumulate_samples(acc: &mut AccumPixel, frames: u32, learned_frames: u32, sum: [f32; 3], samples: u32) {
+pub fn accumulate_samples(
+    acc: &mut AccumPixel,
+    frames: u32,
+    learned_frames: u32,
+    learned: Learned,
+    sum: [f32; 3],
+    samples: u32,
+) {
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
-    if frames == 0 {
+    let mut frames = frames;
+    if frames == 0 && learned_frames > 0 && learned == Learned::Fold {
+        let held = Vec3::from_slice(&acc.sum[..3]) / learned_frames as f32;
+        *acc = AccumPixel { sum: [held.x, held.y, held.z, 0.0], m2_frame_mean: [0.0; 4] };
+        frames = 1;
+    } else if frames == 0 {
         let learned = if learned_frames > 0 { mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
         *acc = AccumPixel { sum: [sum[0], sum[1], sum[2], learned], m2_frame_mean: [0.0; 4] };
         return;

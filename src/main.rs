@@ -189,11 +189,11 @@ struct Settings {
     /// (BSDF sampling still reaches every direction) [default: 0.1].
     #[arg(long, value_name = "F", value_parser = parse_floor, allow_negative_numbers = true)]
     exploration_floor: Option<f32>,
-    /// Frames at the start of a guided render that teach the table and are then left out
-    /// of the image, which starts after them (learned roulette's estimate still counts
-    /// them). `--spp` counts the image's samples; `--time` counts the learning frames'
-    /// time too [default: 4 in scenes with Russian roulette, the frames before learned
-    /// roulette starts; 0 without].
+    /// Frames at the start of a guided render that teach the table; their mean then
+    /// counts as one frame of the image (a part after the first of a split render, or a
+    /// render on several GPUs, leaves them out). `--spp` counts the image's other samples;
+    /// `--time` counts the learning frames' time too [default: 4 in scenes with Russian
+    /// roulette, the frames before learned roulette starts; 0 without].
     #[arg(long, value_name = "N", value_parser = parse_learning_frames, allow_negative_numbers = true)]
     learning_frames: Option<u32>,
     /// The fewest frames between learning passes after the first frames, a power of two:

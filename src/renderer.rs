@@ -69,7 +69,8 @@ pub trait Renderer {
             cut_spp: None,
         })
     }
-    /// Frames in the image (the learning frames left out once it starts).
+    /// The image's own frames: the learning frames not counted once it starts,
+    /// though their mean may be one of the film's frames (`crate::film::Learned`).
     fn image_frames(&self) -> u32;
     /// Samples per pixel of the image: its frames' 64 each, less what a last
     /// frame cut short lacks ([`Film::partial_spp`], on the CPU).

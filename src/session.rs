@@ -55,10 +55,11 @@ impl Renderer for CpuRenderer {
         })
     }
     fn image_frames(&self) -> u32 {
-        CpuRenderer::film(self).frames
+        CpuRenderer::film(self).frames - self.learning_folded() as u32
     }
     fn image_spp(&self) -> u32 {
-        CpuRenderer::film(self).samples_per_pixel() as u32
+        let folded = self.learning_folded() as u64 * crate::shared::SAMPLES_PER_FRAME as u64;
+        (CpuRenderer::film(self).samples_per_pixel() - folded) as u32
     }
     fn learn_pending(&mut self) -> Result<(), GpuError> {
         CpuRenderer::learn_pending(self);
@@ -96,7 +97,7 @@ impl Renderer for GpuRenderer {
         GpuRenderer::learn_pending(self)
     }
     fn image_frames(&self) -> u32 {
-        self.frames()
+        self.frames() - self.learning_folded() as u32
     }
     fn film(&self) -> Result<Film, GpuError> {
         GpuRenderer::film(self)

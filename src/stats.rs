@@ -56,9 +56,10 @@ pub struct RenderStats {
 pub struct FrameStats {
     /// 1-based count of frames traced, learning frames included.
     pub frame: u32,
-    /// Samples per pixel of the image so far: until the learning frames end,
-    /// theirs; after them, those of the frames since (the image the render
-    /// would write if it stopped here).
+    /// Samples per pixel of the image so far (the image the render would write
+    /// if it stopped here): until the learning frames end, theirs; after them,
+    /// those of the frames since, not counting the learning frames' mean that
+    /// the image holds as one more frame (`film::Learned::Fold`).
     pub spp: u32,
     /// GPU time of this frame (path tracing + learning), from timestamps;
     /// `None` on the CPU renderer.

@@ -80,8 +80,8 @@ fn learning_frames_are_a_whole_number_up_to_the_limit() {
 }
 
 /// The image starts after the learning frames: door has Russian roulette, so 4 by
-/// default; `--spp` counts the image's samples, and the stats give each frame the
-/// samples of the image it would write.
+/// default; `--spp` counts the image's own samples (their mean is one more frame
+/// of it), and the stats give each frame the samples of the image it would write.
 #[test]
 fn the_image_starts_after_the_learning_frames() {
     let (o, stats) = (tmp("learning.png"), tmp("learning.json"));

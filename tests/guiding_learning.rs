@@ -7,7 +7,7 @@ mod common;
 use common::guiding::*;
 use common::*;
 use rlpt::cpu::CpuRenderer;
-use rlpt::film::Film;
+use rlpt::film::{Film, Learned};
 use rlpt::gpu::Context;
 use rlpt::guide::{
     build_sampling_rows, class_cosines, learned, AliasBin, Bins, GuideConfig, GuidingMode, QTable, RecordSchedule,
@@ -148,7 +148,7 @@ fn assert_rows_built_from_table(t: &QTable, cfg: &GuideConfig, what: &str) {
 #[test]
 fn small_images_learn_once_in_several_cycles() {
     use rlpt::guide::{RecordSchedule, LEARN_PIXEL_FRAMES, MAX_LEARNING_PERIOD};
-    use rlpt::shared::RECORD_ALL_FRAMES;
+    use rlpt::shared::RECORD_FIRST_FRAMES;
     let n = LEARN_PIXEL_FRAMES;
     let min = RecordSchedule::min_learning_period;
     assert_eq!((min(n), min(2 * n), min(n - 1), min(n / 4), min(n / 4 - 1)), (1, 1, 2, 4, 8));
@@ -160,7 +160,7 @@ fn small_images_learn_once_in_several_cycles() {
             for f in 0..20000u32 {
                 let (stride, learns) = (s.stride(f), s.learns_after(f));
                 since += 1;
-                if f < RECORD_ALL_FRAMES {
+                if f < RECORD_FIRST_FRAMES {
                     assert!(learns, "period {period}, {pixels} px: frame {f} of the first frames does not learn");
                 } else {
                     let expected = stride.max(period);
@@ -183,7 +183,7 @@ fn small_images_learn_once_in_several_cycles() {
 }
 
 /// The recording schedule (`RecordSchedule`): every row records in the first
-/// frames, then one row in 4, 8 and 16, the stride doubling at the first frame
+/// frames (one in `first_stride` over large images), then one row in 8, 16 and 32, the stride doubling at the first frame
 /// that is a multiple of the new stride once the paths recorded so far reach
 /// `RECORD_PATHS_PER_ENTRY` per table entry, then twice as many; within each
 /// cycle of `stride` frames every row records exactly once, and the sampling rows
@@ -191,8 +191,8 @@ fn small_images_learn_once_in_several_cycles() {
 #[test]
 fn recording_stride_doubles_as_the_table_fills() {
     use rlpt::guide::{RecordSchedule, RECORD_PATHS_PER_ENTRY};
-    use rlpt::shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
-    assert_eq!((RECORD_ALL_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 8, 32), "the schedule documented");
+    use rlpt::shared::{RECORD_FIRST_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
+    assert_eq!((RECORD_FIRST_FRAMES, RECORD_ROW_STRIDE, RECORD_MAX_STRIDE), (8, 8, 32), "the schedule documented");
     let frames = 20000u32;
     // (pixels, entries): a thumbnail and door.toml's size over door's table of 8x16
     // bins, door's size over its table of 20x40 bins (door has Russian roulette),
@@ -218,7 +218,10 @@ fn recording_stride_doubles_as_the_table_fills() {
         while f < frames {
             let stride = s.stride(f);
             history.insert(f, recorded);
-            let expected_stride = if f < RECORD_ALL_FRAMES { 1 } else { s.stride(f - 1).max(RECORD_ROW_STRIDE) };
+            let expected_stride = match f < RECORD_FIRST_FRAMES {
+                true => RecordSchedule::first_stride(pixels),
+                false => s.stride(f - 1).max(RECORD_ROW_STRIDE),
+            };
             if stride != expected_stride {
                 // A doubling: once the threshold is reached, at the first multiple of the
                 // new stride since then (and since the last change of stride).
@@ -229,7 +232,7 @@ fn recording_stride_doubles_as_the_table_fills() {
                     recorded >= threshold * (1.0 - 1e-12),
                     "{pixels} px: doubled at frame {f} with {recorded} per entry"
                 );
-                if f >= stride && f - stride >= stride_start.max(RECORD_ALL_FRAMES) {
+                if f >= stride && f - stride >= stride_start.max(RECORD_FIRST_FRAMES) {
                     let before = history[&(f - stride)];
                     assert!(
                         before < threshold,
@@ -239,15 +242,17 @@ fn recording_stride_doubles_as_the_table_fills() {
                 }
                 threshold *= 2.0;
             }
-            if stride != expected_stride || f == RECORD_ALL_FRAMES {
+            if stride != expected_stride || f == RECORD_FIRST_FRAMES {
                 stride_start = f;
             }
             assert!(stride <= RECORD_MAX_STRIDE, "{pixels} px: frame {f}");
             assert_eq!(f % stride, 0, "{pixels} px: a cycle starts at frame {f}, not a multiple of {stride}");
             for k in 0..stride {
                 assert_eq!(s.stride(f + k), stride, "{pixels} px: the stride changes in the cycle from frame {f}");
+                // The first frames learn after each, whatever their stride.
                 let learns = s.learns_after(f + k);
-                assert_eq!(learns, k == stride - 1, "{pixels} px: the table learns after frame {}", f + k);
+                let expected = f + k < RECORD_FIRST_FRAMES || k == stride - 1;
+                assert_eq!(learns, expected, "{pixels} px: the table learns after frame {}", f + k);
             }
             for y in 0..100 {
                 let n = (f..f + stride).filter(|&g| s.records(g, y)).count();
@@ -259,12 +264,12 @@ fn recording_stride_doubles_as_the_table_fills() {
         let last = s.stride(frames);
         match case {
             // A thumbnail over door's 8x16 table records one row in 8 for ten thousand
-            // frames and more; door at its size reaches 16 from frame 64 and 32 from
-            // 288, and over its default table of 6.25 times the entries, 16 from frame
-            // 656 and 32 from 2048; a small table at once.
+            // frames and more; door at its size (its first frames recording one row in
+            // 2) reaches 16 from frame 96 and 32 from 320, and over its default table of
+            // 6.25 times the entries, 16 from frame 688 and 32 from 2080; a small table at once.
             0 => assert_eq!((s.stride(8), s.stride(10000), last), (8, 8, 16), "{s:?}"),
-            1 => assert_eq!((s.stride(8), s.stride(63), s.stride(64), s.stride(288)), (8, 8, 16, 32), "{s:?}"),
-            2 => assert_eq!((s.stride(655), s.stride(656), s.stride(2047), s.stride(2048)), (8, 16, 16, 32), "{s:?}"),
+            1 => assert_eq!((s.stride(8), s.stride(95), s.stride(96), s.stride(320)), (8, 8, 16, 32), "{s:?}"),
+            2 => assert_eq!((s.stride(687), s.stride(688), s.stride(2079), s.stride(2080)), (8, 16, 16, 32), "{s:?}"),
             _ => assert_eq!((s.stride(8), s.stride(16), s.stride(32)), (8, 16, 32), "{s:?}"),
         }
     }
@@ -318,7 +323,7 @@ fn the_table_learns_on_schedule() {
                 assert_rows_built_from_table(&t, &cfg, &at);
                 if let Some(b) = &before {
                     let added = visits(&t) - visits(b);
-                    if frame < rlpt::shared::RECORD_ALL_FRAMES {
+                    if frame < rlpt::shared::RECORD_FIRST_FRAMES {
                         all_rows_frame.push(added as f64);
                     } else {
                         let mean = all_rows_frame.iter().sum::<f64>() / all_rows_frame.len() as f64;
@@ -430,20 +435,23 @@ fn mean3(sum: &[f32]) -> f32 {
 }
 
 /// The frame after the learning frames starts the image (CPU renderer): the film
-/// then holds that frame alone, whose samples are those of a render without
-/// learning frames (learned roulette's estimate counts the same frames), and
-/// each pixel keeps the learning frames' mean3 sum beside it.
+/// then holds the learning frames' mean as its first frame and that frame as its
+/// second, whose samples are those of a render without learning frames (learned
+/// roulette's estimate counts the same frames). A part of a split render
+/// (`Learned::Keep`) leaves the learning frames out and keeps their mean3 sum
+/// beside the image for learned roulette.
 #[test]
-fn the_cpu_image_starts_after_the_learning_frames() {
+fn the_cpu_image_takes_the_learning_frames_in_as_one_frame() {
     let scene = scene("door.toml");
     let mut o = guided(&options(&scene, 24, 16, 64), GuidingMode::Sphere);
     o.seed = 3;
     let learning = rlpt::guide::default_learning_frames(true);
     assert_eq!(learning, 4, "door has roulette");
-    let render = |learning_frames: u32, frames: u32| {
+    let render = |learning_frames: u32, frames: u32, learned: Learned| {
         let mut o = o.clone();
         o.learning_frames = Some(learning_frames);
         let mut r = CpuRenderer::new(&PreparedScene::new(&scene, &o).unwrap());
+        r.set_learned(learned);
         let mut films = Vec::new();
         for _ in 0..frames {
             r.render_frame();
@@ -451,60 +459,96 @@ fn the_cpu_image_starts_after_the_learning_frames() {
         }
         films
     };
-    let with = render(learning, learning + 2);
-    let without = render(0, learning + 2);
+    let with = render(learning, learning + 2, Learned::Fold);
+    let without = render(0, learning + 2, Learned::Fold);
     let l = learning as usize;
     // Until the image starts, the two renders are the same.
     assert_eq!(with[l - 1].pixels, without[l - 1].pixels);
-    assert_eq!((with[l - 1].frames, with[l].frames, with[l + 1].frames), (learning, 1, 2));
+    assert_eq!((with[l - 1].frames, with[l].frames, with[l + 1].frames), (learning, 2, 3));
     let mut lit = 0;
     for (i, p) in with[l].pixels.iter().enumerate() {
         let (before, after) = (&without[l - 1].pixels[i], &without[l].pixels[i]);
-        assert_eq!(p.sum[3], mean3(&before.sum), "pixel {i} keeps the learning frames' mean3 sum");
-        assert_eq!(p.m2_frame_mean, [0.0; 4], "pixel {i}: one frame has no spread");
+        assert_eq!(p.sum[3], 0.0, "pixel {i}: the learning frames are in the image");
         for c in 0..3 {
             // The same frame: the render without learning frames added it to their sums.
             let frame = after.sum[c] - before.sum[c];
-            assert!((p.sum[c] - frame).abs() <= 1e-5 * after.sum[c].abs().max(1.0), "pixel {i}: {p:?} {frame}");
+            let held = before.sum[c] / learning as f32;
+            let tol = 1e-5 * after.sum[c].abs().max(1.0);
+            assert!((p.sum[c] - (held + frame)).abs() <= tol, "pixel {i}: {p:?} {held} + {frame}");
+            // Welford over two frame means: half their squared difference.
+            let (a, b) = (held / 64.0, frame / 64.0);
+            let m2 = 0.5 * (a - b) * (a - b);
+            assert!((p.m2_frame_mean[c] - m2).abs() <= 1e-4 * m2.max(1e-3), "pixel {i}: {p:?} m2 {m2}");
         }
         lit += (p.sum[0] > 0.0) as u32;
     }
     assert!(lit > 50, "only {lit} pixels lit");
-    // The next frame adds to it, and the learning frames' sum stays.
-    assert!(with[l + 1].pixels.iter().zip(&with[l].pixels).all(|(b, a)| b.sum[3] == a.sum[3]));
+    // A part: the image starts anew and keeps the learning frames' mean3 sum.
+    let part = render(learning, learning + 2, Learned::Keep);
+    assert_eq!((part[l].frames, part[l + 1].frames), (1, 2));
+    for (i, p) in part[l].pixels.iter().enumerate() {
+        assert_eq!(p.sum[3], mean3(&part[l - 1].pixels[i].sum), "pixel {i} keeps the learning frames' mean3 sum");
+        assert_eq!(p.m2_frame_mean, [0.0; 4], "pixel {i}: one frame has no spread");
+    }
+    assert!(part[l + 1].pixels.iter().zip(&part[l].pixels).all(|(b, a)| b.sum[3] == a.sum[3]));
 }
 
-/// The same on the GPU, where the kernel's first accumulation writes over the
-/// learning frames and keeps their mean3 sum in `sum.w`.
+/// The same on the GPU: the kernel's first accumulation takes the learning
+/// frames' mean in as the image's first frame (`fold_learned`), or for a part of
+/// a split render (`Learned::Keep`) writes over them and keeps their mean3 sum in `sum.w`.
 #[test]
-fn the_gpu_image_starts_after_the_learning_frames() {
+fn the_gpu_image_takes_the_learning_frames_in_as_one_frame() {
     let ctx = gpu();
     let scene = scene("door.toml");
     let o = guided(&options(&scene, 24, 16, 64), GuidingMode::Sphere);
-    let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &o).unwrap()).unwrap();
     let learning = rlpt::guide::default_learning_frames(true);
-    r.render_frames(learning).unwrap();
-    let before = r.film().unwrap();
-    assert_eq!((r.frames(), before.frames), (learning, learning));
-    r.render_frames(1).unwrap();
+    let start = |learned: Learned| {
+        let mut r = GpuRenderer::new(&ctx, &PreparedScene::new(&scene, &o).unwrap()).unwrap();
+        r.set_learned(learned);
+        r.render_frames(learning).unwrap();
+        let before = r.film().unwrap();
+        assert_eq!((r.frames(), before.frames), (learning, learning));
+        r.render_frames(1).unwrap();
+        (r, before)
+    };
+    let (mut r, before) = start(Learned::Fold);
     let first = r.film().unwrap();
-    assert_eq!(first.frames, 1);
+    assert_eq!(first.frames, 2);
     let mut changed = 0;
     for (i, (p, b)) in first.pixels.iter().zip(&before.pixels).enumerate() {
-        let kept = mean3(&b.sum);
-        assert!((p.sum[3] - kept).abs() <= 1e-6 * kept.abs(), "pixel {i}: {} kept, {kept} learned", p.sum[3]);
-        assert_eq!(p.m2_frame_mean, [0.0; 4], "pixel {i}: one frame has no spread");
+        assert_eq!(p.sum[3], 0.0, "pixel {i}: the learning frames are in the image");
+        for c in 0..3 {
+            // The image's two frame means: the learning frames' and the new frame's.
+            let held = b.sum[c] / learning as f32;
+            let (a, m) = (held / 64.0, (p.sum[c] - held) / 64.0);
+            let m2 = 0.5 * (a - m) * (a - m);
+            let tol = 1e-4 * m2.max(1e-6) + 1e-5 * (a * a + m * m);
+            assert!((p.m2_frame_mean[c] - m2).abs() <= tol, "pixel {i}: {p:?} against {m2} from {b:?}");
+        }
         changed += (p.sum[..3] != b.sum[..3]) as u32;
     }
     assert!(changed > 50, "only {changed} pixels have a new sum");
     r.render_frames(2).unwrap();
-    let later = r.film().unwrap();
-    assert_eq!(later.frames, 3);
-    assert!(later.pixels.iter().zip(&first.pixels).all(|(b, a)| b.sum[3] == a.sum[3]));
-    // Restarting the accumulation (the viewer, when the camera moves) drops the learning frames' sum.
+    assert_eq!(r.film().unwrap().frames, 4);
+    // Restarting the accumulation (the viewer, when the camera moves) starts with nothing held.
     r.reset_accumulation().unwrap();
     r.render_frames(1).unwrap();
-    assert!(r.film().unwrap().pixels.iter().all(|p| p.sum[3] == 0.0));
+    let restarted = r.film().unwrap();
+    assert_eq!(restarted.frames, 1);
+    assert!(restarted.pixels.iter().all(|p| p.sum[3] == 0.0));
+
+    let (mut part, before) = start(Learned::Keep);
+    let first = part.film().unwrap();
+    assert_eq!(first.frames, 1);
+    for (i, (p, b)) in first.pixels.iter().zip(&before.pixels).enumerate() {
+        let kept = mean3(&b.sum);
+        assert!((p.sum[3] - kept).abs() <= 1e-6 * kept.abs(), "pixel {i}: {} kept, {kept} learned", p.sum[3]);
+        assert_eq!(p.m2_frame_mean, [0.0; 4], "pixel {i}: one frame has no spread");
+    }
+    part.render_frames(2).unwrap();
+    let later = part.film().unwrap();
+    assert_eq!(later.frames, 3);
+    assert!(later.pixels.iter().zip(&first.pixels).all(|(b, a)| b.sum[3] == a.sum[3]));
     assert_no_validation_messages(&ctx);
 }
 

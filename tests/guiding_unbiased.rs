@@ -127,7 +127,7 @@ fn guided_frames_trace_every_pixel_once() {
     assert!(prepared.guide.is_some(), "the render is guided");
     let mut r = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     let stride = rlpt::shared::RECORD_ROW_STRIDE;
-    for frame in 0..rlpt::shared::RECORD_ALL_FRAMES + 2 * stride {
+    for frame in 0..rlpt::shared::RECORD_FIRST_FRAMES + 2 * stride {
         // Both ways of rendering a frame: in a batch, and one per submission.
         if frame % 2 == 0 {
             r.render_frames(1).expect("render");
@@ -138,6 +138,42 @@ fn guided_frames_trace_every_pixel_once() {
         assert_eq!(film.frames, frame + 1);
         for (i, p) in film.mean().pixels.iter().enumerate() {
             assert_eq!(*p, [1.0; 3], "pixel ({}, {}) after frame {frame}", i % 9, i / 9);
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Learning frames over an image of at least twice `FIRST_RECORD_PIXELS` pixels
+/// record one row in `RecordSchedule::first_stride`, and trace the other rows by
+/// the unguided kernel (`GpuRenderer::cmd_trace`; on the CPU, unguided paths):
+/// every pixel is still traced once per frame, on the GPU and the CPU alike, as
+/// are the image's frames after them, whose first takes the learning frames' mean
+/// in (`film::Learned::Fold`). Every camera ray escapes to a sky of radiance 1;
+/// the ball is a mirror, whose guided kernel groups more pixels than the unguided.
+#[test]
+fn learning_frames_over_large_images_trace_every_pixel_once() {
+    let ctx = gpu();
+    let text = std::fs::read_to_string(format!("{}/scenes/furnace-open.toml", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let text = text.replace("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 8.0]");
+    let scene =
+        Scene::parse(&text.replace("type = \"diffuse\"", "type = \"specular\""), "furnace-open, edited").unwrap();
+    assert_eq!(scene.materials[0].kind, MaterialKind::Specular, "the ball is a mirror");
+    let (w, h) = (512, 256);
+    assert_eq!(rlpt::guide::RecordSchedule::first_stride(w as u64 * h as u64), 2);
+    let mut o = guided(&options(&scene, w, h, 64), GuidingMode::Sphere);
+    o.learning_frames = Some(2);
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
+    let mut gpu = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    let mut cpu = rlpt::cpu::CpuRenderer::new(&prepared);
+    // Two learning frames, then two of the image: the first holds the learning frames' mean.
+    for (frame, frames) in [(0, 1), (1, 2), (2, 2), (3, 3)] {
+        gpu.render_frames(1).expect("render");
+        cpu.render_frame();
+        for (film, what) in [(gpu.film().expect("readback"), "GPU"), (cpu.film().clone(), "CPU")] {
+            assert_eq!(film.frames, frames, "{what}: frame {frame}");
+            for (i, p) in film.mean().pixels.iter().enumerate() {
+                assert_eq!(*p, [1.0; 3], "{what}: pixel ({}, {}) after frame {frame}", i as u32 % w, i as u32 / w);
+            }
         }
     }
     assert_no_validation_messages(&ctx);
@@ -289,7 +325,7 @@ fn paths_record_only_from_guided_vertices_without_roulette() {
     assert_eq!(most_records(&cpu_paths(&exp1, &o, 1, &table)), 1, "CPU: guided at 1 vertex, at most 1 target");
 
     let frames = 2;
-    assert!(frames <= rlpt::shared::RECORD_ALL_FRAMES, "every path records in these frames");
+    assert!(frames <= rlpt::shared::RECORD_FIRST_FRAMES, "every path records in these frames");
     let paths = (frames * 16 * 8 * rlpt::shared::SAMPLES_PER_FRAME) as u64;
     let per_path = |scene: &Scene, limit: u32| {
         let mut o = guided(&options(scene, 16, 8, 64), GuidingMode::Sphere);

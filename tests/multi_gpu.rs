@@ -386,8 +386,8 @@ fn a_restart_resets_every_gpu() {
         r.set_params(&moved).unwrap();
         r.reset_accumulation().unwrap();
     };
-    let mut one = GpuSet::new(std::slice::from_ref(&a), &prepared, 0).unwrap();
-    let mut two = GpuSet::new(&[a.clone(), b.clone()], &prepared, 0).unwrap();
+    let mut one = GpuSet::new(std::slice::from_ref(&a), &prepared, 0, rlpt::film::Learned::Fold).unwrap();
+    let mut two = GpuSet::new(&[a.clone(), b.clone()], &prepared, 0, rlpt::film::Learned::Fold).unwrap();
     let mut films = Vec::new();
     for r in [&mut one, &mut two] {
         for _ in 0..5 {

@@ -8,7 +8,7 @@ mod common;
 use common::{options, scene, K};
 use rlpt::camera::camera_ray;
 use rlpt::cpu::{pass_sample, trace_path, CpuRenderer};
-use rlpt::film::{accumulate, accumulate_samples, Film};
+use rlpt::film::{accumulate, accumulate_samples, Film, Learned};
 use rlpt::layout::AccumPixel;
 use rlpt::math::rng::Rng;
 use rlpt::math::sampler::{rng_frame, PathSampler};
@@ -157,13 +157,13 @@ fn the_variance_with_a_frame_cut_short_is_unbiased() {
             let (mut acc, mut plain) = (AccumPixel::default(), AccumPixel::default());
             for f in 0..whole {
                 let s = frame(64);
-                accumulate(&mut acc, f, 0, s);
-                accumulate(&mut plain, f, 0, s);
+                accumulate(&mut acc, f, 0, Learned::Fold, s);
+                accumulate(&mut plain, f, 0, Learned::Fold, s);
             }
             let s = frame(k);
-            accumulate_samples(&mut acc, whole, 0, s, k);
+            accumulate_samples(&mut acc, whole, 0, Learned::Fold, s, k);
             // The cut frame's mean scaled to a whole frame's sum, and weighted as one.
-            accumulate(&mut plain, whole, 0, s.map(|v| v * 64.0 / k as f32));
+            accumulate(&mut plain, whole, 0, Learned::Fold, s.map(|v| v * 64.0 / k as f32));
             let film = Film { width: 1, height: 1, frames: whole + 1, partial_spp: k, pixels: vec![acc] };
             let v = film.variance_of_mean().expect("2 frames or more").pixels[0][0] as f64;
             sum += v;

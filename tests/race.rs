@@ -64,7 +64,7 @@ fn images_of_guided_and_unguided_frames_are_unbiased() {
         assert!(unguided >= 1 && unguided < kinds.len(), "{name}: {unguided} of {} frames unguided", kinds.len());
         if name == "seed-exp1.toml" {
             // Eight guided frames before the race starts, then two of each kind.
-            let head = shared::RECORD_ALL_FRAMES as usize;
+            let head = shared::RECORD_FIRST_FRAMES as usize;
             assert!(kinds[..head + 2].iter().all(|&k| k == FrameKind::Guided), "{name}: {kinds:?}");
             assert_eq!(kinds[head + 2..head + 4], [FrameKind::Unguided, FrameKind::Unguided], "{name}");
         } else {
@@ -101,7 +101,7 @@ fn gpu_and_cpu_weigh_a_frame_alike() {
     assert_eq!(prepared.learning_frames(), 0, "seed-exp1 has no roulette: the image starts at once");
     let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     let mut c = CpuRenderer::new(&prepared);
-    let head = shared::RECORD_ALL_FRAMES as usize;
+    let head = shared::RECORD_FIRST_FRAMES as usize;
     for frame in 0..head + 4 {
         let t = g.render_frames(1).expect("frame");
         c.render_frame();

@@ -159,7 +159,7 @@ fn render_reference(scene: &Scene, width: u32, height: u32, frames: u32) -> Film
                 let o = add(v(cam.position), mul(d, cam.near as f64));
                 sum = add(sum, radiance(scene, o, d, &mut rng));
             }
-            rlpt::film::accumulate(acc, frame, 0, sum.map(|x| x as f32));
+            rlpt::film::accumulate(acc, frame, 0, rlpt::film::Learned::Fold, sum.map(|x| x as f32));
         });
         film.frames += 1;
     }

@@ -129,8 +129,9 @@ pub(crate) fn gpu_renderer(
     contexts: &[Arc<Context>],
     prepared: &PreparedScene,
     offset: u32,
+    learned: rlpt::film::Learned,
 ) -> Result<Box<dyn Renderer>> {
-    Ok(Box::new(rlpt::render::GpuSet::new(contexts, prepared, offset)?))
+    Ok(Box::new(rlpt::render::GpuSet::new(contexts, prepared, offset, learned)?))
 }
 
 /// Several GPUs trace every frame guided: the race of `--unguided-frames auto`

@@ -196,14 +196,17 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let traced_frames = frames + learning_frames;
 
     let start = Instant::now();
-    // A part's image frames draw the random numbers of its range's frames.
+    // A part's image frames draw the random numbers of its range's frames, and
+    // leave out the learning frames, which every part repeats.
+    let learned = rlpt::film::Learned::for_render(args.part.is_some());
     let renderer: Box<dyn Renderer> = match args.settings.device {
         DeviceKind::Cpu => {
             let mut r = CpuRenderer::new(&prepared);
             r.set_frame_offset(range.start);
+            r.set_learned(learned);
             Box::new(r)
         }
-        DeviceKind::Gpu => gpu_renderer(&open_gpus(&args.settings)?, &prepared, range.start)?,
+        DeviceKind::Gpu => gpu_renderer(&open_gpus(&args.settings)?, &prepared, range.start, learned)?,
     };
     let device_name = renderer.device_name();
     let mut stats = RenderStats {

@@ -3,7 +3,7 @@
 //! reference the GPU renderer is tested against.
 
 use crate::camera::camera_ray;
-use crate::film::Film;
+use crate::film::{Film, Learned};
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::layout::SceneArrays;
 use crate::math::bsdf::Bsdf;
@@ -129,9 +129,15 @@ pub struct CpuRenderer {
     /// Added to the random numbers' frame index on the image's frames
     /// (`crate::math::sampler::rng_frame`).
     frame_offset: u32,
-    /// The learning frames left out of the image once it starts (0 until then, and
-    /// after `reset_film`): learned roulette's estimate still counts them.
+    /// The learning frames left out of the image once it starts (0 until then,
+    /// after `reset_film`, and where they are folded into it): learned
+    /// roulette's estimate still counts them.
     learned_frames: u32,
+    /// What the image's first frame does with the learning frames
+    /// (`crate::film::Learned`): a part of a split render keeps them out.
+    learned: Learned,
+    /// Whether the film's first frame is the learning frames' mean.
+    learning_folded: bool,
     pub last_counters: FrameCounters,
     /// The kind of the last frame traced (None without guiding).
     pub last_kind: Option<guide::FrameKind>,
@@ -161,6 +167,8 @@ impl CpuRenderer {
             frames_traced: 0,
             frame_offset: 0,
             learned_frames: 0,
+            learned: Learned::Fold,
+            learning_folded: false,
             last_counters: FrameCounters::default(),
             last_kind: None,
             last_variance: None,
@@ -176,6 +184,12 @@ impl CpuRenderer {
 
     pub fn film(&self) -> &Film {
         &self.film
+    }
+
+    /// Whether the film's first frame is the learning frames' mean
+    /// (`crate::film::Learned::Fold`), not one of the image's own frames.
+    pub fn learning_folded(&self) -> bool {
+        self.learning_folded
     }
 
     pub fn table(&self) -> Option<&QTable> {
@@ -200,10 +214,18 @@ impl CpuRenderer {
         self.frame_offset = offset;
     }
 
+    /// What the image's first frame does with the learning frames
+    /// ([`Learned::for_render`]), before the first frame.
+    pub fn set_learned(&mut self, learned: Learned) {
+        assert_eq!(self.frames_traced, 0, "the learning frames' place is set before the first frame");
+        self.learned = learned;
+    }
+
     /// Starts a new accumulation; what guiding learned is kept.
     pub fn reset_film(&mut self) {
         self.film = Film::new(self.film.width, self.film.height);
         self.learned_frames = 0;
+        self.learning_folded = false;
     }
 
     /// Renders one frame of 64 samples per pixel; with guiding, the table learns
@@ -270,7 +292,9 @@ impl CpuRenderer {
             .map(|l| guide::frame_kind(l.race.as_ref(), self.frames_traced, l.guided_traced, learning_frames));
         let guided = kind == Some(guide::FrameKind::Guided);
         let frame = self.learning.as_ref().map_or(self.frames_traced, |l| l.guided_traced);
-        if self.film.frames > 0 && self.frames_traced == learning_frames {
+        // The first image frame takes the learning frames in as one frame, or leaves them out.
+        let folds = self.film.frames > 0 && self.frames_traced == learning_frames;
+        if folds {
             self.learned_frames = self.film.frames;
             self.film.frames = 0;
         }
@@ -282,10 +306,12 @@ impl CpuRenderer {
             scene,
             guide: scene.guide.as_ref().zip(learning).filter(|_| guided).map(|(cfg, l)| Guide::new(cfg, &l.table)),
             schedule: learning.filter(|_| guided).map(|l| &l.schedule),
+            learning: self.frames_traced < learning_frames,
             frame,
             rng_frame: crate::math::sampler::rng_frame(self.frames_traced, learning_frames, self.frame_offset),
             accum_frames: self.film.frames,
             learned_frames: self.learned_frames,
+            learned: self.learned,
             roulette_frames: frame + table_frames,
         };
         let weigh = p.flags & shared::FLAG_FRAME_VARIANCE != 0;
@@ -333,6 +359,11 @@ impl CpuRenderer {
             }
         }
         self.film.frames += 1;
+        if folds && self.learned == Learned::Fold {
+            self.film.frames += 1;
+            self.learned_frames = 0;
+            self.learning_folded = true;
+        }
         if !whole {
             self.film.partial_spp = samples;
         }
@@ -367,6 +398,9 @@ pub(super) struct FrameSetup<'a> {
     guide: Option<Guide<'a>>,
     /// The recording schedule, on guided frames.
     schedule: Option<&'a guide::RecordSchedule>,
+    /// Whether this is a learning frame, whose paths that record no targets
+    /// trace unguided ([`FrameSetup::trace_sample`]).
+    learning: bool,
     /// The frame's index in the recording schedule.
     frame: u32,
     /// The random numbers' frame index (`crate::math::sampler::rng_frame`).
@@ -374,6 +408,7 @@ pub(super) struct FrameSetup<'a> {
     /// The film's frames before this one, and the learning frames left out of it.
     accum_frames: u32,
     learned_frames: u32,
+    learned: Learned,
     /// The table's frames, for learned roulette's wait (`guide::roulette_estimate`).
     roulette_frames: u32,
 }
@@ -471,7 +506,11 @@ impl FrameSetup<'_> {
         let mut rng = PathSampler::for_flags(p.flags, p.seed, pixel, self.rng_frame, sample);
         let u = rng.sample_pixel(sample);
         let (o, d) = camera_ray(p, x, y, u);
-        let (l, segs) = trace_path(self.scene, self.guide, o, d, &mut rng, estimate, learn);
+        // A learning frame's rows that record nothing trace unguided: as fast as an
+        // unguided frame and as good while the table knows little. The GPU's
+        // twin is `crate::render::GpuRenderer::cmd_trace`.
+        let guide = if self.learning && learn.is_none() { None } else { self.guide };
+        let (l, segs) = trace_path(self.scene, guide, o, d, &mut rng, estimate, learn);
         counters.segments += segs as u64;
         // A NaN or infinite sample would poison the pixel forever; it is dropped
         // (as on the GPU) and counted as carrying nothing.
@@ -498,7 +537,14 @@ impl FrameSetup<'_> {
             let before = pixel_mean_before(acc, self.accum_frames, self.learned_frames, mean3(px.sum));
             counters.variance += crate::film::frame_variance_term(mean3(px.sum), px.sum_sq, before) as u64;
         }
-        crate::film::accumulate_samples(acc, self.accum_frames, self.learned_frames, px.sum.to_array(), samples);
+        crate::film::accumulate_samples(
+            acc,
+            self.accum_frames,
+            self.learned_frames,
+            self.learned,
+            px.sum.to_array(),
+            samples,
+        );
     }
 }
 

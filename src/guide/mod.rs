@@ -177,8 +177,9 @@ pub struct GuideConfig {
     /// The exponent omega of Q's learning rate 1 / i^omega ([`batch_rate`]), in
     /// (1/2, 1]; 1, the default, is the running mean.
     pub rate_exponent: f32,
-    /// Frames at the start of the render that teach the table and are then left
-    /// out of the image ([`default_learning_frames`]), and where the race may
+    /// Frames at the start of the render that teach the table, whose mean is
+    /// then one frame of the image (`crate::film::Learned`;
+    /// [`default_learning_frames`]), and where the race may
     /// trace unguided frames, the unguided frame after them
     /// ([`frames_before_image`]); their radiance stays the pixels' estimate for
     /// learned roulette.

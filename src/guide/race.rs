@@ -31,23 +31,24 @@ pub enum UnguidedFrames {
 /// The kind of the frame traced after `traced` frames, `guided_traced` of
 /// them guided, of a guided render whose image starts after `learning_frames`,
 /// given its race (None: every frame guided). The last of two or more learning
-/// frames is unguided: it is left out of the image anyway, and measures the
+/// frames is unguided: it is among the learning frames, whose mean is at most one
+/// frame of the image (`crate::film::Learned`), and measures the
 /// unguided kind before the image starts, so that the race need not try it on
 /// the image (where, far noisier than the guided frames, it would spoil a short
 /// render). The race starts once the guided frames traced reach
-/// `RECORD_ALL_FRAMES`: the first guided frames record every pixel row's
-/// targets, learn after each frame and trace a table that knows little, so they
+/// `RECORD_FIRST_FRAMES`: the first guided frames record every pixel row's
+/// targets (or one row in a first stride), learn after each frame and trace a table that knows little, so they
 /// cost more and give less than the guided frames after them; judged by them,
 /// guiding would lose the race before it had learned anything.
 pub fn frame_kind(race: Option<&FrameRace>, traced: u32, guided_traced: u32, learning_frames: u32) -> FrameKind {
     match race {
         Some(_) if learning_frames >= 2 && traced + 1 == learning_frames => FrameKind::Unguided,
-        Some(r) if traced >= learning_frames && guided_traced >= shared::RECORD_ALL_FRAMES => r.next(),
+        Some(r) if traced >= learning_frames && guided_traced >= shared::RECORD_FIRST_FRAMES => r.next(),
         _ => FrameKind::Guided,
     }
 }
 
-/// The frames left out of a guided render's image: the `n` learning frames
+/// The frames before a guided render's image starts: the `n` learning frames
 /// asked for, and where the race may trace unguided frames and `n` > 0, one
 /// unguided frame after them ([`frame_kind`]), so that the guided frames keep
 /// their learning frames and learned roulette its start.
@@ -66,7 +67,7 @@ pub fn frames_before_image(n: u32, unguided_frames: bool) -> u32 {
 pub fn race_weighs(kind: FrameKind, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
     match kind {
         FrameKind::Unguided => true,
-        FrameKind::Guided => traced >= learning_frames && guided_traced >= shared::RECORD_ALL_FRAMES,
+        FrameKind::Guided => traced >= learning_frames && guided_traced >= shared::RECORD_FIRST_FRAMES,
     }
 }
 

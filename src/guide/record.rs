@@ -14,13 +14,17 @@ pub const RECORD_PATHS_PER_ENTRY: f64 = 1024.0;
 /// small share of a small image's frames (docs/guiding.md, "Small images").
 pub const LEARN_PIXEL_FRAMES: u64 = 1 << 17;
 
+/// Pixels that record in each of the first `RECORD_FIRST_FRAMES` frames at least
+/// ([`RecordSchedule::first_stride`]).
+pub const FIRST_RECORD_PIXELS: u64 = 1 << 16;
+
 /// The longest learning period [`RecordSchedule::min_learning_period`] gives.
 pub const MAX_LEARNING_PERIOD: u32 = 1 << 10;
 
 /// Which pixel rows hand their paths' Q-learning targets to the table, frame by
-/// frame (counted from the first frame traced): all rows in the first
-/// `RECORD_ALL_FRAMES` frames, then one row in a stride, a different one each
-/// frame. The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
+/// frame (counted from the first frame traced): in the first
+/// `RECORD_FIRST_FRAMES` frames every row, or one in [`RecordSchedule::first_stride`]
+/// over large images, then one row in a stride, a different one each frame. The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
 /// `RECORD_MAX_STRIDE`, each time the paths recorded so far reach
 /// [`RECORD_PATHS_PER_ENTRY`] per table entry, then twice that, and so on: a large
 /// image over a small table gets there within a few frames, a thumbnail seldom.
@@ -38,9 +42,11 @@ pub struct RecordSchedule {
     /// The first frame of each doubled stride: `RECORD_ROW_STRIDE << (k + 1)` from
     /// `doublings[k]` on.
     doublings: Vec<u32>,
-    /// Frames per learning pass at least, past the first `RECORD_ALL_FRAMES`: a
+    /// Frames per learning pass at least, past the first `RECORD_FIRST_FRAMES`: a
     /// power of two ([`RecordSchedule::learns_after`]).
     min_period: u32,
+    /// The stride of the first `RECORD_FIRST_FRAMES` frames ([`RecordSchedule::first_stride`]).
+    first_stride: u32,
 }
 
 impl RecordSchedule {
@@ -49,12 +55,13 @@ impl RecordSchedule {
     /// frames at most (a power of two; 1 learns once per recording cycle).
     pub fn new(pixels: u64, entries: u64, min_period: u32) -> RecordSchedule {
         assert!(min_period.is_power_of_two(), "learning period {min_period}: not a power of two");
-        use shared::{RECORD_ALL_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
+        use shared::{RECORD_FIRST_FRAMES, RECORD_MAX_STRIDE, RECORD_ROW_STRIDE, SAMPLES_PER_FRAME};
         // In frames of every row: recorded so far, and needed for the next doubling.
         let per_entry = (pixels * SAMPLES_PER_FRAME as u64) as f64 / entries.max(1) as f64;
-        let mut recorded = RECORD_ALL_FRAMES as f64;
+        let first_stride = RecordSchedule::first_stride(pixels);
+        let mut recorded = RECORD_FIRST_FRAMES as f64 / first_stride as f64;
         let mut needed = RECORD_PATHS_PER_ENTRY / per_entry.max(1e-12);
-        let (mut frame, mut stride) = (RECORD_ALL_FRAMES as u64, RECORD_ROW_STRIDE as u64);
+        let (mut frame, mut stride) = (RECORD_FIRST_FRAMES as u64, RECORD_ROW_STRIDE as u64);
         let mut doublings = Vec::new();
         while stride < RECORD_MAX_STRIDE as u64 && frame < u32::MAX as u64 {
             let more = ((needed - recorded).max(0.0) * stride as f64).ceil().min(u32::MAX as f64) as u64;
@@ -65,7 +72,18 @@ impl RecordSchedule {
             stride *= 2;
             needed *= 2.0;
         }
-        RecordSchedule { doublings, min_period }
+        RecordSchedule { doublings, min_period, first_stride }
+    }
+
+    /// One row in this many records in the first `RECORD_FIRST_FRAMES` frames:
+    /// the largest power of two that leaves [`FIRST_RECORD_PIXELS`] pixels
+    /// recording per frame, up to `RECORD_ROW_STRIDE` (1, every row, below twice
+    /// as many pixels). Recording is most of those frames' extra cost, and a
+    /// large image's rows record more targets than a table that starts needs
+    /// (docs/guiding.md, "The recording schedule").
+    pub fn first_stride(pixels: u64) -> u32 {
+        let s = (pixels / FIRST_RECORD_PIXELS).max(1);
+        (1u64 << s.ilog2()).min(shared::RECORD_ROW_STRIDE as u64) as u32
     }
 
     /// The schedule of a guided render of `width` x `height` pixels: its learning
@@ -84,11 +102,11 @@ impl RecordSchedule {
         frames.min(MAX_LEARNING_PERIOD as u64) as u32
     }
 
-    /// One pixel row in this many records in frame `frame`: 1 (every row) in the
-    /// first `RECORD_ALL_FRAMES` frames, then `RECORD_ROW_STRIDE` up to `RECORD_MAX_STRIDE`.
+    /// One pixel row in this many records in frame `frame`: the first stride in
+    /// the first `RECORD_FIRST_FRAMES` frames, then `RECORD_ROW_STRIDE` up to `RECORD_MAX_STRIDE`.
     pub fn stride(&self, frame: u32) -> u32 {
-        if frame < shared::RECORD_ALL_FRAMES {
-            return 1;
+        if frame < shared::RECORD_FIRST_FRAMES {
+            return self.first_stride;
         }
         shared::RECORD_ROW_STRIDE << self.doublings.iter().filter(|&&d| frame >= d).count()
     }
@@ -100,7 +118,7 @@ impl RecordSchedule {
 
     /// Whether the table learns after frame `frame`: the targets recorded since
     /// it last learned are folded into Q, and the sampling rows rebuilt from it
-    /// ([`QTable::learn`]). After each of the first `RECORD_ALL_FRAMES` frames,
+    /// ([`QTable::learn`]). After each of the first `RECORD_FIRST_FRAMES` frames,
     /// while the table changes fast, then after the last frame of each cycle of
     /// the recording rows, one frame in `stride`, when every row has recorded once.
     /// Small images learn once in several cycles, the schedule's `min_period`
@@ -113,16 +131,16 @@ impl RecordSchedule {
     /// little from frame to frame; that is why the stride follows the table's
     /// fill, not the frame count (docs/guiding.md, "The recording schedule").
     pub fn learns_after(&self, frame: u32) -> bool {
-        let period = if frame < shared::RECORD_ALL_FRAMES { 1 } else { self.learning_period(frame) };
+        let period = if frame < shared::RECORD_FIRST_FRAMES { 1 } else { self.learning_period(frame) };
         frame % period == period - 1
     }
 
-    /// Frames per learning pass once the first `RECORD_ALL_FRAMES` are past, at
+    /// Frames per learning pass once the first `RECORD_FIRST_FRAMES` are past, at
     /// frame `frame`: its stride, or the schedule's `min_period` where that is
     /// longer. The share of a pass each guided frame costs in the long run
     /// ([`FrameRace::report_guided`]).
     pub fn learning_period(&self, frame: u32) -> u32 {
-        self.stride(frame.max(shared::RECORD_ALL_FRAMES)).max(self.min_period)
+        self.stride(frame.max(shared::RECORD_FIRST_FRAMES)).max(self.min_period)
     }
 }
 
@@ -198,5 +216,29 @@ impl FrameSums {
     pub fn merge(mut self, other: FrameSums) -> FrameSums {
         self.add_all(&other);
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first frames record every row below twice `FIRST_RECORD_PIXELS`
+    /// pixels, and over larger images one row in the largest power of two that
+    /// leaves that many recording, up to `RECORD_ROW_STRIDE`.
+    #[test]
+    fn large_images_record_fewer_rows_in_the_first_frames() {
+        let first = RecordSchedule::first_stride;
+        let n = FIRST_RECORD_PIXELS;
+        assert_eq!((first(0), first(64 * 40), first(2 * n - 1), first(2 * n), first(4 * n - 1)), (1, 1, 1, 2, 2));
+        assert_eq!((first(480 * 320), first(640 * 480), first(960 * 640), first(1920 * 1080)), (2, 4, 8, 8));
+        assert_eq!(shared::RECORD_ROW_STRIDE, 8);
+        let s = RecordSchedule::new(640 * 480, 1 << 20, 1);
+        for f in 0..shared::RECORD_FIRST_FRAMES {
+            assert_eq!(s.stride(f), 4);
+            assert!(s.learns_after(f), "frame {f}: the first frames learn after each");
+            assert_eq!((0..4).filter(|&y| s.records(f, y)).count(), 1, "frame {f}: one row in 4 records");
+        }
+        assert_eq!(s.stride(shared::RECORD_FIRST_FRAMES), shared::RECORD_ROW_STRIDE);
     }
 }

@@ -26,8 +26,10 @@ pub fn survival_probability(expected: f32, pixel_estimate: f32) -> f32 {
 /// time. The frames so far are the accumulation's `accum_frames` and the
 /// `learned_frames` left out of the image before it (`GuideConfig::learning_frames`),
 /// whose mean3 sum the pixel keeps in `sum[3]` once the image has a frame
-/// (`crate::film::accumulate`); before that (`accum_frames` 0) the pixel still
-/// holds them as its sum. `glsl/pathtrace.comp` is the same.
+/// (`crate::film::accumulate`, `Learned::Keep`); before that (`accum_frames` 0)
+/// the pixel still holds them as its sum. Folded into the image
+/// (`Learned::Fold`), they are one of its frames and `learned_frames` is 0.
+/// `glsl/pathtrace.comp` is the same.
 pub fn roulette_estimate(acc: &AccumPixel, accum_frames: u32, learned_frames: u32, frames_traced: u32) -> f32 {
     let frames = accum_frames + learned_frames;
     if frames == 0 || frames_traced < shared::LEARNED_RR_FRAMES {
@@ -40,6 +42,7 @@ pub fn roulette_estimate(acc: &AccumPixel, accum_frames: u32, learned_frames: u3
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::film::Learned;
 
     #[test]
     fn learned_roulette_waits_for_a_table_of_several_frames() {
@@ -68,13 +71,24 @@ mod tests {
             m2_frame_mean: [5.0; 4],
         };
         assert_eq!(roulette_estimate(&acc, 0, n, n), 6.0);
-        // The image's first frame, of mean3 2 (and 1, 2, 3 per channel), replaces them and keeps their share.
-        crate::film::accumulate(&mut acc, 0, n, [per_frame, 2.0 * per_frame, 3.0 * per_frame]);
+        let held = acc;
+        // Left out of the image (Keep), the image's first frame, of mean3 2 (and 1,
+        // 2, 3 per channel), replaces them and keeps their share.
+        let frame = [per_frame, 2.0 * per_frame, 3.0 * per_frame];
+        crate::film::accumulate(&mut acc, 0, n, Learned::Keep, frame);
         assert_eq!(acc.sum, [per_frame, 2.0 * per_frame, 3.0 * per_frame, 6.0 * per_frame * n as f32]);
         assert_eq!(acc.m2_frame_mean, [0.0; 4]);
         assert_eq!(roulette_estimate(&acc, 1, n, n + 1), (2.0 + 6.0 * n as f32) / (n + 1) as f32);
+        // Folded (Fold), their mean (3, 6, 9 per sample) is the image's
+        // first frame and this one its second; their spread is not the image's.
+        let mut folded = held;
+        crate::film::accumulate(&mut folded, 0, n, Learned::Fold, frame);
+        assert_eq!(folded.sum, [4.0 * per_frame, 8.0 * per_frame, 12.0 * per_frame, 0.0]);
+        // Welford over the two frame means (3, 6, 9) and (1, 2, 3): half their squared difference.
+        assert_eq!(folded.m2_frame_mean, [2.0, 8.0, 18.0, 0.0]);
+        assert_eq!(roulette_estimate(&folded, 2, 0, n + 1), 4.0);
         // Without learning frames the first frame keeps nothing of what the pixel held.
-        crate::film::accumulate(&mut acc, 0, 0, [per_frame; 3]);
+        crate::film::accumulate(&mut acc, 0, 0, Learned::Fold, [per_frame; 3]);
         assert_eq!(acc.sum, [per_frame, per_frame, per_frame, 0.0]);
     }
 }

@@ -19,16 +19,19 @@ impl GpuRenderer {
     /// The kernel's push constants for the next frame (`rows` left 0, `cmd_trace`
     /// sets it per dispatch), counting the frame as traced and accumulated. The
     /// frame after the learning frames starts the image: the accumulation's
-    /// frames become the learned frames, and the kernel writes over them
-    /// (`accumulate`, `crate::film::accumulate`).
+    /// frames become the learned frames, and the kernel takes their mean in as
+    /// the image's first frame or writes over them (`accumulate`,
+    /// `crate::film::accumulate`).
     pub(super) fn next_frame(&mut self, kind: FrameKind) -> PathPush {
         let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
         // The first image frame (frames traced in order, or handed out by
         // `MultiGpuRenderer`, which may skip frames) moves the learning frames out.
+        let mut folds = false;
         if self.accum_holds_learning && self.frames_traced >= learning_frames {
             self.learned_frames = self.accum_frames;
             self.accum_frames = 0;
             self.accum_holds_learning = false;
+            folds = self.learned == crate::film::Learned::Fold;
         } else if self.frames_traced < learning_frames {
             self.accum_holds_learning = true;
         }
@@ -40,9 +43,16 @@ impl GpuRenderer {
             rows: 0,
             learned_frames: self.learned_frames,
             table_frames: self.table_frames,
+            fold_learned: folds as u32,
         };
         self.frames_traced += 1;
         self.accum_frames += 1;
+        if folds {
+            // The learning frames' mean is now the image's first frame.
+            self.accum_frames += 1;
+            self.learned_frames = 0;
+            self.learning_folded = true;
+        }
         if kind == FrameKind::Guided {
             self.guided_traced += 1;
         }
@@ -56,20 +66,30 @@ impl GpuRenderer {
         crate::guide::frame_kind(self.race.as_ref(), self.frames_traced, self.guided_traced, l.cfg.learning_frames)
     }
 
-    /// Records the dispatches of one frame (`frame_dispatches`) by the kernel of its kind.
-    pub(super) fn cmd_trace(&self, cmd: crate::gpu::vk::CommandBuffer, push: PathPush, kind: FrameKind) {
+    /// Records the dispatches of one frame (`frame_dispatches`) by the kernel of its
+    /// kind. A `learning` frame's rows that record no targets take the unguided
+    /// kernel (`learning_rows_unguided`, as `crate::cpu` `FrameSetup::row_guide`).
+    pub(super) fn cmd_trace(
+        &self,
+        cmd: crate::gpu::vk::CommandBuffer,
+        push: PathPush,
+        kind: FrameKind,
+        learning: bool,
+    ) {
         if let (Some(u), FrameKind::Unguided) = (&self.unguided, kind) {
             let wide = self.width.div_ceil(pixels_per_group(false, self.params.scene_kinds));
             let push = PathPush { rows: shared::ROWS_ALL, ..push };
             u.cmd_dispatch(cmd, [wide, self.height, 1], bytemuck::bytes_of(&push));
             return;
         }
-        let wide = self.width.div_ceil(pixels_per_group(self.learning.is_some(), self.params.scene_kinds));
+        let guided = self.learning.is_some();
         for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push.frame, self.height) {
-            let pipeline = match (&self.recording, d.recording) {
-                (Some(r), true) => r,
-                _ => &self.pipeline,
+            let (pipeline, guided) = match (&self.recording, d.recording, &self.unguided) {
+                (Some(r), true, _) => (r, guided),
+                (_, false, Some(u)) if learning => (u, false),
+                _ => (&self.pipeline, guided),
             };
+            let wide = self.width.div_ceil(pixels_per_group(guided, self.params.scene_kinds));
             let push = PathPush { rows: d.rows, ..push };
             pipeline.cmd_dispatch(cmd, [wide, d.groups_y, 1], bytemuck::bytes_of(&push));
         }
@@ -141,15 +161,22 @@ impl GpuRenderer {
         self.check_device_lost_hook(count)?;
         let timestamps = self.ctx.info.timestamps;
         let wall = std::time::Instant::now();
-        let before =
-            (self.frames_traced, self.accum_frames, self.learned_frames, self.accum_holds_learning, self.guided_traced);
+        let before = (
+            self.frames_traced,
+            self.accum_frames,
+            self.learned_frames,
+            self.accum_holds_learning,
+            self.guided_traced,
+            self.learning_folded,
+        );
         // The image's frames of one submission are of one kind.
         let image_kind = self.next_kind();
         let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
-        let pushes: Vec<(PathPush, FrameKind)> = (0..count)
+        let pushes: Vec<(PathPush, FrameKind, bool)> = (0..count)
             .map(|_| {
-                let kind = if self.frames_traced < learning_frames { self.next_kind() } else { image_kind };
-                (PathPush { ablate: 0, ..self.next_frame(kind) }, kind)
+                let learning = self.frames_traced < learning_frames;
+                let kind = if learning { self.next_kind() } else { image_kind };
+                (PathPush { ablate: 0, ..self.next_frame(kind) }, kind, learning)
             })
             .collect();
         // Stamps: 0 before the first frame, a pair around each learning pass (up
@@ -163,14 +190,14 @@ impl GpuRenderer {
             if timestamps {
                 self.timer.cmd_reset(cmd);
             }
-            for (f, &(push, kind)) in (0..count).zip(&pushes) {
+            for (f, &(push, kind, learning)) in (0..count).zip(&pushes) {
                 if f > 0 {
                     self.ctx.barrier(cmd);
                 }
                 if timestamps && f == 0 {
                     self.timer.cmd_stamp(cmd, 0);
                 }
-                self.cmd_trace(cmd, push, kind);
+                self.cmd_trace(cmd, push, kind, learning);
                 if let Some(l) = &self.learning {
                     if learn && kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
                         let k = passes.get();
@@ -200,11 +227,12 @@ impl GpuRenderer {
                 self.learned_frames,
                 self.accum_holds_learning,
                 self.guided_traced,
+                self.learning_folded,
             ) = before;
             return Err(e);
         }
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
-        let kind = pushes.last().map(|&(_, k)| k).filter(|_| self.learning.is_some());
+        let kind = pushes.last().map(|&(_, k, _)| k).filter(|_| self.learning.is_some());
         let variance = self.read_frame_variance(count);
         let mut t = FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, ..Default::default() };
         if timestamps {
@@ -223,7 +251,7 @@ impl GpuRenderer {
                 (wall.elapsed().as_secs_f64() * 1e3 / n, 0.0)
             };
             let first = self.frames_traced - count;
-            for (i, &(push, kind)) in pushes.iter().enumerate() {
+            for (i, &(push, kind, _)) in pushes.iter().enumerate() {
                 // A guided frame's push.frame counts the guided frames before it.
                 let guided_before = if kind == FrameKind::Guided { push.frame } else { self.guided_traced };
                 if !crate::guide::race_weighs(kind, first + i as u32, guided_before, learning_frames) {
@@ -272,13 +300,14 @@ impl GpuRenderer {
         // Profiling measures the kernels as they are: every frame guided with guiding.
         let kind = if self.learning.is_some() { FrameKind::Guided } else { FrameKind::Unguided };
         let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.guided_traced));
+        let learning = self.frames_traced < self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
         let push = self.next_frame(kind);
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);
             self.ctx.barrier(cmd);
             self.timer.cmd_stamp(cmd, 0);
-            self.cmd_trace(cmd, push, kind);
+            self.cmd_trace(cmd, push, kind, learning);
             self.timer.cmd_stamp(cmd, 1);
             // Learning's passes, and their stamps, after the frames it follows alone.
             if let Some(l) = self.learning.as_ref().filter(|_| learns) {

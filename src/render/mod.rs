@@ -101,7 +101,8 @@ pub struct GpuRenderer {
     pipeline: Pipeline,
     /// With guiding, the path-tracing pipeline that records targets.
     recording: Option<Pipeline>,
-    /// With guiding and a [`FrameRace`], the unguided kernel for the frames it names.
+    /// With guiding, the unguided kernel: for the frames a [`FrameRace`] names, and
+    /// for the learning frames' rows that record no targets ([`learning_rows_unguided`]).
     unguided: Option<Pipeline>,
     /// The choice of kernel of the image's frames, where it may choose.
     race: Option<FrameRace>,
@@ -137,10 +138,15 @@ pub struct GpuRenderer {
     /// Whether the accumulation's frames are learning frames, which the first
     /// image frame moves to `learned_frames` (`next_frame`).
     accum_holds_learning: bool,
-    /// The learning frames left out of the image once it starts (0 until then, and
-    /// after `reset_accumulation`): learned roulette's estimate still counts them
-    /// (the kernel's `learned_frames`).
+    /// The learning frames left out of the image once it starts (0 until then,
+    /// after `reset_accumulation`, and where the image folded them in): learned
+    /// roulette's estimate still counts them (the kernel's `learned_frames`).
     learned_frames: u32,
+    /// What the image's first frame does with the learning frames
+    /// (`crate::film::Learned`; the kernel's `fold_learned`).
+    learned: crate::film::Learned,
+    /// Whether the accumulation's first frame is the learning frames' mean.
+    learning_folded: bool,
     /// Frames the table learned from before this render: learned roulette need
     /// not wait for a loaded field to learn (`GuideField::table_frames`).
     table_frames: u32,
@@ -166,12 +172,15 @@ struct PathPush {
     ablate: u32,
     /// The pixel rows a dispatch traces (`RowDispatch::rows`).
     rows: u32,
-    /// The learning frames left out of the image (`GpuRenderer::learned_frames`).
+    /// The learning frames left out of the image (`GpuRenderer::learned_frames`), or
+    /// where this frame folds them in, their count.
     learned_frames: u32,
     /// Frames the table learned from before this render (`GuideField::table_frames`).
     table_frames: u32,
     /// The random numbers' frame index (`rng_frame`).
     rng_frame: u32,
+    /// 1 where this frame folds the learning frames into the image (`crate::film::Learned::Fold`).
+    fold_learned: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -250,7 +259,10 @@ impl GpuRenderer {
         let geometry = scene.geometry_specialization();
         let (pipeline, recording) = path_pipelines(ctx, kernel, guided, p, &geometry)?;
         let racing = scene.guide.is_some_and(|g| g.unguided_frames);
-        let unguided = if racing { Some(unguided_twin(ctx, p, &geometry)?) } else { None };
+        let unguided = match racing || learning_rows_unguided(scene) {
+            true => Some(unguided_twin(ctx, p, &geometry)?),
+            false => None,
+        };
         let mut scene_buffers = vec![
             Buffer::with_data(ctx, "render params", bytemuck::bytes_of(p), true)?,
             Buffer::with_data(ctx, "materials", bytes(&scene.materials), false)?,
@@ -376,6 +388,8 @@ impl GpuRenderer {
             accum_frames: 0,
             accum_holds_learning: false,
             learned_frames: 0,
+            learned: crate::film::Learned::Fold,
+            learning_folded: false,
             table_frames: if scene.guide_start.is_some() { crate::guide::GuideField::table_frames() } else { 0 },
             ablate: 0,
             lose_device_after: std::env::var(DEVICE_LOST_HOOK).ok().and_then(|v| v.trim().parse().ok()),
@@ -426,9 +440,24 @@ impl GpuRenderer {
         self.frame_offset = offset;
     }
 
+    /// What the image's first frame does with the learning frames
+    /// (`crate::film::Learned::for_render`), before the first frame. On several
+    /// GPUs they stay out (`Keep`): each device holds some of them, and folding
+    /// each device's share as a frame would weigh them unevenly.
+    pub fn set_learned(&mut self, learned: crate::film::Learned) {
+        assert_eq!(self.frames_traced, 0, "the learning frames' place is set before the first frame");
+        self.learned = learned;
+    }
+
     /// Frames in the accumulation.
     pub fn frames(&self) -> u32 {
         self.accum_frames
+    }
+
+    /// Whether the accumulation's first frame is the learning frames' mean
+    /// (`crate::film::Learned::Fold`), not one of the image's own frames.
+    pub fn learning_folded(&self) -> bool {
+        self.learning_folded
     }
 
     /// Replaces the render parameters (camera, NEE flag...) for the following frames.
@@ -525,6 +554,7 @@ impl GpuRenderer {
         self.accum_frames = 0;
         self.accum_holds_learning = false;
         self.learned_frames = 0;
+        self.learning_folded = false;
         Ok(())
     }
 

@@ -100,8 +100,10 @@ impl MultiGpuRenderer {
         });
         let mut devices = Vec::with_capacity(built.len());
         for (slot, r) in built.into_iter().enumerate() {
+            let mut r = r?;
+            r.set_learned(crate::film::Learned::Keep);
             devices.push(Device {
-                r: r?,
+                r,
                 slot,
                 image: Vec::new(),
                 last_ms: None,

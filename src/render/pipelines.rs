@@ -20,8 +20,18 @@ pub(super) fn path_pipelines(
 /// The path-tracing pipeline, specialized to the scene and settings of `p`;
 /// with `recording`, the guided kernel that records Q-learning targets;
 /// `geometry` is the scene's `PreparedScene::geometry_specialization`.
+/// Whether `scene`'s learning frames have pixel rows that record no targets
+/// (`crate::guide::RecordSchedule::first_stride` above 1): the unguided kernel
+/// traces those ([`GpuRenderer::cmd_trace`]), as fast as an unguided frame and
+/// as good while the table knows little (docs/guiding.md, "Learning frames").
+pub(super) fn learning_rows_unguided(scene: &crate::prepared::PreparedScene) -> bool {
+    let pixels = scene.params.width as u64 * scene.params.height as u64;
+    scene.learning_frames() > 0 && crate::guide::RecordSchedule::first_stride(pixels) > 1
+}
+
 /// The unguided kernel of a guided render, for the frames its [`crate::guide::FrameRace`]
-/// traces unguided: the same scene and flags, none of the table's bindings.
+/// traces unguided and the learning frames' rows that record nothing: the same
+/// scene and flags, none of the table's bindings.
 pub(super) fn unguided_twin(
     ctx: &Arc<Context>,
     p: &crate::layout::RenderParams,

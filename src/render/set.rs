@@ -36,13 +36,21 @@ pub fn several_gpus_refusal(scene: &PreparedScene) -> Option<String> {
 
 impl GpuSet {
     /// The renderer of `scene` on `contexts` (at least one); the image's frames
-    /// draw the random numbers from frame `frame_offset` on (a part of a split render).
-    pub fn new(contexts: &[Arc<Context>], scene: &PreparedScene, frame_offset: u32) -> Result<GpuSet, GpuSetError> {
+    /// draw the random numbers from frame `frame_offset` on (a part of a split
+    /// render), and on one GPU take the learning frames in as `learned` says
+    /// (several leave them out).
+    pub fn new(
+        contexts: &[Arc<Context>],
+        scene: &PreparedScene,
+        frame_offset: u32,
+        learned: crate::film::Learned,
+    ) -> Result<GpuSet, GpuSetError> {
         Ok(match contexts {
             [] => panic!("a render needs at least one GPU"),
             [ctx] => {
                 let mut r = GpuRenderer::new(ctx, scene)?;
                 r.set_frame_offset(frame_offset);
+                r.set_learned(learned);
                 GpuSet::One(Box::new(r))
             }
             _ => {

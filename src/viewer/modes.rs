@@ -80,6 +80,6 @@ pub(super) fn make_renderer(
             );
         }
     }
-    let renderer = GpuSet::new(contexts, &prepared, 0)?;
+    let renderer = GpuSet::new(contexts, &prepared, 0, crate::film::Learned::Fold)?;
     Ok(ModeRenderer { mode, prepared, renderer })
 }
