@@ -190,7 +190,7 @@ struct Settings {
     #[arg(long, value_name = "F", value_parser = parse_floor, allow_negative_numbers = true)]
     exploration_floor: Option<f32>,
     /// Frames at the start of a guided render that teach the table; their mean then
-    /// counts as one frame of the image (a part after the first of a split render, or a
+    /// counts as one frame of the image (a part of a split render, or a
     /// render on several GPUs, leaves them out). `--spp` counts the image's other samples;
     /// `--time` counts the learning frames' time too [default: 4 in scenes with Russian
     /// roulette, the frames before learned roulette starts; 0 without].
