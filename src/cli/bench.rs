@@ -84,8 +84,8 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
     }
     if args.settings.learning_frames.is_some() && args.settings.guiding != GuidingMode::Off {
         eprintln!(
-            "note: --learning-frames sets the frames an image leaves out; rlpt bench writes no image, and its \
-             frames take the same time either way"
+            "note: --learning-frames sets how many of the first frames teach the table before the image; rlpt \
+             bench writes no image, and times those frames as a render traces them"
         );
     }
     let scene = Scene::load_with(&args.scene, args.settings.strict)?;
