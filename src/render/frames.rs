@@ -23,38 +23,38 @@ impl GpuRenderer {
     /// the image's first frame or writes over them (`accumulate`,
     /// `crate::film::accumulate`).
     pub(super) fn next_frame(&mut self, kind: FrameKind) -> PathPush {
-        let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        let learning_frames = self.learning_frames();
         // The first image frame (frames traced in order, or handed out by
         // `MultiGpuRenderer`, which may skip frames) moves the learning frames out.
         let mut folds = false;
-        if self.accum_holds_learning && self.frames_traced >= learning_frames {
-            self.learned_frames = self.accum_frames;
-            self.accum_frames = 0;
-            self.accum_holds_learning = false;
+        if self.counts.accum_holds_learning && self.counts.frames_traced >= learning_frames {
+            self.counts.learned_frames = self.counts.accum_frames;
+            self.counts.accum_frames = 0;
+            self.counts.accum_holds_learning = false;
             folds = self.learned == crate::film::Learned::Fold;
-        } else if self.frames_traced < learning_frames {
-            self.accum_holds_learning = true;
+        } else if self.counts.frames_traced < learning_frames {
+            self.counts.accum_holds_learning = true;
         }
         let push = PathPush {
-            frame: if self.learning.is_some() { self.guided_traced } else { self.frames_traced },
-            rng_frame: rng_frame(self.frames_traced, learning_frames, self.frame_offset),
-            accum_frames: self.accum_frames,
+            frame: if self.learning.is_some() { self.counts.guided_traced } else { self.counts.frames_traced },
+            rng_frame: rng_frame(self.counts.frames_traced, learning_frames, self.frame_offset),
+            accum_frames: self.counts.accum_frames,
             ablate: self.ablate,
             rows: 0,
-            learned_frames: self.learned_frames,
+            learned_frames: self.counts.learned_frames,
             table_frames: self.table_frames,
             fold_learned: folds as u32,
         };
-        self.frames_traced += 1;
-        self.accum_frames += 1;
+        self.counts.frames_traced += 1;
+        self.counts.accum_frames += 1;
         if folds {
             // The learning frames' mean is now the image's first frame.
-            self.accum_frames += 1;
-            self.learned_frames = 0;
-            self.learning_folded = true;
+            self.counts.accum_frames += 1;
+            self.counts.learned_frames = 0;
+            self.counts.learning_folded = true;
         }
         if kind == FrameKind::Guided {
-            self.guided_traced += 1;
+            self.counts.guided_traced += 1;
         }
         push
     }
@@ -63,12 +63,17 @@ impl GpuRenderer {
     /// the learning frames, where there is a race), else unguided.
     pub(super) fn next_kind(&self) -> FrameKind {
         let Some(l) = &self.learning else { return FrameKind::Unguided };
-        crate::guide::frame_kind(self.race.as_ref(), self.frames_traced, self.guided_traced, l.cfg.learning_frames)
+        crate::guide::frame_kind(
+            self.race.as_ref(),
+            self.counts.frames_traced,
+            self.counts.guided_traced,
+            l.cfg.learning_frames,
+        )
     }
 
     /// Records the dispatches of one frame (`frame_dispatches`) by the kernel of its
     /// kind. A `learning` frame's rows that record no targets take the unguided
-    /// kernel (`learning_rows_unguided`, as `crate::cpu` `FrameSetup::row_guide`).
+    /// kernel (`learning_rows_unguided`, as `crate::cpu` `FrameSetup::trace_sample`).
     pub(super) fn cmd_trace(
         &self,
         cmd: crate::gpu::vk::CommandBuffer,
@@ -99,7 +104,9 @@ impl GpuRenderer {
     /// would pass the frames it names.
     pub(super) fn check_device_lost_hook(&self, count: u32) -> Result<(), GpuError> {
         match self.lose_device_after {
-            Some(n) if self.frames_traced.saturating_add(count) > n => Err(self.ctx.lose_device("vkQueueSubmit")),
+            Some(n) if self.counts.frames_traced.saturating_add(count) > n => {
+                Err(self.ctx.lose_device("vkQueueSubmit"))
+            }
             _ => Ok(()),
         }
     }
@@ -116,7 +123,7 @@ impl GpuRenderer {
         let per_frame = self.round_frame_ms.filter(|_| self.ctx.info.timestamps);
         let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
         if let (Some(race), Some(l)) = (&self.race, &self.learning) {
-            let image = self.frames_traced >= l.cfg.learning_frames;
+            let image = self.counts.frames_traced >= l.cfg.learning_frames;
             count = count.min(if image { race.run_left() } else { 1 });
         }
         if let (Some(ms), Some(left)) = (per_frame, time_left_ms) {
@@ -161,20 +168,13 @@ impl GpuRenderer {
         self.check_device_lost_hook(count)?;
         let timestamps = self.ctx.info.timestamps;
         let wall = std::time::Instant::now();
-        let before = (
-            self.frames_traced,
-            self.accum_frames,
-            self.learned_frames,
-            self.accum_holds_learning,
-            self.guided_traced,
-            self.learning_folded,
-        );
+        let before = self.counts;
         // The image's frames of one submission are of one kind.
         let image_kind = self.next_kind();
-        let learning_frames = self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        let learning_frames = self.learning_frames();
         let pushes: Vec<(PathPush, FrameKind, bool)> = (0..count)
             .map(|_| {
-                let learning = self.frames_traced < learning_frames;
+                let learning = self.counts.frames_traced < learning_frames;
                 let kind = if learning { self.next_kind() } else { image_kind };
                 (PathPush { ablate: 0, ..self.next_frame(kind) }, kind, learning)
             })
@@ -221,14 +221,7 @@ impl GpuRenderer {
         });
         if let Err(e) = submitted {
             // The frames did not finish: the counts stay those of the accumulation.
-            (
-                self.frames_traced,
-                self.accum_frames,
-                self.learned_frames,
-                self.accum_holds_learning,
-                self.guided_traced,
-                self.learning_folded,
-            ) = before;
+            self.counts = before;
             return Err(e);
         }
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
@@ -250,10 +243,10 @@ impl GpuRenderer {
             } else {
                 (wall.elapsed().as_secs_f64() * 1e3 / n, 0.0)
             };
-            let first = self.frames_traced - count;
+            let first = self.counts.frames_traced - count;
             for (i, &(push, kind, _)) in pushes.iter().enumerate() {
                 // A guided frame's push.frame counts the guided frames before it.
-                let guided_before = if kind == FrameKind::Guided { push.frame } else { self.guided_traced };
+                let guided_before = if kind == FrameKind::Guided { push.frame } else { self.counts.guided_traced };
                 if !crate::guide::race_weighs(kind, first + i as u32, guided_before, learning_frames) {
                     continue;
                 }
@@ -299,8 +292,8 @@ impl GpuRenderer {
         self.check_device_lost_hook(1)?;
         // Profiling measures the kernels as they are: every frame guided with guiding.
         let kind = if self.learning.is_some() { FrameKind::Guided } else { FrameKind::Unguided };
-        let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.guided_traced));
-        let learning = self.frames_traced < self.learning.as_ref().map_or(0, |l| l.cfg.learning_frames);
+        let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.counts.guided_traced));
+        let learning = self.counts.frames_traced < self.learning_frames();
         let push = self.next_frame(kind);
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);

@@ -106,9 +106,8 @@ pub struct GpuRenderer {
     unguided: Option<Pipeline>,
     /// The choice of kernel of the image's frames, where it may choose.
     race: Option<FrameRace>,
-    /// Guided frames traced, the learning frames included: the recording
-    /// schedule's and learned roulette's frame count (`PathPush::frame`).
-    guided_traced: u32,
+    /// The frames traced and accumulated, which a failed submission restores.
+    counts: FrameCounts,
     learning: Option<Learning>,
     /// Params (uniform, rewritten by `set_params`), materials, spheres, quads and
     /// lights, in the order of the pipeline's first bindings.
@@ -129,24 +128,11 @@ pub struct GpuRenderer {
     width: u32,
     height: u32,
     params: crate::layout::RenderParams,
-    /// Frames traced so far (decorrelates random numbers; not reset with the accumulation).
-    frames_traced: u32,
     /// Added to the random numbers' frame index on the image's frames (`rng_frame`).
     frame_offset: u32,
-    /// Frames in the accumulation buffer.
-    accum_frames: u32,
-    /// Whether the accumulation's frames are learning frames, which the first
-    /// image frame moves to `learned_frames` (`next_frame`).
-    accum_holds_learning: bool,
-    /// The learning frames left out of the image once it starts (0 until then,
-    /// after `reset_accumulation`, and where the image folded them in): learned
-    /// roulette's estimate still counts them (the kernel's `learned_frames`).
-    learned_frames: u32,
     /// What the image's first frame does with the learning frames
     /// (`crate::film::Learned`; the kernel's `fold_learned`).
     learned: crate::film::Learned,
-    /// Whether the accumulation's first frame is the learning frames' mean.
-    learning_folded: bool,
     /// Frames the table learned from before this render: learned roulette need
     /// not wait for a loaded field to learn (`GuideField::table_frames`).
     table_frames: u32,
@@ -158,6 +144,28 @@ pub struct GpuRenderer {
     /// GPU time per frame of the last submission, its learning passes included
     /// (timestamps): how many frames the next round takes ([`ROUND_MS`]).
     round_frame_ms: Option<f64>,
+}
+
+/// A GPU renderer's count of the frames it traced and accumulated: one value, so
+/// that a submission that fails restores them together (`submit_frames`).
+#[derive(Clone, Copy, Debug, Default)]
+struct FrameCounts {
+    /// Frames traced so far (decorrelates random numbers; not reset with the accumulation).
+    frames_traced: u32,
+    /// Guided frames traced, the learning frames included: the recording
+    /// schedule's and learned roulette's frame count (`PathPush::frame`).
+    guided_traced: u32,
+    /// Frames in the accumulation buffer.
+    accum_frames: u32,
+    /// Whether the accumulation's frames are learning frames, which the first
+    /// image frame moves to `learned_frames` (`next_frame`).
+    accum_holds_learning: bool,
+    /// The learning frames left out of the image once it starts (0 until then,
+    /// after `reset_accumulation`, and where the image folded them in): learned
+    /// roulette's estimate still counts them (the kernel's `learned_frames`).
+    learned_frames: u32,
+    /// Whether the accumulation's first frame is the learning frames' mean.
+    learning_folded: bool,
 }
 
 /// pathtrace.comp's push constants (`Push`).
@@ -367,7 +375,7 @@ impl GpuRenderer {
             recording,
             unguided,
             race: racing.then(FrameRace::default),
-            guided_traced: 0,
+            counts: FrameCounts::default(),
             learning,
             scene_buffers,
             geometry_buffers,
@@ -383,13 +391,8 @@ impl GpuRenderer {
             width: p.width,
             height: p.height,
             params: *p,
-            frames_traced: 0,
             frame_offset: 0,
-            accum_frames: 0,
-            accum_holds_learning: false,
-            learned_frames: 0,
             learned: crate::film::Learned::Fold,
-            learning_folded: false,
             table_frames: if scene.guide_start.is_some() { crate::guide::GuideField::table_frames() } else { 0 },
             ablate: 0,
             lose_device_after: std::env::var(DEVICE_LOST_HOOK).ok().and_then(|v| v.trim().parse().ok()),
@@ -436,7 +439,7 @@ impl GpuRenderer {
     /// Sets the random numbers' frame offset of the image's frames (`rng_frame`),
     /// before the first frame: a part of a split render (`crate::parts`).
     pub fn set_frame_offset(&mut self, offset: u32) {
-        assert_eq!(self.frames_traced, 0, "the frame offset is set before the first frame");
+        assert_eq!(self.counts.frames_traced, 0, "the frame offset is set before the first frame");
         self.frame_offset = offset;
     }
 
@@ -445,19 +448,19 @@ impl GpuRenderer {
     /// GPUs they stay out (`Keep`): each device holds some of them, and folding
     /// each device's share as a frame would weigh them unevenly.
     pub fn set_learned(&mut self, learned: crate::film::Learned) {
-        assert_eq!(self.frames_traced, 0, "the learning frames' place is set before the first frame");
+        assert_eq!(self.counts.frames_traced, 0, "the learning frames' place is set before the first frame");
         self.learned = learned;
     }
 
     /// Frames in the accumulation.
     pub fn frames(&self) -> u32 {
-        self.accum_frames
+        self.counts.accum_frames
     }
 
     /// Whether the accumulation's first frame is the learning frames' mean
     /// (`crate::film::Learned::Fold`), not one of the image's own frames.
     pub fn learning_folded(&self) -> bool {
-        self.learning_folded
+        self.counts.learning_folded
     }
 
     /// Replaces the render parameters (camera, NEE flag...) for the following frames.
@@ -551,10 +554,10 @@ impl GpuRenderer {
     /// Starts a new accumulation on the next frame; what guiding learned is kept.
     pub fn reset_accumulation(&mut self) -> Result<(), GpuError> {
         self.ctx.run_commands("reset accumulation", |cmd| self.accum.cmd_clear(cmd))?;
-        self.accum_frames = 0;
-        self.accum_holds_learning = false;
-        self.learned_frames = 0;
-        self.learning_folded = false;
+        self.counts.accum_frames = 0;
+        self.counts.accum_holds_learning = false;
+        self.counts.learned_frames = 0;
+        self.counts.learning_folded = false;
         Ok(())
     }
 
@@ -581,7 +584,7 @@ impl GpuRenderer {
         })?;
         let n = (self.width * self.height) as usize * std::mem::size_of::<AccumPixel>();
         let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(&self.readback.read()[..n]);
-        Ok(Film { width: self.width, height: self.height, frames: self.accum_frames, partial_spp: 0, pixels })
+        Ok(Film { width: self.width, height: self.height, frames: self.counts.accum_frames, partial_spp: 0, pixels })
     }
 
     /// Folds the targets recorded since the table last learned into it and

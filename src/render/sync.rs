@@ -13,15 +13,15 @@ impl GpuRenderer {
     /// learn: the targets wait in the frame sums for [`GpuRenderer::learn_from`].
     pub fn trace_frame(&mut self, frame: u32) -> Result<FrameTimings, GpuError> {
         assert!(self.race.is_none(), "frames handed out by index are every one guided (no FrameRace)");
-        self.frames_traced = frame;
-        self.guided_traced = frame;
+        self.counts.frames_traced = frame;
+        self.counts.guided_traced = frame;
         self.submit_frames(1, false)
     }
 
     /// Whether the accumulation holds learning frames, which the first image frame
     /// replaces: such a device has no image frame yet.
     pub fn holds_learning_frames(&self) -> bool {
-        self.accum_holds_learning
+        self.counts.accum_holds_learning
     }
 
     /// The targets, fraction gradients and rows read recorded since the table
