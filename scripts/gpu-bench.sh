@@ -3,7 +3,7 @@
 #
 #   scripts/gpu-bench.sh RLPT OUTDIR [timing|equal-time SCENE...|settings SCENE...|learning-rate SCENE...|
 #                                     deep-guiding [SCENE...]|counters|q-targets SCENE...|floor SCENE...|
-#                                     learning-frames SCENE...]
+#                                     learning-frames SCENE...|never-worse [SCENE:WxH...]]
 #
 # timing:     `rlpt bench` (GPU timestamps) of the seed's three experiments and
 #             door.toml, guiding off / octant / sphere, NEE on; 32 measured
@@ -48,6 +48,15 @@
 #             then 10 s each, NEE on, of unguided and of sphere guiding with the
 #             image started after each count of learning frames in $LEARNING
 #             (default "0 4 8"; 4 is the default with roulette), stats-S-lN.
+# never-worse: for each SCENE:WxH (default: every shipped scene at 64x40 and at
+#             its own size, the furnaces at 64x64), a reference (unguided, seed
+#             77, 2 s of GPU time below 100000 pixels, else 6 s) with its
+#             variance, or the one in $REFS (a former OUTDIR) where there is one;
+#             one 0.2 s render per mode to warm the GPU; then 1 s each, seeds 1
+#             and 2, of every mode in $MODES (default "off sphere"; "auto" is
+#             sphere with --unguided-frames auto), stats-S-WxH-M-K.json. Scene
+#             files come from $SCENES (default scenes/). Table:
+#             scripts/never-worse-table.py OUTDIR.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -213,9 +222,54 @@ learning-frames)
         done
     done
     ;;
+never-worse)
+    dir=${SCENES:-scenes}
+    # The flags of a mode.
+    mode() {
+        case $1 in
+        off) echo --guiding off ;;
+        sphere) echo --guiding sphere ;;
+        auto) echo --guiding sphere --unguided-frames auto ;;
+        esac
+    }
+    for m in ${MODES:-off sphere}; do
+        case $m in off | sphere | auto) ;; *) echo "unknown mode $m: off, sphere or auto" >&2 && exit 2 ;; esac
+    done
+    cases=("$@")
+    if [ ${#cases[@]} -eq 0 ]; then
+        cases=(furnace-open:64x64 furnace-closed:64x64)
+        for s in door bunny-door smallpt seed-exp1 seed-exp2 seed-exp3 cornell-box suzanne bmw-m6; do
+            own=$(awk '$1 == "width" { w = $3 } $1 == "height" { h = $3 } END { print w "x" h }' "$dir/$s.toml")
+            cases+=("$s:64x40" "$s:$own")
+        done
+    fi
+    for c in "${cases[@]}"; do
+        s=${c%%:*} size=${c#*:}
+        w=${size%x*} h=${size#*x} tag=$s-$size
+        args=("$dir/$s.toml" --width "$w" --height "$h" --spp 100000000)
+        ref=${REFS:-$out}/ref-$tag
+        if [ ! -f "$ref.exr" ]; then
+            ref=$out/ref-$tag
+            t=2
+            [ $((w * h)) -ge 100000 ] && t=6
+            "$rlpt" render "${args[@]}" -o "$ref.exr" --time "$t" --seed 77 --variance "$ref.var.exr"
+        fi
+        for m in ${MODES:-off sphere}; do
+            # shellcheck disable=SC2046
+            "$rlpt" render "${args[@]}" -o "$out/warm.exr" --time 0.2 $(mode "$m") >/dev/null
+        done
+        for k in 1 2; do
+            for m in ${MODES:-off sphere}; do
+                # shellcheck disable=SC2046
+                "$rlpt" render "${args[@]}" -o "$out/$tag-$m-$k.exr" --time 1 --seed "$k" $(mode "$m") \
+                    --reference "$ref.exr" --reference-variance "$ref.var.exr" --stats "$out/stats-$tag-$m-$k.json"
+            done
+        done
+    done
+    ;;
 *)
     echo "unknown stage $stage: timing, equal-time, settings, learning-rate, deep-guiding, counters, q-targets," \
-        "floor or learning-frames" >&2
+        "floor, learning-frames or never-worse" >&2
     exit 2
     ;;
 esac

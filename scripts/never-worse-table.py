@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""The never-worse table of BENCHMARKS.md from `scripts/gpu-bench.sh ... never-worse` output.
+
+    scripts/never-worse-table.py OUTDIR
+
+Reads OUTDIR/stats-SCENE-WxH-MODE-SEED.json (`rlpt render --stats` against a
+reference with its variance) and prints one markdown row per scene and size: for
+each mode but `off`, its relMSE less the reference's variance over off's at 0.1 s
+(the first mark at or past 100 ms of GPU time) and at the run's end (1 s), the mean
+over the seeds; per sample (the ratio at the end times the mode's samples over
+off's); and the samples per pixel at the end, off / mode (the first seed's).
+"""
+import glob
+import json
+import os
+import re
+import sys
+
+
+def mark(path, ms):
+    """(relMSE less the reference's variance, spp) at the first frame at or past `ms`, or the last."""
+    with open(path) as f:
+        frames = [fr for fr in json.load(f)["frames"] if fr.get("rel_mse_debiased") is not None]
+    if not frames:
+        sys.exit(f"{path}: no frame has a relMSE less the reference's variance (--reference-variance?)")
+    later = [fr for fr in frames if fr["elapsed_ms"] >= ms] if ms is not None else []
+    fr = later[0] if later else frames[-1]
+    return fr["rel_mse_debiased"], fr["spp"]
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    out = sys.argv[1]
+    runs = {}
+    pattern = re.compile(r"stats-(.+)-(\d+x\d+)-([a-z]+)-(\d+)\.json$")
+    for path in glob.glob(os.path.join(out, "stats-*.json")):
+        m = pattern.search(os.path.basename(path))
+        if m:
+            scene, size, mode, seed = m.groups()
+            runs.setdefault((scene, size), {}).setdefault(mode, {})[int(seed)] = path
+    if not runs:
+        sys.exit(f"{out}: no stats-SCENE-WxH-MODE-SEED.json")
+    modes = sorted({m for r in runs.values() for m in r if m != "off"})
+    head = " | ".join(f"{m}: 0.1 s / 1 s | {m} per sample" for m in modes)
+    print(f"| scene | size | {head} | spp at 1 s, off / {' / '.join(modes)} |")
+    print("|---|---|" + "---|---|" * len(modes) + "---|")
+    for (scene, size), r in sorted(runs.items()):
+        off = r.get("off", {})
+        cells, spp = [], [str(mark(off[min(off)], None)[1]) if off else "-"]
+        for m in modes:
+            seeds = sorted(set(r.get(m, {})) & set(off))
+            if not seeds:
+                cells += ["-", "-"]
+                spp.append("-")
+                continue
+            ratios = {}
+            for at in (100.0, None):
+                ratios[at] = sum(mark(r[m][k], at)[0] / mark(off[k], at)[0] for k in seeds) / len(seeds)
+            per_sample = sum(
+                mark(r[m][k], None)[0] / mark(off[k], None)[0] * mark(r[m][k], None)[1] / mark(off[k], None)[1]
+                for k in seeds
+            ) / len(seeds)
+            cells += [f"{ratios[100.0]:.3f} / {ratios[None]:.3f}", f"{per_sample:.2f}"]
+            spp.append(str(mark(r[m][seeds[0]], None)[1]))
+        print(f"| {scene} | {size} | {' | '.join(cells)} | {' / '.join(spp)} |")
+
+
+if __name__ == "__main__":
+    main()
