@@ -9,6 +9,10 @@ each mode but `off`, its relMSE less the reference's variance over off's at 0.1 
 (the first mark at or past 100 ms of GPU time) and at the run's end (1 s), the mean
 over the seeds; per sample (the ratio at the end times the mode's samples over
 off's); and the samples per pixel at the end, off / mode (the first seed's).
+
+A run whose first frames took over 1.3 times as long per frame as the other
+seed's run of the same mode (the GPU's clocks slow some runs; timestamps time
+every frame) is named on stderr, and its row marked `slow`: rerun it.
 """
 import glob
 import json
@@ -26,6 +30,20 @@ def mark(path, ms):
     later = [fr for fr in frames if fr["elapsed_ms"] >= ms] if ms is not None else []
     fr = later[0] if later else frames[-1]
     return fr["rel_mse_debiased"], fr["spp"]
+
+
+def early_ms(path):
+    """GPU time per frame over a run's first five marks."""
+    with open(path) as f:
+        frames = json.load(f)["frames"]
+    fr = frames[min(4, len(frames) - 1)]
+    return fr["elapsed_ms"] / max(fr.get("frame", 1), 1)
+
+
+def slow_seeds(seeds):
+    """The seeds of {seed: path} whose first frames ran over 1.3 times another's."""
+    ms = {k: early_ms(p) for k, p in seeds.items()}
+    return [k for k in ms if any(ms[k] > 1.3 * ms[j] for j in ms if j != k)]
 
 
 def main():
@@ -46,6 +64,9 @@ def main():
     print(f"| scene | size | {head} | spp at 1 s, off / {' / '.join(modes)} |")
     print("|---|---|" + "---|---|" * len(modes) + "---|")
     for (scene, size), r in sorted(runs.items()):
+        slow = [(m, k) for m in r for k in slow_seeds(r[m])]
+        for m, k in slow:
+            print(f"{scene} {size}: {m}, seed {k}: its first frames ran slow", file=sys.stderr)
         off = r.get("off", {})
         cells, spp = [], [str(mark(off[min(off)], None)[1]) if off else "-"]
         for m in modes:
@@ -63,7 +84,8 @@ def main():
             ) / len(seeds)
             cells += [f"{ratios[100.0]:.3f} / {ratios[None]:.3f}", f"{per_sample:.2f}"]
             spp.append(str(mark(r[m][seeds[0]], None)[1]))
-        print(f"| {scene} | {size} | {' | '.join(cells)} | {' / '.join(spp)} |")
+        mark_slow = " (slow)" if slow else ""
+        print(f"| {scene}{mark_slow} | {size} | {' | '.join(cells)} | {' / '.join(spp)} |")
 
 
 if __name__ == "__main__":
