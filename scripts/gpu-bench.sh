@@ -54,9 +54,11 @@
 #             variance, or the one in $REFS (a former OUTDIR) where there is one;
 #             one 0.2 s render per mode to warm the GPU; then 1 s each, seeds 1
 #             and 2, of every mode in $MODES (default "off sphere"; "auto" is
-#             sphere with --unguided-frames auto), stats-S-WxH-M-K.json. Scene
-#             files come from $SCENES (default scenes/). Table:
-#             scripts/never-worse-table.py OUTDIR.
+#             sphere with --unguided-frames auto), stats-S-WxH-M-K.json. With
+#             $RLPT_B, a second binary renders the modes in $MODES_B (default
+#             "sphere") right after each seed's, as modes bM (stats-S-WxH-bM-K),
+#             against the same reference: an A/B in one run. Scene files come
+#             from $SCENES (default scenes/). Table: scripts/never-worse-table.py OUTDIR.
 set -euo pipefail
 rlpt=$1
 out=$2
@@ -232,9 +234,15 @@ never-worse)
         auto) echo --guiding sphere --unguided-frames auto ;;
         esac
     }
-    for m in ${MODES:-off sphere}; do
+    for m in ${MODES:-off sphere} ${MODES_B:-}; do
         case $m in off | sphere | auto) ;; *) echo "unknown mode $m: off, sphere or auto" >&2 && exit 2 ;; esac
     done
+    # Each binary and mode as "BINARY NAME MODE".
+    runs=()
+    for m in ${MODES:-off sphere}; do runs+=("$rlpt $m $m"); done
+    if [ -n "${RLPT_B:-}" ]; then
+        for m in ${MODES_B:-sphere}; do runs+=("$RLPT_B b$m $m"); done
+    fi
     cases=("$@")
     if [ ${#cases[@]} -eq 0 ]; then
         cases=(furnace-open:64x64 furnace-closed:64x64)
@@ -254,15 +262,17 @@ never-worse)
             [ $((w * h)) -ge 100000 ] && t=6
             "$rlpt" render "${args[@]}" -o "$ref.exr" --time "$t" --seed 77 --variance "$ref.var.exr"
         fi
-        for m in ${MODES:-off sphere}; do
+        for r in "${runs[@]}"; do
+            read -r bin name m <<<"$r"
             # shellcheck disable=SC2046
-            "$rlpt" render "${args[@]}" -o "$out/warm.exr" --time 0.2 $(mode "$m") >/dev/null
+            "$bin" render "${args[@]}" -o "$out/warm.exr" --time 0.2 $(mode "$m") >/dev/null
         done
         for k in 1 2; do
-            for m in ${MODES:-off sphere}; do
+            for r in "${runs[@]}"; do
+                read -r bin name m <<<"$r"
                 # shellcheck disable=SC2046
-                "$rlpt" render "${args[@]}" -o "$out/$tag-$m-$k.exr" --time 1 --seed "$k" $(mode "$m") \
-                    --reference "$ref.exr" --reference-variance "$ref.var.exr" --stats "$out/stats-$tag-$m-$k.json"
+                "$bin" render "${args[@]}" -o "$out/$tag-$name-$k.exr" --time 1 --seed "$k" $(mode "$m") \
+                    --reference "$ref.exr" --reference-variance "$ref.var.exr" --stats "$out/stats-$tag-$name-$k.json"
             done
         done
     done
