@@ -180,7 +180,7 @@ struct PathPush {
     ablate: u32,
     /// The pixel rows a dispatch traces (`RowDispatch::rows`).
     rows: u32,
-    /// The learning frames left out of the image (`GpuRenderer::learned_frames`), or
+    /// The learning frames left out of the image (`FrameCounts::learned_frames`), or
     /// where this frame folds them in, their count.
     learned_frames: u32,
     /// Frames the table learned from before this render (`GuideField::table_frames`).

@@ -17,13 +17,11 @@ pub(super) fn path_pipelines(
     Ok((plain, recording))
 }
 
-/// The path-tracing pipeline, specialized to the scene and settings of `p`;
-/// with `recording`, the guided kernel that records Q-learning targets;
-/// `geometry` is the scene's `PreparedScene::geometry_specialization`.
 /// Whether `scene`'s learning frames have pixel rows that record no targets
 /// (`crate::guide::RecordSchedule::first_stride` above 1): the unguided kernel
 /// traces those ([`GpuRenderer::cmd_trace`]), as fast as an unguided frame and
-/// as good while the table knows little (docs/guiding.md, "Learning frames").
+/// as good while the table knows little (docs/guiding.md, "Learning frames in
+/// the image").
 pub(super) fn learning_rows_unguided(scene: &crate::prepared::PreparedScene) -> bool {
     let pixels = scene.params.width as u64 * scene.params.height as u64;
     scene.learning_frames() > 0 && crate::guide::RecordSchedule::first_stride(pixels) > 1
@@ -40,6 +38,9 @@ pub(super) fn unguided_twin(
     path_pipeline(ctx, "pathtrace", false, false, p, geometry)
 }
 
+/// The path-tracing pipeline, specialized to the scene and settings of `p`;
+/// with `recording`, the guided kernel that records Q-learning targets;
+/// `geometry` is the scene's `PreparedScene::geometry_specialization`.
 fn path_pipeline(
     ctx: &Arc<Context>,
     kernel: &str,
