@@ -14,6 +14,7 @@ A run whose first frames took over 1.3 times as long per frame as the other
 seed's run of the same mode (the GPU's clocks slow some runs; timestamps time
 every frame) is named on stderr, and its row marked `slow`: rerun it.
 """
+import functools
 import glob
 import json
 import os
@@ -21,10 +22,16 @@ import re
 import sys
 
 
+@functools.lru_cache(maxsize=None)
+def frames_of(path):
+    """A stats file's frames, read once."""
+    with open(path) as f:
+        return json.load(f)["frames"]
+
+
 def mark(path, ms):
     """(relMSE less the reference's variance, spp) at the first frame at or past `ms`, or the last."""
-    with open(path) as f:
-        frames = [fr for fr in json.load(f)["frames"] if fr.get("rel_mse_debiased") is not None]
+    frames = [fr for fr in frames_of(path) if fr.get("rel_mse_debiased") is not None]
     if not frames:
         sys.exit(f"{path}: no frame has a relMSE less the reference's variance (--reference-variance?)")
     later = [fr for fr in frames if fr["elapsed_ms"] >= ms] if ms is not None else []
@@ -34,8 +41,7 @@ def mark(path, ms):
 
 def early_ms(path):
     """GPU time per frame over a run's first five marks."""
-    with open(path) as f:
-        frames = json.load(f)["frames"]
+    frames = frames_of(path)
     fr = frames[min(4, len(frames) - 1)]
     return fr["elapsed_ms"] / max(fr.get("frame", 1), 1)
 
