@@ -160,7 +160,7 @@ fn fields_that_do_not_fit_are_refused_with_the_reason() {
 /// The targets recorded after the table last learned reach it when the render
 /// asks (`Renderer::learn_pending`, which `--guide-out` calls before saving): a
 /// 40x24 door learns after its first 8 frames and then once in 128, so after 12
-/// frames the last 4 frames' targets wait; the pass folds them in (more visits,
+/// frames the targets recorded since frame 8 wait; the pass folds them in (more visits,
 /// Q moved), and a second pass finds nothing left. On the CPU and the GPU.
 #[test]
 fn a_saved_field_holds_the_targets_after_the_last_pass() {

@@ -24,7 +24,8 @@ pub const MAX_LEARNING_PERIOD: u32 = 1 << 10;
 /// Which pixel rows hand their paths' Q-learning targets to the table, frame by
 /// frame (counted from the first frame traced): in the first
 /// `RECORD_FIRST_FRAMES` frames every row, or one in [`RecordSchedule::first_stride`]
-/// over large images, then one row in a stride, a different one each frame. The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
+/// over large images, then every row in one frame of each cycle of a stride's
+/// frames, its last ([`RecordSchedule::records_frame`]). The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
 /// `RECORD_MAX_STRIDE`, each time the paths recorded so far reach
 /// [`RECORD_PATHS_PER_ENTRY`] per table entry, then twice that, and so on: a large
 /// image over a small table gets there within a few frames, a thumbnail seldom.
@@ -111,9 +112,31 @@ impl RecordSchedule {
         shared::RECORD_ROW_STRIDE << self.doublings.iter().filter(|&&d| frame >= d).count()
     }
 
-    /// Whether the paths of pixel row `y` record their targets in frame `frame`.
+    /// Whether the paths of pixel row `y` record their targets in frame `frame`:
+    /// in the first `RECORD_FIRST_FRAMES` frames, which learn after each, one row
+    /// in the first stride, a different one each frame; then every row in the first
+    /// frame of each cycle ([`records_frame`](Self::records_frame)).
     pub fn records(&self, frame: u32, y: u32) -> bool {
-        (y + frame).is_multiple_of(self.stride(frame))
+        match self.records_frame(frame) {
+            Some(all) => all,
+            None => (y + frame).is_multiple_of(self.stride(frame)),
+        }
+    }
+
+    /// Whether every row of frame `frame` records (Some(true)) or none does
+    /// (Some(false)); None in the first `RECORD_FIRST_FRAMES` frames, whose rows
+    /// take turns. Past them the table learns only at the end of a cycle
+    /// ([`learns_after`](Self::learns_after)), so a cycle whose first frame
+    /// records every row hands it the same targets as one whose frames each
+    /// record a row in `stride`, and each frame is one dispatch of one kernel
+    /// (docs/guiding.md, "The recording schedule"). The first, so that a render
+    /// stopped within a cycle has its targets to fold (`learn_pending`).
+    pub fn records_frame(&self, frame: u32) -> Option<bool> {
+        if frame < shared::RECORD_FIRST_FRAMES {
+            return None;
+        }
+        let stride = self.stride(frame);
+        Some(frame.is_multiple_of(stride))
     }
 
     /// Whether the table learns after frame `frame`: the targets recorded since
@@ -240,5 +263,25 @@ mod tests {
             assert_eq!((0..4).filter(|&y| s.records(f, y)).count(), 1, "frame {f}: one row in 4 records");
         }
         assert_eq!(s.stride(shared::RECORD_FIRST_FRAMES), shared::RECORD_ROW_STRIDE);
+    }
+
+    /// Past the first frames, every row records in the first frame of each cycle
+    /// and no row in its other frames, and the table learns at the cycle's end.
+    #[test]
+    fn past_the_first_frames_the_cycles_first_frame_records_every_row() {
+        for (pixels, period) in [(64 * 40, 64), (640 * 480, 1), (1600 * 1000, 1)] {
+            let s = RecordSchedule::new(pixels, 1 << 16, period);
+            for f in 0..shared::RECORD_FIRST_FRAMES {
+                assert_eq!(s.records_frame(f), None, "{pixels} px, frame {f}");
+            }
+            for f in shared::RECORD_FIRST_FRAMES..2000 {
+                let stride = s.stride(f);
+                let first = f % stride == 0;
+                assert_eq!(s.records_frame(f), Some(first), "{pixels} px, frame {f}");
+                assert!((0..3 * stride).all(|y| s.records(f, y) == first), "{pixels} px, frame {f}");
+                let p = period.max(stride);
+                assert_eq!(s.learns_after(f), f % p == p - 1, "{pixels} px, frame {f}");
+            }
+        }
     }
 }

@@ -19,10 +19,15 @@ pub struct RowDispatch {
 /// The dispatches that trace frame `frame` (frames traced before it) of an image
 /// `height` rows high: every row once, the rows whose paths record their targets
 /// (`schedule`, with guiding) by the recording kernel, the others by the kernel
-/// without recording. Without guiding, one dispatch of all rows.
+/// without recording. Without guiding, and past the first frames (whose rows
+/// take turns at recording, `RecordSchedule::records_frame`), one dispatch of all
+/// rows: a second dispatch costs a small image about one path's latency.
 pub fn frame_dispatches(schedule: Option<&RecordSchedule>, frame: u32, height: u32) -> Vec<RowDispatch> {
     let all = |recording| vec![RowDispatch { recording, rows: shared::ROWS_ALL, groups_y: height }];
     let Some(schedule) = schedule else { return all(false) };
+    if let Some(records) = schedule.records_frame(frame) {
+        return all(records);
+    }
     let stride = schedule.stride(frame);
     if stride == 1 {
         return all(true);
