@@ -335,8 +335,8 @@
 #define REFINE_GROUP 64
 // Which paths hand their Q-learning targets to the table (src/guide/record.rs
 // `RecordSchedule`): in the first RECORD_FIRST_FRAMES frames all of them, or one row
-// in a first stride over large images, then those of one pixel row in a stride, a
-// different row each frame. The stride starts at
+// in a first stride over large images, then all of them in the first frame of each
+// cycle of a stride's frames and none in its others. The stride starts at
 // RECORD_ROW_STRIDE and doubles, up to RECORD_MAX_STRIDE, as the table fills.
 #define RECORD_FIRST_FRAMES 8
 #define RECORD_ROW_STRIDE 8

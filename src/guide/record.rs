@@ -25,7 +25,7 @@ pub const MAX_LEARNING_PERIOD: u32 = 1 << 10;
 /// frame (counted from the first frame traced): in the first
 /// `RECORD_FIRST_FRAMES` frames every row, or one in [`RecordSchedule::first_stride`]
 /// over large images, then every row in one frame of each cycle of a stride's
-/// frames, its last ([`RecordSchedule::records_frame`]). The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
+/// frames, its first ([`RecordSchedule::records_frame`]). The stride starts at `RECORD_ROW_STRIDE` and doubles, up to
 /// `RECORD_MAX_STRIDE`, each time the paths recorded so far reach
 /// [`RECORD_PATHS_PER_ENTRY`] per table entry, then twice that, and so on: a large
 /// image over a small table gets there within a few frames, a thumbnail seldom.
