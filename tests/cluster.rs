@@ -42,7 +42,7 @@ fn ok(o: Output, what: &str) -> String {
 #[ignore = "needs root and Debian's slurm-wlm and munge installed (it starts munged, slurmctld and slurmd): \
             run by hand with `cargo test --test cluster -- --ignored`"]
 fn a_slurm_job_array_renders_the_parts_and_merges_them() {
-    let dir = std::env::temp_dir().join(format!("rlpt-slurm-test-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("rlpt-slurm-test");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let cluster = Cluster(dir.join("slurm"));

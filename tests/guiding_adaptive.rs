@@ -66,7 +66,7 @@ fn the_gpu_splits_the_cells_the_cpu_splits() {
     assert_eq!(cpu.used_cells, roots + 8 * room, "the table filled up");
     assert_tree_valid(&cpu, roots, "CPU");
 
-    let path = std::env::temp_dir().join("adaptive-made-up.qtab");
+    let path = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("adaptive-made-up.qtab");
     let mut loaded = prepared.clone();
     loaded.start_from(field, &path, &o).unwrap();
     let ctx = gpu();

@@ -279,7 +279,7 @@ fn the_reader_finds_every_root_path() {
 /// one added to `math` fails the check, naming it.
 #[test]
 fn an_upward_import_is_reported() {
-    let dir = std::env::temp_dir().join(format!("rlpt-layers-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("rlpt-layers");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(dir.join("math")).unwrap();
     std::fs::create_dir_all(dir.join("camera")).unwrap();

@@ -212,7 +212,7 @@ fn the_reader_finds_references_in_their_forms() {
 /// the file does not define (though it mentions it), a method of another type.
 #[test]
 fn a_stale_reference_is_reported() {
-    let root = std::env::temp_dir().join(format!("rlpt-references-{}", std::process::id()));
+    let root = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("rlpt-references");
     let _ = std::fs::remove_dir_all(&root);
     std::fs::create_dir_all(root.join("src")).unwrap();
     std::fs::create_dir_all(root.join("glsl")).unwrap();

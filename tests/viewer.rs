@@ -168,7 +168,7 @@ fn guided_view_runs_clean() {
 #[test]
 fn bad_view_arguments_are_sentences() {
     // A directory named like a PNG: refused before the window opens, as the CLI's outputs are.
-    let dir = std::env::temp_dir().join("rlpt-view-shot-dir.png");
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("rlpt-view-shot-dir.png");
     std::fs::create_dir_all(&dir).unwrap();
     for (args, expect) in [
         (vec!["--frames", "2", "--screenshot", "x.jpg"], "must end in .png"),

@@ -39,16 +39,26 @@ pub fn assert_no_validation_messages(output: &str) {
     }
 }
 
+/// This test binary's own directory of files, under Cargo's `target/tmp`: emptied
+/// at its first use in each run, so runs neither accumulate files nor see old ones.
+fn own_dir() -> &'static std::path::Path {
+    static DIR: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(env!("CARGO_CRATE_NAME"));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    })
+}
+
 /// A file `name` in this test binary's own directory of files.
 pub fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    own_dir().join(name)
 }
 
 /// A fresh, empty directory `name` for one test's files.
 pub fn fresh_dir(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("rlpt-test-{name}-{}", std::process::id()));
+    let dir = own_dir().join(format!("dir-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
