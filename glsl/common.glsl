@@ -12,10 +12,10 @@
 #define SAMPLES_PER_FRAME 64
 // Pixels per workgroup, local_size_z, the specialization constant
 // SPEC_PIXELS_PER_GROUP (src/render `pixels_per_group`): PIXELS_PER_GROUP for the
-// guided kernels of scenes with mirror, glass or glossy materials,
-// PIXELS_PER_GROUP_SMALL for the others and for the unguided kernel. Smaller
-// groups free an SM's slots sooner after their longest path, but the kernels
-// that carry glass and GGX code were slower with them (docs/ARCHITECTURE.md).
+// recording guided kernel of scenes with mirror, glass or glossy materials,
+// PIXELS_PER_GROUP_SMALL for every other kernel. Smaller groups free an SM's
+// slots sooner after their longest path, but the recording kernel with glass and
+// GGX code was slower with them (docs/ARCHITECTURE.md).
 #define PIXELS_PER_GROUP 4
 #define PIXELS_PER_GROUP_SMALL 2
 // Largest subgroup size the reduction handles with shuffles alone; smaller

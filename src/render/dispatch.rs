@@ -64,12 +64,12 @@ pub fn pixel_row(g: u32, rows: u32) -> u32 {
 
 /// Pixels per workgroup of the path-tracing kernel, its `local_size_z`
 /// (`SPEC_PIXELS_PER_GROUP`), for a scene of the material kinds `scene_kinds`
-/// (`RenderParams::scene_kinds`): 4 for the guided kernels of scenes with
-/// mirror, glass, glossy, conductor or coated materials, 2 for the others and for the unguided
-/// kernel. Smaller groups free an SM's slots sooner after their longest path;
-/// the guided kernels that carry the glass and GGX code were slower with 2
+/// (`RenderParams::scene_kinds`): 4 for the recording guided kernel of scenes with
+/// mirror, glass, glossy, conductor or coated materials, 2 for every other kernel.
+/// Smaller groups free an SM's slots sooner after their longest path; the
+/// recording kernel that carries the glass and GGX code was slower with 2
 /// (docs/ARCHITECTURE.md, "Workgroups").
-pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
+pub fn pixels_per_group(recording: bool, scene_kinds: u32) -> u32 {
     let lobes = [
         shared::MAT_SPECULAR,
         shared::MAT_DIELECTRIC,
@@ -80,7 +80,7 @@ pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
     ]
     .iter()
     .fold(0, |k, m| k | 1 << m);
-    if guided && scene_kinds & lobes != 0 {
+    if recording && scene_kinds & lobes != 0 {
         shared::PIXELS_PER_GROUP
     } else {
         shared::PIXELS_PER_GROUP_SMALL
@@ -91,15 +91,15 @@ pub fn pixels_per_group(guided: bool, scene_kinds: u32) -> u32 {
 mod tests {
     use super::*;
 
-    /// The guided kernels of door and seed-exp1 (diffuse walls and lamps) run 2
+    /// The recording kernels of door and seed-exp1 (diffuse walls and lamps) run 2
     /// pixels per workgroup, those of seed-exp2 and exp3 (a mirror, glass and
-    /// GGX ball) 4; the unguided kernel 2 everywhere.
+    /// GGX ball) 4; every kernel that does not record 2 everywhere.
     #[test]
-    fn guided_kernels_of_all_diffuse_scenes_take_the_small_groups() {
-        for (name, guided) in [("door", 2), ("seed-exp1", 2), ("seed-exp2", 4), ("seed-exp3", 4)] {
+    fn only_recording_kernels_with_lobes_take_the_large_groups() {
+        for (name, recording) in [("door", 2), ("seed-exp1", 2), ("seed-exp2", 4), ("seed-exp3", 4)] {
             let s = crate::scene::Scene::load(format!("{}/scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap();
             let p = crate::prepared::PreparedScene::new(&s, &crate::options::RenderOptions::from_scene(&s)).unwrap();
-            assert_eq!(pixels_per_group(true, p.params.scene_kinds), guided, "{name}");
+            assert_eq!(pixels_per_group(true, p.params.scene_kinds), recording, "{name}");
             assert_eq!(pixels_per_group(false, p.params.scene_kinds), 2, "{name}");
         }
     }

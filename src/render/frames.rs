@@ -87,14 +87,13 @@ impl GpuRenderer {
             u.cmd_dispatch(cmd, [wide, self.height, 1], bytemuck::bytes_of(&push));
             return;
         }
-        let guided = self.learning.is_some();
         for d in frame_dispatches(self.learning.as_ref().map(|l| &l.schedule), push.frame, self.height) {
-            let (pipeline, guided) = match (&self.recording, d.recording, &self.unguided) {
-                (Some(r), true, _) => (r, guided),
+            let (pipeline, recording) = match (&self.recording, d.recording, &self.unguided) {
+                (Some(r), true, _) => (r, true),
                 (_, false, Some(u)) if learning => (u, false),
-                _ => (&self.pipeline, guided),
+                _ => (&self.pipeline, false),
             };
-            let wide = self.width.div_ceil(pixels_per_group(guided, self.params.scene_kinds));
+            let wide = self.width.div_ceil(pixels_per_group(recording, self.params.scene_kinds));
             let push = PathPush { rows: d.rows, ..push };
             pipeline.cmd_dispatch(cmd, [wide, d.groups_y, 1], bytemuck::bytes_of(&push));
         }

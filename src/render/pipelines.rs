@@ -72,7 +72,7 @@ fn path_pipeline(
     }
     let mut constants = specialization(p).to_vec();
     constants[shared::SPEC_RECORDING as usize] = recording as u32;
-    constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(guided, p.scene_kinds);
+    constants[shared::SPEC_PIXELS_PER_GROUP as usize] = pixels_per_group(recording, p.scene_kinds);
     constants.extend_from_slice(geometry);
     debug_assert_eq!(constants.len(), shared::NUM_SPEC_CONSTANTS as usize);
     let name = if recording { format!("{kernel} (recording)") } else { kernel.to_string() };
