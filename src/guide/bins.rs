@@ -65,13 +65,9 @@ impl Bins {
         if u <= 0.0 {
             return if v > 0.0 { (q + 1) * per_quadrant } else { 0 };
         }
-        let step = 0.5 * PI / per_quadrant as f32;
-        let inside = (1..per_quadrant)
-            .filter(|&j| {
-                let (s, c) = (j as f32 * step).sin_cos();
-                v * c - u * s >= 0.0
-            })
-            .count() as u32;
+        let inside = with_quadrant_edges(per_quadrant, |edges| {
+            edges.iter().filter(|&&(s, c)| v * c - u * s >= 0.0).count() as u32
+        });
         q * per_quadrant + inside
     }
 
@@ -111,6 +107,24 @@ impl Bins {
             return Err(format!("rows and columns must be at least 1, and at most {} bins in all", Bins::MAX_COUNT));
         }
         Ok(())
+    }
+}
+
+/// The (sin t, cos t) of a quadrant's inner column edges, t = j pi / (2
+/// `per_quadrant`) for j = 1 .. `per_quadrant`: [`Bins::column`]'s constants, which
+/// the GPU folds at compile time (`GUIDE_COLS` is a specialization constant) and
+/// the CPU computes once per column count (up to 32 a quadrant; past it, per call).
+fn with_quadrant_edges<R>(per_quadrant: u32, f: impl FnOnce(&[(f32, f32)]) -> R) -> R {
+    type Edges = std::sync::OnceLock<Box<[(f32, f32)]>>;
+    const CACHED: usize = 33;
+    static EDGES: [Edges; CACHED] = [const { Edges::new() }; CACHED];
+    let edges = || {
+        let step = 0.5 * PI / per_quadrant as f32;
+        (1..per_quadrant).map(|j| (j as f32 * step).sin_cos()).collect::<Box<[_]>>()
+    };
+    match EDGES.get(per_quadrant as usize) {
+        Some(cell) => f(cell.get_or_init(edges)),
+        None => f(&edges()),
     }
 }
 
