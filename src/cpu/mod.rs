@@ -321,12 +321,12 @@ impl CpuRenderer {
             FrameEnd::Whole => {
                 let (sums, counters) = setup.trace_whole(&mut self.film.pixels, weigh, &no_sums);
                 self.pass_ms = None;
-                (sums.unwrap_or_else(no_sums), counters, shared::SAMPLES_PER_FRAME)
+                (sums, counters, shared::SAMPLES_PER_FRAME)
             }
             FrameEnd::Deadline(_) | FrameEnd::Samples(_) => {
                 let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, weigh, &no_sums);
                 self.pass_ms = traced.pass_ms;
-                (traced.sums.unwrap_or_else(no_sums), traced.counters, traced.samples)
+                (traced.sums, traced.counters, traced.samples)
             }
         };
         let whole = samples == shared::SAMPLES_PER_FRAME;
@@ -334,8 +334,11 @@ impl CpuRenderer {
         let (mut trace_ms, mut learn_ms, mut period) = (start.elapsed().as_secs_f64() * 1e3, None, 1);
         if let (Some(l), Some(cfg)) = (self.learning.as_mut(), self.scene.guide.as_ref()) {
             if guided {
-                // A frame cut short recorded real targets, of fewer paths: they count as any frame's.
-                l.pending.add_all(&sums);
+                // A frame cut short recorded real targets, of fewer paths: they count as any
+                // frame's. A frame whose rows recorded nothing has no sums to add.
+                if let Some(sums) = &sums {
+                    l.pending.add_all(sums);
+                }
                 trace_ms = start.elapsed().as_secs_f64() * 1e3;
                 if l.schedule.learns_after(l.guided_traced) {
                     let learn_start = Instant::now();
