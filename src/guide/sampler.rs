@@ -215,14 +215,19 @@ pub fn sampler_row(cell: u32, class: u32, bins: u32) -> usize {
 pub fn build_sampling_rows(cosines: &[f32], q: &[f32], floor: f32, rows: &mut [AliasBin]) {
     let n = q.len();
     for (cos, row) in cosines.chunks(n).zip(rows.chunks_mut(n)) {
-        let qc: f32 = q.iter().zip(cos).map(|(v, w)| v * w).sum();
-        let c: f32 = cos.iter().sum();
-        let q_floor = if c > 0.0 { floor * qc / c } else { 0.0 };
-        for ((e, &v), &w) in row.iter_mut().zip(q).zip(cos) {
-            e.pdf = (v + q_floor) * w;
-        }
-        build_alias_row(row);
+        build_sampling_row(cos, q, floor, row);
     }
+}
+
+/// One class's row of [`build_sampling_rows`], from that class's bin cosines `cos`.
+pub fn build_sampling_row(cos: &[f32], q: &[f32], floor: f32, row: &mut [AliasBin]) {
+    let qc: f32 = q.iter().zip(cos).map(|(v, w)| v * w).sum();
+    let c: f32 = cos.iter().sum();
+    let q_floor = if c > 0.0 { floor * qc / c } else { 0.0 };
+    for ((e, &v), &w) in row.iter_mut().zip(q).zip(cos) {
+        e.pdf = (v + q_floor) * w;
+    }
+    build_alias_row(row);
 }
 
 /// The density of the one-sample mixture at a vertex that mixes: guided sampling

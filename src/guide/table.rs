@@ -2,6 +2,7 @@
 //! sampling rows rebuilt (`QTable::learn`, the twin of `glsl/learn.comp`).
 
 use super::*;
+use rayon::prelude::*;
 
 /// The learned table on the host (the CPU renderer's, and the GPU's when read back).
 #[derive(Clone, Debug)]
@@ -116,26 +117,32 @@ impl QTable {
         let n = cfg.bins.count() as usize;
         let cosines = class_cosines(&cfg.bins);
         let classes = NORMAL_CLASSES as usize;
-        let mut built = vec![AliasBin::default(); n * classes];
-        for (cell, (q, rows)) in self.q.chunks(n).zip(self.rows.chunks_mut(n * classes)).enumerate() {
-            let read = &self.rows_read[cell * classes..(cell + 1) * classes];
-            if !read.iter().any(|&r| r) {
-                continue;
-            }
-            build_sampling_rows(&cosines, q, cfg.floor, &mut built);
-            let g = if cfg.learn_fraction { self.fraction_states[cell].fraction(cfg.fraction) } else { cfg.fraction };
-            let targets: f32 = self.visits[cell * n..(cell + 1) * n].iter().map(|&v| v as f32).sum();
-            if adaptive {
-                self.nodes[cell].targets = targets;
-            }
-            let g = g * evidence_weight(targets, n as u32);
-            for (class, (row, new)) in rows.chunks_mut(n).zip(built.chunks(n)).enumerate() {
-                if read[class] {
-                    row.copy_from_slice(new);
-                    self.fractions[cell * classes + class] = if learned(row) { g } else { 0.0 };
+        let (q, visits, rows_read, states) = (&self.q, &self.visits, &self.rows_read, &self.fraction_states);
+        // Each cell's rows on their own: in parallel, the same rows as one by one.
+        self.rows
+            .par_chunks_mut(n * classes)
+            .zip(self.fractions.par_chunks_mut(classes))
+            .zip(self.nodes.par_iter_mut())
+            .enumerate()
+            .for_each(|(cell, ((rows, fractions), node))| {
+                let read = &rows_read[cell * classes..(cell + 1) * classes];
+                if !read.iter().any(|&r| r) {
+                    return;
                 }
-            }
-        }
+                let g = if cfg.learn_fraction { states[cell].fraction(cfg.fraction) } else { cfg.fraction };
+                let targets: f32 = visits[cell * n..(cell + 1) * n].iter().map(|&v| v as f32).sum();
+                if adaptive {
+                    node.targets = targets;
+                }
+                let g = g * evidence_weight(targets, n as u32);
+                let q = &q[cell * n..(cell + 1) * n];
+                for (class, (row, cos)) in rows.chunks_mut(n).zip(cosines.chunks(n)).enumerate() {
+                    if read[class] {
+                        build_sampling_row(cos, q, cfg.floor, row);
+                        fractions[class] = if learned(row) { g } else { 0.0 };
+                    }
+                }
+            });
     }
 }
 
