@@ -12,7 +12,9 @@ off's); and the samples per pixel at the end, off / mode (the first seed's).
 
 A run whose first frames took over 1.3 times as long per frame as the other
 seed's run of the same mode (the GPU's clocks slow some runs; timestamps time
-every frame) is named on stderr, and its row marked `slow`: rerun it.
+every frame) is named on stderr and left out of its mode's means (with its
+off run's seed), which then say which seeds they hold, e.g. `(seed 2)`; where no
+seed is left, all count and the row is marked `slow`: rerun it.
 """
 import functools
 import glob
@@ -75,8 +77,15 @@ def main():
             print(f"{scene} {size}: {m}, seed {k}: its first frames ran slow", file=sys.stderr)
         off = r.get("off", {})
         cells, spp = [], [str(mark(off[min(off)], None)[1]) if off else "-"]
+        slow_all = False
         for m in modes:
             seeds = sorted(set(r.get(m, {})) & set(off))
+            fast = [k for k in seeds if (m, k) not in slow and ("off", k) not in slow]
+            held = ""
+            if fast and fast != seeds:
+                seeds, held = fast, f" (seed {', '.join(map(str, fast))})"
+            elif seeds and not fast:
+                slow_all = True
             if not seeds:
                 cells += ["-", "-"]
                 spp.append("-")
@@ -88,9 +97,9 @@ def main():
                 mark(r[m][k], None)[0] / mark(off[k], None)[0] * mark(r[m][k], None)[1] / mark(off[k], None)[1]
                 for k in seeds
             ) / len(seeds)
-            cells += [f"{ratios[100.0]:.3f} / {ratios[None]:.3f}", f"{per_sample:.2f}"]
+            cells += [f"{ratios[100.0]:.3f} / {ratios[None]:.3f}{held}", f"{per_sample:.2f}"]
             spp.append(str(mark(r[m][seeds[0]], None)[1]))
-        mark_slow = " (slow)" if slow else ""
+        mark_slow = " (slow)" if slow_all else ""
         print(f"| {scene}{mark_slow} | {size} | {' | '.join(cells)} | {' / '.join(spp)} |")
 
 
