@@ -11,6 +11,9 @@ pub struct DeviceInfo {
     pub index: usize,
     pub name: String,
     pub device_type: String,
+    /// The device is a CPU (`VK_PHYSICAL_DEVICE_TYPE_CPU`: lavapipe): a few cores,
+    /// and a fixed cost for every workgroup a dispatch starts.
+    pub cpu: bool,
     pub driver: String,
     pub api_version: String,
     pub subgroup_size: u32,
@@ -53,6 +56,7 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
     let api = props.api_version;
     let api_version =
         format!("{}.{}.{}", vk::api_version_major(api), vk::api_version_minor(api), vk::api_version_patch(api));
+    let cpu = props.device_type == vk::PhysicalDeviceType::CPU;
     let device_type = match props.device_type {
         vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
         vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
@@ -136,6 +140,7 @@ fn describe(instance: &ash::Instance, index: usize, physical: vk::PhysicalDevice
         index,
         name,
         device_type,
+        cpu,
         driver: format!("{driver_name} {driver_info}").trim().to_string(),
         api_version,
         subgroup_size: subgroup.subgroup_size,

@@ -38,6 +38,8 @@ pub(super) struct Learning {
     /// first exchange of a render on several devices (`GpuRenderer::frame_sums`,
     /// `learn_from`; `make_exchange`) rather than made for each.
     pub(super) exchange: Option<Exchange>,
+    /// The device is a CPU: the learning passes start fewer groups (`CPU_FOLD_STEPS`).
+    pub(super) cpu_device: bool,
 }
 
 /// The host-visible buffers through which a device's frame sums go to the host
@@ -112,13 +114,23 @@ pub(super) fn sampling_rows_fit(ctx: &Context, cfg: &crate::guide::GuideConfig) 
     )
 }
 
-/// Groups of `group` invocations for `n` items of learn.comp's work, at most
-/// LEARN_MAX_GROUPS (the shader steps through the rest): 65535 is the most that
-/// every device takes, and door's table of 32x32 bins (1081344 entries) needed
-/// 67584 groups of 16 for its fold, which lavapipe's validation refused.
-pub(super) fn learn_groups(n: u32, group: u32) -> u32 {
-    n.div_ceil(group).clamp(1, shared::LEARN_MAX_GROUPS)
+/// Groups of `group` invocations for `n` items of learn.comp's work, each
+/// invocation stepping through `steps` of them, at most LEARN_MAX_GROUPS (the
+/// shader steps through the rest): 65535 is the most that every device takes,
+/// and door's table of 32x32 bins (1081344 entries) needed 67584 groups of 16
+/// for its fold, which lavapipe's validation refused.
+pub(super) fn learn_groups(n: u32, group: u32, steps: u32) -> u32 {
+    n.div_ceil(group * steps).clamp(1, shared::LEARN_MAX_GROUPS)
 }
+
+/// Entries each fold invocation, and rows each rebuilding group, steps through
+/// on a CPU device (`DeviceInfo::cpu`), 1 elsewhere: every group costs lavapipe a
+/// fixed start, most of the learning pass of a small table, and a few cores need
+/// few groups (docs/ARCHITECTURE.md, "Learning on a CPU device"). The rows' steps
+/// stay few: lavapipe crashed with groups stepping through 192 rows (each with
+/// its barriers), not with 108.
+const CPU_FOLD_STEPS: u32 = 512;
+const CPU_ROW_STEPS: u32 = 16;
 
 /// Bytes of shared memory learn.comp's rows' rebuild takes for rows of `bins`
 /// bins: the row staged (8 bytes a bin, `AliasBin`), its bins' probabilities in
@@ -139,7 +151,8 @@ impl Learning {
     /// Phase 0 of learn.comp: fold the targets recorded since the last fold into the table.
     pub(super) fn cmd_fold(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(0);
-        let groups = learn_groups(self.entries(), shared::LEARN_FOLD_GROUP);
+        let steps = if self.cpu_device { CPU_FOLD_STEPS } else { 1 };
+        let groups = learn_groups(self.entries(), shared::LEARN_FOLD_GROUP, steps);
         self.fold.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
@@ -147,7 +160,7 @@ impl Learning {
     pub(super) fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(1);
         let rows = self.cfg.sampling_rows() as u32;
-        let groups = learn_groups(rows, 1);
+        let groups = learn_groups(rows, 1, if self.cpu_device { CPU_ROW_STEPS } else { 1 });
         self.build.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
@@ -231,9 +244,13 @@ mod tests {
     /// learn.comp's dispatches stay within what every device takes.
     #[test]
     fn learn_dispatches_stay_within_the_group_limit() {
-        assert_eq!(learn_groups(1, 64), 1);
-        assert_eq!(learn_groups(64 * 1000 + 1, 64), 1001);
-        assert_eq!(learn_groups(1_081_344, 16), 65535);
-        assert_eq!(learn_groups(u32::MAX, 64), 65535);
+        assert_eq!(learn_groups(1, 64, 1), 1);
+        assert_eq!(learn_groups(64 * 1000 + 1, 64, 1), 1001);
+        assert_eq!(learn_groups(1_081_344, 16, 1), 65535);
+        assert_eq!(learn_groups(u32::MAX, 64, 1), 65535);
+        // A CPU device: a few groups, each stepping through its share.
+        assert_eq!(learn_groups(524_288, 16, CPU_FOLD_STEPS), 64);
+        assert_eq!(learn_groups(24_576, 1, CPU_ROW_STEPS), 1536);
+        assert_eq!(learn_groups(5, 1, CPU_ROW_STEPS), 1);
     }
 }

@@ -329,6 +329,7 @@ impl GpuRenderer {
                     cfg: *cfg,
                     schedule: RecordSchedule::for_render(cfg, p.width, p.height),
                     exchange: None,
+                    cpu_device: ctx.info.cpu,
                 };
                 let buffers = [
                     &l.q,
