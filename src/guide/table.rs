@@ -119,6 +119,8 @@ impl QTable {
         let classes = NORMAL_CLASSES as usize;
         let (q, visits, rows_read, states) = (&self.q, &self.visits, &self.rows_read, &self.fraction_states);
         // Each cell's rows on their own: in parallel, the same rows as one by one.
+        // The zip below pairs a cell's rows, fractions and node: one each per cell.
+        debug_assert_eq!(self.nodes.len() * n * classes, self.rows.len());
         self.rows
             .par_chunks_mut(n * classes)
             .zip(self.fractions.par_chunks_mut(classes))
