@@ -53,8 +53,9 @@
 #             77, 2 s of GPU time below 100000 pixels, else 6 s) with its
 #             variance, or the one in $REFS (a former OUTDIR) where there is one;
 #             one 0.2 s render per mode to warm the GPU; then 1 s each, seeds 1
-#             and 2, of every mode in $MODES (default "off sphere"; "auto" is
-#             sphere with --unguided-frames auto), stats-S-WxH-M-K.json. With
+#             and 2, of every mode in $MODES (default "off sphere"; "auto" and
+#             "never" are sphere with --unguided-frames auto and never; sphere
+#             alone takes render's default), stats-S-WxH-M-K.json. With
 #             $RLPT_B, a second binary renders the modes in $MODES_B (default
 #             "sphere") right after each seed's, as modes bM (stats-S-WxH-bM-K),
 #             against the same reference: an A/B in one run. Scene files come
@@ -232,10 +233,11 @@ never-worse)
         off) echo --guiding off ;;
         sphere) echo --guiding sphere ;;
         auto) echo --guiding sphere --unguided-frames auto ;;
+        never) echo --guiding sphere --unguided-frames never ;;
         esac
     }
     for m in ${MODES:-off sphere} ${MODES_B:-}; do
-        case $m in off | sphere | auto) ;; *) echo "unknown mode $m: off, sphere or auto" >&2 && exit 2 ;; esac
+        case $m in off | sphere | auto | never) ;; *) echo "unknown mode $m: off, sphere, auto or never" >&2 && exit 2 ;; esac
     done
     # Each binary and mode as "BINARY NAME MODE".
     runs=()

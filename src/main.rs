@@ -205,7 +205,8 @@ struct Settings {
     /// frame with the guided or the unguided kernel, whichever has lately given the image
     /// more for its time (a few frames go to the other, to keep measuring it and teaching
     /// the table; docs/guiding.md, where its measured effects are); `never` guides every
-    /// frame [default: never].
+    /// frame [default: auto for `render --time` of a scene without Russian roulette on one
+    /// GPU, else never].
     #[arg(long, value_enum)]
     unguided_frames: Option<rlpt::guide::UnguidedFrames>,
     /// The guiding grid's cells: `uniform`, or `adaptive`, half as many along each

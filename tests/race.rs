@@ -136,27 +136,45 @@ fn frame_variance_term_is_the_relative_variance_of_the_frames_mean() {
 }
 
 /// `rlpt render --unguided-frames`: `auto` traces unguided frames and `--stats`
-/// says which; `never` (the default) traces none; it is a note with guiding off,
-/// and refused with several GPUs, which trace every frame guided.
+/// says which; `never` traces none; left out, the race runs only where the render
+/// is timed, its scene has no Russian roulette and one GPU renders it
+/// (`guide::default_unguided_frames`); it is a note with guiding off, and
+/// refused with several GPUs, which trace every frame guided.
 #[test]
 fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     use common::cli::{run, tmp};
     let (out, stats) = (tmp("race.exr"), tmp("race-stats.json"));
     let (out, stats) = (out.to_str().unwrap(), stats.to_str().unwrap());
-    let base = ["render", "scenes/seed-exp1.toml", "--width", "16", "--height", "12", "--spp", "1024"];
-    let unguided_frames = |mode: &str| {
-        let args =
-            [&base[..], &["--guiding", "sphere", "--unguided-frames", mode, "--stats", stats, "-o", out]].concat();
-        let (ok, err) = run(&args);
+    let size = ["--width", "16", "--height", "12"];
+    let base = [&["render", "scenes/seed-exp1.toml"][..], &size, &["--spp", "1024"]].concat();
+    // The frames a guided render traces and how many of them unguided.
+    let unguided_frames = |args: &[&str]| {
+        let (ok, err) = run(&[args, &["--guiding", "sphere", "--stats", stats, "-o", out]].concat());
         assert!(ok, "{err}");
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap();
         let frames = json["frames"].as_array().unwrap();
-        assert_eq!(frames.len(), 16);
-        frames.iter().filter(|f| f["unguided"] == true).count()
+        (frames.len(), frames.iter().filter(|f| f["unguided"] == true).count())
     };
     // Eight guided frames, two more, then two unguided: the race's start.
-    assert!(unguided_frames("auto") >= 2);
-    assert_eq!(unguided_frames("never"), 0);
+    let (frames, unguided) = unguided_frames(&[&base[..], &["--unguided-frames", "auto"]].concat());
+    assert!(frames == 16 && unguided >= 2, "{frames} frames, {unguided} unguided");
+    assert_eq!(unguided_frames(&[&base[..], &["--unguided-frames", "never"]].concat()), (16, 0));
+    // The default: every frame guided with --spp; the race with --time, but not in
+    // a scene with roulette, nor on several GPUs.
+    assert_eq!(unguided_frames(&base), (16, 0));
+    let timed = [&size[..], &["--spp", "100000000", "--time", "1.5"]].concat();
+    let (frames, unguided) = unguided_frames(&[&["render", "scenes/seed-exp1.toml"][..], &timed].concat());
+    assert!(frames >= 12 && unguided >= 2, "seed-exp1 --time: {frames} frames, {unguided} unguided");
+    let (frames, unguided) = unguided_frames(&[&["render", "scenes/door.toml"][..], &timed].concat());
+    assert!(frames >= 12 && unguided == 0, "door --time: {frames} frames, {unguided} unguided");
+    let o = common::cli::rlpt()
+        .env("RLPT_TEST_DUPLICATE_GPUS", "1")
+        .args(["render", "scenes/seed-exp1.toml"])
+        .args(&timed)
+        .args(["--guiding", "sphere", "--gpus", "0,0", "-o", out])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
     let (ok, err) = run(&[&base[..], &["--unguided-frames", "auto", "-o", out]].concat());
     assert!(

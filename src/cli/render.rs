@@ -105,6 +105,12 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     if let Some(s) = args.spp {
         opts.spp = s;
     }
+    if args.settings.unguided_frames.is_none() {
+        let several =
+            args.settings.device == DeviceKind::Gpu && gpu_indices(&args.settings)?.is_some_and(|g| g.len() > 1);
+        let roulette = opts.russian_roulette_depth.is_some();
+        opts.unguided_frames = rlpt::guide::default_unguided_frames(args.time.is_some(), roulette, several);
+    }
     // The zero-radiance fraction of --stats comes from the kernel's counters;
     // it counts no rays, which would cost time in the loop that --stats times.
     opts.counters = if args.stats.is_some() { Counters::ZeroPaths } else { Counters::Off };

@@ -18,14 +18,31 @@ pub enum FrameKind {
 }
 
 /// Whether a guided render's image frames may be traced unguided (`--unguided-frames`).
+/// Where the command line leaves it out, `rlpt render` takes
+/// [`default_unguided_frames`]; the library's default is `Never`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum UnguidedFrames {
     /// Each image frame by the kernel a [`FrameRace`] names.
     Auto,
-    /// Every frame guided: the default, until the race is robust at small
-    /// image sizes (docs/guiding.md, "Guided and unguided frames").
+    /// Every frame guided.
     #[default]
     Never,
+}
+
+/// `rlpt render`'s `--unguided-frames` where it is not given: the race where the
+/// render has a time budget (`timed`), its scene no Russian roulette and one GPU
+/// renders it; every frame guided elsewhere. Without roulette a guided sample
+/// gains little and costs more, so at equal time the race gives the frames
+/// where guiding does not pay to the unguided kernel; with roulette guided
+/// frames win by far and its measuring frames only cost a short render; with
+/// `--spp` a seed's image stays the same from run to run, which a race of
+/// measured times would not keep (docs/guiding.md, "Where guiding loses").
+pub fn default_unguided_frames(timed: bool, roulette: bool, several_gpus: bool) -> UnguidedFrames {
+    if timed && !roulette && !several_gpus {
+        UnguidedFrames::Auto
+    } else {
+        UnguidedFrames::Never
+    }
 }
 
 /// The kind of the frame traced after `traced` frames, `guided_traced` of
