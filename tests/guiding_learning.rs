@@ -610,3 +610,31 @@ fn the_default_grid_is_finer_over_large_images_with_roulette() {
     assert!(rows(big.grid.cells()) <= PORTABLE_BUFFER_BYTES, "{:?}", big.grid);
     assert_eq!(big.grid.res[2], 23, "{:?}", big.grid);
 }
+
+/// Guided renders of the scenes with roulette, whose rows of 20x40 bins the
+/// learning pass rebuilds after each early frame, run to the end at 64x40: on
+/// lavapipe, groups that stepped through several rows' rebuilds crashed inside
+/// the shader on smallpt (src/render/learning.rs `CPU_FOLD_STEPS`).
+#[test]
+fn small_guided_renders_of_the_roulette_scenes_finish() {
+    for scene in ["scenes/smallpt.toml", "scenes/door.toml"] {
+        let out = common::cli::tmp("small-guided.exr");
+        let args = [
+            "render",
+            scene,
+            "--width",
+            "64",
+            "--height",
+            "40",
+            "--spp",
+            "128",
+            "--guiding",
+            "sphere",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        let (ok, err) = common::cli::run(&args);
+        assert!(ok, "{scene}: {err}");
+        assert!(out.exists(), "{scene}: no image written");
+    }
+}

@@ -123,14 +123,13 @@ pub(super) fn learn_groups(n: u32, group: u32, steps: u32) -> u32 {
     n.div_ceil(group * steps).clamp(1, shared::LEARN_MAX_GROUPS)
 }
 
-/// Entries each fold invocation, and rows each rebuilding group, steps through
-/// on a CPU device (`DeviceInfo::cpu`), 1 elsewhere: every group costs lavapipe a
-/// fixed start, most of the learning pass of a small table, and a few cores need
-/// few groups (docs/ARCHITECTURE.md, "Learning on a CPU device"). The rows' steps
-/// stay few: lavapipe crashed with groups stepping through 192 rows (each with
-/// its barriers), not with 108.
+/// Entries each fold invocation steps through on a CPU device
+/// (`DeviceInfo::cpu`), 1 elsewhere: every group costs lavapipe a fixed start,
+/// most of the learning pass of a small table, and a few cores need few groups
+/// (docs/ARCHITECTURE.md, "Learning on a CPU device"). The rows' rebuild keeps a
+/// group per row there too: lavapipe crashed where its groups stepped through
+/// several rows, each with its barriers.
 const CPU_FOLD_STEPS: u32 = 512;
-const CPU_ROW_STEPS: u32 = 16;
 
 /// Bytes of shared memory learn.comp's rows' rebuild takes for rows of `bins`
 /// bins: the row staged (8 bytes a bin, `AliasBin`), its bins' probabilities in
@@ -160,7 +159,7 @@ impl Learning {
     pub(super) fn cmd_build_rows(&self, cmd: crate::gpu::vk::CommandBuffer) {
         let push = self.push(1);
         let rows = self.cfg.sampling_rows() as u32;
-        let groups = learn_groups(rows, 1, if self.cpu_device { CPU_ROW_STEPS } else { 1 });
+        let groups = learn_groups(rows, 1, 1);
         self.build.cmd_dispatch(cmd, [groups, 1, 1], bytemuck::bytes_of(&push));
     }
 
@@ -250,7 +249,6 @@ mod tests {
         assert_eq!(learn_groups(u32::MAX, 64, 1), 65535);
         // A CPU device: a few groups, each stepping through its share.
         assert_eq!(learn_groups(524_288, 16, CPU_FOLD_STEPS), 64);
-        assert_eq!(learn_groups(24_576, 1, CPU_ROW_STEPS), 1536);
-        assert_eq!(learn_groups(5, 1, CPU_ROW_STEPS), 1);
+        assert_eq!(learn_groups(5, 16, CPU_FOLD_STEPS), 1);
     }
 }
