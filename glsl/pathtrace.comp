@@ -246,7 +246,7 @@ const bool FRAME_VARIANCE = (FLAGS & FLAG_FRAME_VARIANCE) != 0u;
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
 // depth: with the mask there too, their frames were longer.
-// Written without `&&` (see COUNT_RAYS): COUNT_RAY is read in light_sample too.
+// Written without `&&` (see COUNT_RAYS): COUNT_RAY is read in the loop's light_sample too.
 const bool PACK_RAYS =
     (FLAGS & (FLAG_COUNT_RAYS | FLAG_RUSSIAN_ROULETTE)) == (FLAG_COUNT_RAYS | FLAG_RUSSIAN_ROULETTE);
 #define DEPTH (PACK_RAYS ? depth_rays & 0xffffu : depth_rays)
@@ -274,44 +274,9 @@ bool path_records() { return RECORDING && (push.ablate & ABLATE_RECORD) == 0u; }
 // The path may take guided directions (unless profiling leaves them out).
 bool path_guides() { return (push.ablate & ABLATE_GUIDED_SAMPLING) == 0u; }
 
-// src/cpu/path.rs `guide_vertex`: the vertex's cell (qrow, its first entry) and
-// sampling row, where something reads them: guided sampling (the first
-// GUIDE_VERTICES vertices), the target of the ray arriving here and the key of
-// the one leaving (recording), learned roulette (every vertex); deeper vertices
-// of the seed's scenes skip the lookups. Returns the row's guided fraction,
-// loaded at every vertex that may mix, before the emissive and delta tests, so
-// that the load's latency hides behind the material's. A recording path marks
-// the rows its guided vertices read (src/guide/table.rs `QTable::rows_read`);
-// a row with a fraction was marked for good already, so only rows without one
-// are marked again, which spares the other vertices a load of the mark.
-float guide_vertex(vec3 p, vec3 n, uint depth, bool learn, bool rr, out uint qrow, out uint row) {
-    qrow = NO_KEY;
-    row = 0u;
-    if (depth < GUIDE_VERTICES || (learn && depth <= RECORD_VERTICES) || rr) {
-        uint cell = cell_index(p);
-        qrow = cell * GUIDE_BINS;
-        row = sampler_row(cell, normal_class(n));
-    }
-    float fraction = depth < GUIDE_VERTICES ? row_fraction(row) : 0.0;
-    if (learn && depth < GUIDE_VERTICES && fraction == 0.0) rows_read[row / GUIDE_BINS] = 1u;
-    return fraction;
-}
-
 // Glossy vertices draw their guided directions from the product of Q and the
 // lobe (product.glsl): set only where a material's lobe takes it.
 const bool GLOSSY_PRODUCT = (FLAGS & FLAG_GLOSSY_PRODUCT) != 0u;
-
-// src/cpu/path.rs `mixture_fraction`: the probability of guided sampling at a
-// vertex, the row's fraction times the lobe's share, the whole fraction where
-// the product draws the guided directions; 0 at delta vertices and past the
-// guided vertices.
-float mixture_fraction(bool guide, uint depth, Bsdf bsdf, float fraction) {
-    float g_frac = 0.0;
-    if (guide && depth < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
-        g_frac = fraction * (GLOSSY_PRODUCT && product_applies(bsdf) ? 1.0 : lobe_share(bsdf));
-    }
-    return g_frac;
-}
 
 // The vertex's product with its lobe (glossy_product), read by light_sample and
 // choose_direction; sum_w 0 where the vertex has none. A private variable rather
@@ -364,12 +329,6 @@ void record_vertex_target(bool wants_target, bool ok, vec3 weight, uint qrow, ui
 #else
 bool path_records() { return false; }
 bool path_guides() { return false; }
-float guide_vertex(vec3 p, vec3 n, uint depth, bool learn, bool rr, out uint qrow, out uint row) {
-    qrow = NO_KEY;
-    row = 0u;
-    return 0.0;
-}
-float mixture_fraction(bool guide, uint depth, Bsdf bsdf, float fraction) { return 0.0; }
 void record_end(bool records, uint key, vec3 le, float w, inout uint end_key, inout float end_target, inout float factor) {}
 void record_vertex_target(bool wants_target, bool ok, vec3 weight, uint qrow, uint wi_bin, vec3 le, float w_le,
                           float nee_here, uint key, float factor) {}
@@ -404,108 +363,6 @@ vec3 emission_met(Hit hit, vec3 wo, vec3 d, bool nee, bool power, float prev_pdf
         radiance += beta * le * w_le;
     }
     return le;
-}
-
-// src/cpu/path.rs `light_sample`: next-event estimation at the vertex, its
-// shadow ray counted (COUNT_RAY), its contribution added to the radiance, MIS
-// against the mixture's density where the vertex mixes (src/cpu/path.rs
-// `mixture_sample`). Returns the light sample's estimate without the path's
-// throughput, the part of the target of the ray that arrived here that light
-// sampling found (MIS_TARGETS, where the path records; else 0).
-float light_sample(Hit hit, Bsdf bsdf, vec3 n, vec3 ns, mat3 frame, vec3 wo_local, float u_sel, vec2 u_light,
-                   float g_frac, uint row, bool power, bool learn, vec3 beta, inout vec3 radiance,
-                   inout uint depth_rays, inout uint segments) {
-    float nee_here = 0.0;
-    LightSample ls;
-    if (sample_light(hit.p, u_sel, u_light, ls) && sides_agree(n, ns, ls.wi)) {
-        vec3 wi_local = to_local(frame, ls.wi);
-        float pdf_bsdf;
-        vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-        if (max_component(ls.le) > 0.0 && max_component(f) > 0.0) {
-            vec3 origin, dir;
-            float len;
-            shadow_ray(hit.p, hit.n, hit.eps, ls, origin, dir, len);
-            COUNT_RAY();
-            if (!occluded(origin, dir, len, ls.skip)) {
-                float pdf_mix = pdf_bsdf;
-#if GUIDED
-                if (g_frac > 0.0) pdf_mix = mixture_pdf(g_frac, pdf_bsdf, guided_bin_pdf(frame, wo_local, bsdf, row, bin_index(ls.wi)));
-#endif
-                // A delta light is reached by no BSDF-sampled ray: weight 1.
-                float w = (SCENE_DELTA && ls.delta) ? 1.0 : mis_weight(ls.pdf, pdf_mix, power);
-                radiance += beta * f * abs(wi_local.z) * ls.le * (w / ls.pdf);
-                if (MIS_TARGETS && learn) nee_here = mean3(f * abs(wi_local.z) * ls.le * (w / ls.pdf));
-            }
-        }
-    }
-    return nee_here;
-}
-
-// src/cpu/path.rs `choose_direction`: the direction leaving the vertex, from
-// the table (u_mix below g_frac) or the BSDF; then, where the two are mixed, one
-// evaluation of the BSDF and the mixture density for either choice, so that a
-// warp holding both runs it once. A guided direction comes with its bin
-// (`wi_bin`, where qrow is set), a BSDF direction's is found once. Returns
-// whether there is a direction; `factor` is its fraction-gradient factor
-// (src/guide/fraction.rs `fraction_gradient_factor`), 0 where it did not mix.
-bool choose_direction(Bsdf bsdf, mat3 frame, vec3 wo_local, vec3 n, vec3 ns, float u_mix, float uc, vec2 u,
-                      float g_frac, float fraction, uint row, uint qrow, bool learn_fraction,
-                      out vec3 wi, out vec3 weight, out float pdf, out bool delta, out uint wi_bin, out float factor) {
-    wi = vec3(0.0);
-    weight = vec3(0.0);
-    pdf = 0.0;
-    delta = false;
-    bool ok = false;
-    wi_bin = 0u;
-    factor = 0.0;
-#if GUIDED
-    if (u_mix < g_frac) {
-        if (GLOSSY_PRODUCT && vertex_product.sum_w > 0.0) {
-            wi_bin = product_bin(frame, wo_local, bsdf.alpha, vertex_product, uc);
-            wi = bin_sample(wi_bin, u);
-        } else {
-            wi = guided_direction(row, uc, u, wi_bin);
-        }
-        ok = true;
-    } else
-#endif
-    {
-        BsdfSample s = bsdf_sample(bsdf, wo_local, uc, u);
-        ok = s.ok;
-        if (ok) {
-            wi = normalize(to_world(frame, s.wi));
-            weight = s.weight;
-            pdf = s.pdf;
-            delta = s.delta;
-        }
-    }
-#if GUIDED
-    // A delta lobe at a vertex that mixes (a smooth coat's): chosen with
-    // (1 - g_frac) times the BSDF's chance, which its weight counts alone.
-    if (SCENE_SMOOTH_COAT && ok && delta && g_frac > 0.0) weight /= 1.0 - g_frac;
-#endif
-    // A direction on one side of the shading normal and the other of the
-    // surface would leak light through it: dropped.
-    if (!sides_agree(n, ns, wi)) ok = false;
-#if GUIDED
-    if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
-    // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
-    // 0), and the last test, always true here then, says so to the compiler:
-    // the glossy evaluation leaves this site, whose second copy of it costs
-    // guided frames time, and other scenes' kernels stay as they were.
-    if (ok && g_frac > 0.0 && !delta && (!GLOSSY_UNGUIDED || bsdf.kind != MAT_GLOSSY)) {
-        vec3 wi_local = to_local(frame, wi);
-        float pdf_bsdf;
-        vec3 f = bsdf_eval_pdf(bsdf, wo_local, wi_local, pdf_bsdf);
-        float pdf_guided = guided_bin_pdf(frame, wo_local, bsdf, row, wi_bin);
-        pdf = mixture_pdf(g_frac, pdf_bsdf, pdf_guided);
-        ok = pdf > 0.0 && max_component(f) > 0.0;
-        weight = ok ? f * (abs(wi_local.z) / pdf) : vec3(0.0);
-        // share * g (1 - g) is g_frac (1 - g).
-        if (learn_fraction && ok) factor = g_frac * (1.0 - fraction) * (pdf_guided - pdf_bsdf) / pdf * mean3(weight);
-    }
-#endif
-    return ok;
 }
 
 
@@ -569,13 +426,43 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         mat3 frame = make_frame(ns);
         vec3 wo_local = to_local(frame, wo);
         uint qrow, row;
-        float fraction = guide_vertex(hit.p, n, DEPTH, learn, rr, qrow, row);
+        float fraction;
+        // src/cpu/path.rs `guide_vertex`, written inline: the vertex's cell (qrow,
+        // its first entry) and sampling row, where something reads them; the row's
+        // guided fraction (see the CPU's comment).
+#if GUIDED
+        {
+            qrow = NO_KEY;
+            row = 0u;
+            if (DEPTH < GUIDE_VERTICES || (learn && DEPTH <= RECORD_VERTICES) || rr) {
+                uint gv_cell = cell_index(hit.p);
+                qrow = gv_cell * GUIDE_BINS;
+                row = sampler_row(gv_cell, normal_class(n));
+            }
+            fraction = DEPTH < GUIDE_VERTICES ? row_fraction(row) : 0.0;
+            if (learn && DEPTH < GUIDE_VERTICES && fraction == 0.0) rows_read[row / GUIDE_BINS] = 1u;
+        }
+#else
+        qrow = NO_KEY;
+        row = 0u;
+        fraction = 0.0;
+#endif
         if (bsdf.kind == MAT_EMISSIVE) {
             record_end(learn && DEPTH <= RECORD_VERTICES && prev_key != NO_KEY, prev_key, le, w_le, end_key,
                        end_target, prev_factor);
             break;
         }
-        float g_frac = mixture_fraction(guide, DEPTH, bsdf, fraction);
+        // src/cpu/path.rs `mixture_fraction`, written inline: the probability of
+        // guided sampling at the vertex; 0 at delta vertices and past the guided vertices.
+        float g_frac;
+#if GUIDED
+        g_frac = 0.0;
+        if (guide && DEPTH < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
+            g_frac = fraction * (GLOSSY_PRODUCT && product_applies(bsdf) ? 1.0 : lobe_share(bsdf));
+        }
+#else
+        g_frac = 0.0;
+#endif
 #if GUIDED
         glossy_product(bsdf, frame, wo_local, qrow, g_frac);
 #endif
@@ -585,8 +472,35 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         vec2 u_light = sample_2d(rng, bounce_dim(DEPTH, SAMPLE_LIGHT));
         float nee_here = 0.0;
         if (nee && !last && !bsdf_is_delta(bsdf)) {
-            nee_here = light_sample(hit, bsdf, n, ns, frame, wo_local, u_sel, u_light, g_frac, row, power, learn, beta,
-                                    radiance, depth_rays, segments);
+            // src/cpu/path.rs `light_sample`, written inline: next-event estimation
+            // at the vertex, its shadow ray counted, its contribution added to the
+            // radiance, MIS against the mixture's density where the vertex mixes;
+            // nee_here the light sample's estimate without the path's throughput
+            // (MIS_TARGETS, where the path records; else 0).
+            float ls_nee_here = 0.0;
+            LightSample ls;
+            if (sample_light(hit.p, u_sel, u_light, ls) && sides_agree(n, ns, ls.wi)) {
+                vec3 ls_wi_local = to_local(frame, ls.wi);
+                float ls_pdf_bsdf;
+                vec3 ls_f = bsdf_eval_pdf(bsdf, wo_local, ls_wi_local, ls_pdf_bsdf);
+                if (max_component(ls.le) > 0.0 && max_component(ls_f) > 0.0) {
+                    vec3 ls_origin, ls_dir;
+                    float ls_len;
+                    shadow_ray(hit.p, hit.n, hit.eps, ls, ls_origin, ls_dir, ls_len);
+                    COUNT_RAY();
+                    if (!occluded(ls_origin, ls_dir, ls_len, ls.skip)) {
+                        float ls_pdf_mix = ls_pdf_bsdf;
+#if GUIDED
+                        if (g_frac > 0.0) ls_pdf_mix = mixture_pdf(g_frac, ls_pdf_bsdf, guided_bin_pdf(frame, wo_local, bsdf, row, bin_index(ls.wi)));
+#endif
+                        // A delta light is reached by no BSDF-sampled ray: weight 1.
+                        float ls_w = (SCENE_DELTA && ls.delta) ? 1.0 : mis_weight(ls.pdf, ls_pdf_mix, power);
+                        radiance += beta * ls_f * abs(ls_wi_local.z) * ls.le * (ls_w / ls.pdf);
+                        if (MIS_TARGETS && learn) ls_nee_here = mean3(ls_f * abs(ls_wi_local.z) * ls.le * (ls_w / ls.pdf));
+                    }
+                }
+            }
+            nee_here = ls_nee_here;
         }
 
         // The continuation: sampled at the last bounce too when the path records,
@@ -600,8 +514,64 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         float pdf, factor;
         bool delta;
         uint wi_bin;
-        bool ok = choose_direction(bsdf, frame, wo_local, n, ns, u_mix, uc, u, g_frac, fraction, row, qrow,
-                                   learn_fraction, wi, weight, pdf, delta, wi_bin, factor);
+        // src/cpu/path.rs `choose_direction`, written inline: the direction leaving
+        // the vertex, from the table (u_mix below g_frac) or the BSDF; then, where
+        // the two are mixed, one evaluation of the BSDF and the mixture density for
+        // either choice. A guided direction comes with its bin (`wi_bin`, where qrow
+        // is set), a BSDF direction's is found once. `ok`: whether there is a
+        // direction; `factor` its fraction-gradient factor, 0 where it did not mix.
+        wi = vec3(0.0);
+        weight = vec3(0.0);
+        pdf = 0.0;
+        delta = false;
+        bool ok = false;
+        wi_bin = 0u;
+        factor = 0.0;
+#if GUIDED
+        if (u_mix < g_frac) {
+            if (GLOSSY_PRODUCT && vertex_product.sum_w > 0.0) {
+                wi_bin = product_bin(frame, wo_local, bsdf.alpha, vertex_product, uc);
+                wi = bin_sample(wi_bin, u);
+            } else {
+                wi = guided_direction(row, uc, u, wi_bin);
+            }
+            ok = true;
+        } else
+#endif
+        {
+            BsdfSample cd_s = bsdf_sample(bsdf, wo_local, uc, u);
+            ok = cd_s.ok;
+            if (ok) {
+                wi = normalize(to_world(frame, cd_s.wi));
+                weight = cd_s.weight;
+                pdf = cd_s.pdf;
+                delta = cd_s.delta;
+            }
+        }
+#if GUIDED
+        // A delta lobe at a vertex that mixes (a smooth coat's): chosen with
+        // (1 - g_frac) times the BSDF's chance, which its weight counts alone.
+        if (SCENE_SMOOTH_COAT && ok && delta && g_frac > 0.0) weight /= 1.0 - g_frac;
+#endif
+        // A direction on one side of the shading normal and the other of the
+        // surface would leak light through it: dropped.
+        if (!sides_agree(n, ns, wi)) ok = false;
+#if GUIDED
+        if (ok && qrow != NO_KEY && !(u_mix < g_frac)) wi_bin = bin_index(wi);
+        // Where GLOSSY_UNGUIDED a vertex that mixes is never glossy (its share is
+        // 0), and the last test, always true here then, says so to the compiler.
+        if (ok && g_frac > 0.0 && !delta && (!GLOSSY_UNGUIDED || bsdf.kind != MAT_GLOSSY)) {
+            vec3 cd_wi_local = to_local(frame, wi);
+            float cd_pdf_bsdf;
+            vec3 cd_f = bsdf_eval_pdf(bsdf, wo_local, cd_wi_local, cd_pdf_bsdf);
+            float cd_pdf_guided = guided_bin_pdf(frame, wo_local, bsdf, row, wi_bin);
+            pdf = mixture_pdf(g_frac, cd_pdf_bsdf, cd_pdf_guided);
+            ok = pdf > 0.0 && max_component(cd_f) > 0.0;
+            weight = ok ? cd_f * (abs(cd_wi_local.z) / pdf) : vec3(0.0);
+            // share * g (1 - g) is g_frac (1 - g).
+            if (learn_fraction && ok) factor = g_frac * (1.0 - fraction) * (cd_pdf_guided - cd_pdf_bsdf) / pdf * mean3(weight);
+        }
+#endif
         record_vertex_target(wants_target, ok, weight, qrow, wi_bin, le, w_le, nee_here, prev_key, prev_factor);
         if (last || !ok) break;
         beta *= weight;

@@ -3,7 +3,10 @@
 //! and `mixture_fraction` (guiding's lookups), `light_sample` (next-event
 //! estimation), `choose_direction` (BSDF or guided), `record_vertex_target` and
 //! `record_end` (Q-learning targets), `roulette`. Each stage has its GLSL twin of
-//! the same name in `glsl/pathtrace.comp`; the arithmetic and its order match.
+//! the same name in `glsl/pathtrace.comp`, a function or, for `guide_vertex`,
+//! `mixture_fraction`, `light_sample`, `choose_direction` and `roulette`, a block
+//! of the loop under a comment that names it (as functions they made guided
+//! frames longer: docs/kernel-speed.md); the arithmetic and its order match.
 
 use super::{material_bsdf, resolve_mix, xyz, Guide};
 use crate::guide::{self, Recorder};
@@ -275,7 +278,7 @@ fn emission_met(
 /// Guiding at a vertex: its cell's first entry in the table, its sampling row
 /// and the row's guided fraction (empty and 0 without guiding); a recording path
 /// marks the rows its guided vertices read (`QTable::rows_read`).
-/// `glsl/pathtrace.comp` `guide_vertex`.
+/// `glsl/pathtrace.comp` writes it inline in the path loop, under its name.
 fn guide_vertex<'g>(
     guide: Option<Guide<'g>>,
     s: &PathSettings,
@@ -297,7 +300,7 @@ fn guide_vertex<'g>(
 /// nothing is learned) times the lobe's share (less on narrow glossy lobes),
 /// the whole fraction where the product with the lobe draws the guided
 /// directions; zero at delta vertices and past the guided vertices.
-/// `glsl/pathtrace.comp` `mixture_fraction`.
+/// `glsl/pathtrace.comp` writes it inline in the path loop, under its name.
 fn mixture_fraction(guide: Option<Guide>, s: &PathSettings, depth: u32, bsdf: &Bsdf, row_fraction: f32) -> f32 {
     match guide {
         Some(g) if depth < s.guided_vertices && !bsdf.is_delta() => {
@@ -348,7 +351,7 @@ fn bin_of(guide: Option<Guide>, wi: Vec3) -> u32 {
 /// Next-event estimation at a vertex: a light sample `u` = (selection, position),
 /// its shadow ray (counted in `segments`), its contribution added to the path's
 /// radiance. Returns the light sample's estimate without the path's throughput
-/// where `mis_targets` (0 otherwise). `glsl/pathtrace.comp` `light_sample`.
+/// where `mis_targets` (0 otherwise). `glsl/pathtrace.comp` writes it inline in the path loop, under its name.
 fn light_sample(
     scene: &PreparedScene,
     guide: Option<Guide>,
@@ -391,7 +394,7 @@ fn light_sample(
 /// runs it once for a warp that holds both). A guided direction comes with its
 /// bin, a BSDF direction's is found once. None where the BSDF or the density is
 /// zero, or the direction would leak through the surface.
-/// `glsl/pathtrace.comp` `choose_direction`.
+/// `glsl/pathtrace.comp` writes it inline in the path loop, under its name.
 fn choose_direction(
     guide: Option<Guide>,
     s: &PathSettings,
