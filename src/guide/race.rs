@@ -102,7 +102,7 @@ pub const RACE_GUIDED_WINDOW: u32 = 8;
 pub const RACE_BURST: u32 = 2;
 /// The lead changes hands only where the other kind's inefficiency is below
 /// this times the leader's: measurements of near ties do not flip it back and forth.
-pub const RACE_HYSTERESIS: f64 = 0.9;
+pub const RACE_HYSTERESIS: f64 = 0.97;
 /// The trailing kind traces one frame per this many of its frames' time spent on
 /// the leader, times how far it is behind (up to [`RACE_MAX_GAP`]): it keeps
 /// being measured, and guided frames keep teaching the table, at a cost that
