@@ -168,6 +168,7 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     // Door's fifth frame would be unguided where it raced (the learning frames' last).
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/door.toml"][..], &timed].concat());
     assert!(frames >= 6 && unguided == 0, "door --time: {frames} frames, {unguided} unguided");
+    // Several GPUs refuse a race, so a render that succeeds there did not default to one.
     let o = common::cli::rlpt()
         .env("RLPT_TEST_DUPLICATE_GPUS", "1")
         .args(["render", "scenes/seed-exp1.toml"])
