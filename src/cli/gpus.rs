@@ -113,7 +113,13 @@ pub(crate) fn gpu_indices(settings: &Settings) -> Result<Option<Vec<usize>>> {
 /// The contexts a render runs on: `--gpus`' devices, or the one `--gpu` picks
 /// (the first discrete GPU where neither is given).
 pub(crate) fn open_gpus(settings: &Settings) -> Result<Vec<Arc<Context>>> {
-    let Some(indices) = gpu_indices(settings)? else {
+    open_gpus_at(settings, gpu_indices(settings)?)
+}
+
+/// [`open_gpus`] where `--gpus`' indices were resolved already ([`gpu_indices`]):
+/// the devices are enumerated once.
+pub(crate) fn open_gpus_at(settings: &Settings, indices: Option<Vec<usize>>) -> Result<Vec<Arc<Context>>> {
+    let Some(indices) = indices else {
         return Ok(vec![Context::new(&ContextOptions::from_env(settings.gpu))?]);
     };
     let mut contexts = Vec::with_capacity(indices.len());

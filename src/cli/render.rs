@@ -105,9 +105,13 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     if let Some(s) = args.spp {
         opts.spp = s;
     }
+    // `--gpus`' devices, resolved once: the default of --unguided-frames and the render read them.
+    let gpus = match args.settings.device {
+        DeviceKind::Gpu => gpu_indices(&args.settings)?,
+        DeviceKind::Cpu => None,
+    };
     if args.settings.unguided_frames.is_none() {
-        let several =
-            args.settings.device == DeviceKind::Gpu && gpu_indices(&args.settings)?.is_some_and(|g| g.len() > 1);
+        let several = gpus.as_ref().is_some_and(|g| g.len() > 1);
         let roulette = opts.russian_roulette_depth.is_some();
         opts.unguided_frames = rlpt::guide::default_unguided_frames(args.time.is_some(), roulette, several);
     }
@@ -212,7 +216,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
             r.set_learned(learned);
             Box::new(r)
         }
-        DeviceKind::Gpu => gpu_renderer(&open_gpus(&args.settings)?, &prepared, range.start, learned)?,
+        DeviceKind::Gpu => gpu_renderer(&open_gpus_at(&args.settings, gpus)?, &prepared, range.start, learned)?,
     };
     let device_name = renderer.device_name();
     let mut stats = RenderStats {
