@@ -52,7 +52,7 @@
 #             its own size, the furnaces at 64x64), a reference (unguided, seed
 #             77, 2 s of GPU time below 100000 pixels, else 6 s) with its
 #             variance, or the one in $REFS (a former OUTDIR) where there is one;
-#             one 0.2 s render per mode to warm the GPU; then 1 s each, seeds 1
+#             one 0.2 s render per mode to warm the GPU; then $TIME s (default 1) each, seeds 1
 #             and 2, of every mode in $MODES (default "off sphere"; "auto" and
 #             "never" are sphere with --unguided-frames auto and never; sphere
 #             alone takes render's default), stats-S-WxH-M-K.json. With
@@ -273,7 +273,7 @@ never-worse)
             for r in "${runs[@]}"; do
                 read -r bin name m <<<"$r"
                 # shellcheck disable=SC2046
-                "$bin" render "${args[@]}" -o "$out/$tag-$name-$k.exr" --time 1 --seed "$k" $(mode "$m") \
+                "$bin" render "${args[@]}" -o "$out/$tag-$name-$k.exr" --time "${TIME:-1}" --seed "$k" $(mode "$m") \
                     --reference "$ref.exr" --reference-variance "$ref.var.exr" --stats "$out/stats-$tag-$name-$k.json"
             done
         done

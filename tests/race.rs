@@ -63,10 +63,11 @@ fn images_of_guided_and_unguided_frames_are_unbiased() {
         let unguided = kinds.iter().filter(|&&k| k == FrameKind::Unguided).count();
         assert!(unguided >= 1 && unguided < kinds.len(), "{name}: {unguided} of {} frames unguided", kinds.len());
         if name == "seed-exp1.toml" {
-            // Eight guided frames before the race starts, then two of each kind.
+            // Eight guided frames before the race starts, then two of each kind, unguided first.
             let head = shared::RECORD_FIRST_FRAMES as usize;
-            assert!(kinds[..head + 2].iter().all(|&k| k == FrameKind::Guided), "{name}: {kinds:?}");
-            assert_eq!(kinds[head + 2..head + 4], [FrameKind::Unguided, FrameKind::Unguided], "{name}");
+            assert!(kinds[..head].iter().all(|&k| k == FrameKind::Guided), "{name}: {kinds:?}");
+            assert_eq!(kinds[head..head + 2], [FrameKind::Unguided, FrameKind::Unguided], "{name}");
+            assert_eq!(kinds[head + 2..head + 4], [FrameKind::Guided, FrameKind::Guided], "{name}");
         } else {
             // Four guided learning frames, then the unguided one that measures its kind.
             assert_eq!(
@@ -89,7 +90,7 @@ fn images_of_guided_and_unguided_frames_are_unbiased() {
     assert_no_validation_messages(&ctx);
 }
 
-/// The race starts after eight guided frames with two more, then two unguided;
+/// The race starts after eight guided frames with two unguided, then two guided;
 /// on either device the first unguided frame traces the same paths (no table in
 /// them) from the same accumulation up to rounding, so its variance is the same.
 #[test]
@@ -106,15 +107,54 @@ fn gpu_and_cpu_weigh_a_frame_alike() {
         let t = g.render_frames(1).expect("frame");
         c.render_frame();
         assert_eq!(t.kind, c.last_kind, "frame {frame}: the same kind on both devices");
-        let want = if frame < head + 2 { FrameKind::Guided } else { FrameKind::Unguided };
+        let unguided = (head..head + 2).contains(&frame);
+        let want = if unguided { FrameKind::Unguided } else { FrameKind::Guided };
         assert_eq!(t.kind, Some(want), "frame {frame}");
         let (gv, cv) = (t.variance.expect("GPU variance"), c.last_variance.expect("CPU variance"));
         assert!(gv > 0.0 && cv > 0.0, "frame {frame}: variances {gv}, {cv}");
         eprintln!("frame {frame} {want:?}: variance GPU {gv:.5e}, CPU {cv:.5e}");
         // The first unguided frame exactly, up to rounding; the others trace a
         // table learned from targets summed in another order.
-        let tolerance = if frame == head + 2 { 1e-3 } else { 0.05 };
+        let tolerance = if frame == head { 1e-3 } else { 0.05 };
         assert!((gv - cv).abs() < tolerance * cv, "frame {frame}: GPU {gv}, CPU {cv}");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A timed render's race takes its budget from the time left at its first
+/// round (`FrameRace::set_time_left`), on the GPU (`GpuRenderer::render_round`)
+/// and the CPU (`CpuRenderer::render_frame_within`): where one guided frame is
+/// past `RACE_HEAD_START_SHARE` of it, the head start ends there and the next
+/// frame is unguided; without a time limit the head start is its eight frames.
+#[test]
+fn a_timed_render_bounds_the_head_start_by_its_budget() {
+    let ctx = gpu();
+    let scene = scene("seed-exp1.toml");
+    let opts = racing(&scene, 24, 16, 640, 9);
+    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
+    for timed in [true, false] {
+        let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+        let mut c = CpuRenderer::new(&prepared);
+        let t = g.render_frames(1).expect("frame");
+        let start = std::time::Instant::now();
+        c.render_frame();
+        let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        assert_eq!((t.kind, c.last_kind), (Some(FrameKind::Guided), Some(FrameKind::Guided)));
+        let gpu_ms = t.total_ms();
+        assert!(gpu_ms > 0.0, "lavapipe's timestamps time the frame");
+        // The time left for about one and a half frames: the budget.
+        let left = timed.then_some(1.5 * gpu_ms);
+        let round = g.render_round(1, left).expect("round");
+        assert_eq!(round.frames, 1);
+        if timed {
+            // Four frames' time left: a whole frame (twice the last fits).
+            c.render_frame_within(4.0 * cpu_ms);
+        } else {
+            c.render_frame();
+        }
+        let want = if timed { FrameKind::Unguided } else { FrameKind::Guided };
+        assert_eq!(round.kind, Some(want), "GPU, timed: {timed}");
+        assert_eq!(c.last_kind, Some(want), "CPU, timed: {timed}");
     }
     assert_no_validation_messages(&ctx);
 }

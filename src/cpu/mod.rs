@@ -259,6 +259,9 @@ impl CpuRenderer {
     /// the deadline. Returns the samples per pixel traced, and whether the time
     /// is up: the frame was cut short, or no further pass fits.
     pub fn render_frame_within(&mut self, time_left_ms: f64) -> (u32, bool) {
+        if let Some(race) = self.learning.as_mut().and_then(|l| l.race.as_mut()) {
+            race.set_time_left(time_left_ms);
+        }
         let start = Instant::now();
         let deadline = start + Duration::from_secs_f64(time_left_ms.max(0.0) / 1e3);
         let samples = match self.last_frame_ms {
@@ -357,9 +360,13 @@ impl CpuRenderer {
         if let (Some(race), Some(kind), Some(v)) =
             (self.learning.as_mut().and_then(|l| l.race.as_mut()), kind, variance)
         {
-            if guide::race_weighs(kind, self.frames_traced, guided_before, learning_frames) {
-                race.report_frame(kind, v, trace_ms, learn_ms, period);
-            }
+            race.report_traced(
+                (kind, self.frames_traced, guided_before, learning_frames),
+                v,
+                trace_ms,
+                learn_ms,
+                period,
+            );
         }
         self.film.frames += 1;
         if folds && self.learned == Learned::Fold {

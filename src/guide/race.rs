@@ -53,14 +53,16 @@ pub fn default_unguided_frames(timed: bool, roulette: bool, several_gpus: bool) 
 /// unguided kind before the image starts, so that the race need not try it on
 /// the image (where, far noisier than the guided frames, it would spoil a short
 /// render). The race starts once the guided frames traced reach
-/// `RECORD_FIRST_FRAMES`: the first guided frames record every pixel row's
-/// targets (or one row in a first stride), learn after each frame and trace a table that knows little, so they
-/// cost more and give less than the guided frames after them; judged by them,
-/// guiding would lose the race before it had learned anything.
+/// `RECORD_FIRST_FRAMES` or its head start's share of a timed render is spent
+/// ([`FrameRace::head_start_over`]): the first guided frames record every pixel
+/// row's targets (or one row in a first stride), learn after each frame and trace
+/// a table that knows little, so they cost more and give less than the guided
+/// frames after them; judged by them, guiding would lose the race before it had
+/// learned anything.
 pub fn frame_kind(race: Option<&FrameRace>, traced: u32, guided_traced: u32, learning_frames: u32) -> FrameKind {
     match race {
         Some(_) if learning_frames >= 2 && traced + 1 == learning_frames => FrameKind::Unguided,
-        Some(r) if traced >= learning_frames && guided_traced >= shared::RECORD_FIRST_FRAMES => r.next(),
+        Some(r) if traced >= learning_frames && r.head_start_over(guided_traced) => r.next(),
         _ => FrameKind::Guided,
     }
 }
@@ -77,19 +79,17 @@ pub fn frames_before_image(n: u32, unguided_frames: bool) -> u32 {
     }
 }
 
-/// Whether the race weighs a frame of `kind` traced after `traced` frames,
-/// `guided_traced` of them guided ([`frame_kind`]): every unguided frame (the
-/// learning frames' one among them), and the image's guided frames once the
-/// race has started.
-pub fn race_weighs(kind: FrameKind, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
-    match kind {
-        FrameKind::Unguided => true,
-        FrameKind::Guided => traced >= learning_frames && guided_traced >= shared::RECORD_FIRST_FRAMES,
-    }
-}
-
 /// Frames of each kind measured before the race chooses by efficiency.
 pub const RACE_START_FRAMES: u32 = 1;
+/// The head start's guided frames, which the race does not weigh, take at most
+/// this share of a timed render's budget: a short render's first frames are
+/// most of its image, and where guiding does not pay they spoil it.
+pub const RACE_HEAD_START_SHARE: f64 = 0.1;
+/// A burst of the trailing kind, or the first guided one, is traced only where
+/// it takes at most this share of a timed render's time left: near the end a
+/// kind that trails has no time left to repay its frames, and unguided frames
+/// are the baseline that guiding has to beat.
+pub const RACE_EXPLORE_SHARE: f64 = 0.1;
 /// The unguided kind's means of variance and time are over its last this many
 /// frames, about (a running mean, then a moving one): a frame's variance is an
 /// unbiased but heavy-tailed estimate, which short means would mostly underrate.
@@ -169,6 +169,12 @@ pub struct FrameRace {
     /// Mean time of the table's learning pass (ms), and the passes timed.
     learn_ms: f64,
     learns: u32,
+    /// The render's time budget and time left (ms), where it has them
+    /// ([`FrameRace::set_time_left`]); the head start's guided frames and their time.
+    budget_ms: Option<f64>,
+    time_left_ms: Option<f64>,
+    head_frames: u32,
+    head_ms: f64,
 }
 
 impl Default for FrameRace {
@@ -183,22 +189,87 @@ impl Default for FrameRace {
             run: 0,
             learn_ms: 0.0,
             learns: 0,
+            budget_ms: None,
+            time_left_ms: None,
+            head_frames: 0,
+            head_ms: 0.0,
         }
     }
 }
 
 impl FrameRace {
-    /// The kind of the next image frame: the two alternate, guided first, until
+    /// Takes in a timed render's time left (ms), which the renderers pass before
+    /// each round; the first is the render's budget.
+    pub fn set_time_left(&mut self, ms: f64) {
+        self.budget_ms.get_or_insert(ms);
+        self.time_left_ms = Some(ms);
+    }
+
+    /// Whether a burst of `kind` fits [`RACE_EXPLORE_SHARE`] of the time left
+    /// (always without a time limit). A kind not yet timed is taken to last as
+    /// the head start's frames did.
+    fn burst_fits(&self, kind: FrameKind) -> bool {
+        let Some(left) = self.time_left_ms else { return true };
+        let record = if kind == FrameKind::Guided { &self.guided } else { &self.unguided };
+        let head = if self.head_frames > 0 { self.head_ms / self.head_frames as f64 } else { 0.0 };
+        let ms = if record.timed > 0 { record.ms } else { head };
+        RACE_BURST as f64 * ms <= RACE_EXPLORE_SHARE * left
+    }
+
+    /// Whether the head start is over after `guided_traced` guided frames: they
+    /// reached `RECORD_FIRST_FRAMES`, or took [`RACE_HEAD_START_SHARE`] of the budget.
+    pub fn head_start_over(&self, guided_traced: u32) -> bool {
+        guided_traced >= shared::RECORD_FIRST_FRAMES
+            || self.budget_ms.is_some_and(|b| self.head_ms >= RACE_HEAD_START_SHARE * b)
+    }
+
+    /// Whether the race weighs a frame of `kind` traced after `traced` frames,
+    /// `guided_traced` of them guided ([`frame_kind`]): every unguided frame (the
+    /// learning frames' one among them), and the image's guided frames once the
+    /// head start is over.
+    pub fn weighs(&self, kind: FrameKind, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
+        match kind {
+            FrameKind::Unguided => true,
+            FrameKind::Guided => traced >= learning_frames && self.head_start_over(guided_traced),
+        }
+    }
+
+    /// Takes in a traced frame as [`weighs`](Self::weighs) says: into its kind's
+    /// record ([`report_frame`](Self::report_frame)), or, a guided frame of the
+    /// head start, its time (path tracing and learning) into the head start's.
+    pub fn report_traced(
+        &mut self,
+        (kind, traced, guided_traced, learning_frames): (FrameKind, u32, u32, u32),
+        variance: f64,
+        trace_ms: f64,
+        learn_ms: Option<f64>,
+        period: u32,
+    ) {
+        if self.weighs(kind, traced, guided_traced, learning_frames) {
+            self.report_frame(kind, variance, trace_ms, learn_ms, period);
+        } else {
+            self.head_frames += 1;
+            self.head_ms += trace_ms + learn_ms.unwrap_or(0.0);
+        }
+    }
+
+    /// The kind of the next image frame: the two alternate, unguided first, until
     /// each has [`RACE_START_FRAMES`] (in bursts of [`RACE_BURST`]); then the more efficient, and the other
     /// once the leader has had its gap's worth of time and enough frames to keep
     /// the other's share of the variance below [`RACE_TRAILING_VARIANCE`].
     pub fn next(&self) -> FrameKind {
         let Some(leader) = self.leader() else {
-            // Alternating in bursts, the first kind's frames first.
+            // Alternating in bursts, unguided first: the head start was guided,
+            // and a short render's image is its first frames.
             if let Some(last) = self.last.filter(|_| self.run < RACE_BURST) {
                 return last;
             }
-            return if self.guided.frames <= self.unguided.frames { FrameKind::Guided } else { FrameKind::Unguided };
+            let guided_turn = self.unguided.frames > self.guided.frames;
+            return if guided_turn && self.burst_fits(FrameKind::Guided) {
+                FrameKind::Guided
+            } else {
+                FrameKind::Unguided
+            };
         };
         let (lead, trail, other) = match leader {
             FrameKind::Guided => (&self.guided, &self.unguided, FrameKind::Unguided),
@@ -213,7 +284,8 @@ impl FrameRace {
             return other;
         }
         let burst = RACE_BURST as f64;
-        if self.since_other_ms >= gap * burst * trail.ms && self.since_other_frames as f64 >= burst * frames {
+        let due = self.since_other_ms >= gap * burst * trail.ms && self.since_other_frames as f64 >= burst * frames;
+        if due && self.burst_fits(other) {
             other
         } else {
             leader
@@ -232,10 +304,14 @@ impl FrameRace {
             return burst - self.run;
         }
         let Some(leader) = self.leader().filter(|&l| l == kind) else { return burst };
-        let (lead, trail) = match leader {
-            FrameKind::Guided => (&self.guided, &self.unguided),
-            FrameKind::Unguided => (&self.unguided, &self.guided),
+        let (lead, trail, other) = match leader {
+            FrameKind::Guided => (&self.guided, &self.unguided, FrameKind::Unguided),
+            FrameKind::Unguided => (&self.unguided, &self.guided, FrameKind::Guided),
         };
+        // Until the time left changes, no burst of the other kind fits.
+        if !self.burst_fits(other) {
+            return u32::MAX;
+        }
         let behind = if lead.inefficiency() > 0.0 { trail.inefficiency() / lead.inefficiency() } else { RACE_MAX_GAP };
         let gap = (RACE_MIN_GAP * behind).clamp(RACE_MIN_GAP, RACE_MAX_GAP);
         let noisier = if lead.variance > 0.0 { trail.variance / lead.variance } else { f64::INFINITY };
@@ -352,10 +428,80 @@ mod tests {
     }
 
     #[test]
-    fn the_race_starts_by_alternating_bursts_guided_first() {
+    fn the_race_starts_by_alternating_bursts_unguided_first() {
         let (_, kinds) = run(4, (1.0, 1.0), (1.0, 1.0));
         use FrameKind::*;
-        assert_eq!(kinds, [Guided, Guided, Unguided, Unguided]);
+        assert_eq!(kinds, [Unguided, Unguided, Guided, Guided]);
+    }
+
+    /// The head start's guided frames are not weighed; it ends after
+    /// `RECORD_FIRST_FRAMES` of them, or, in a timed render, once they took
+    /// `RACE_HEAD_START_SHARE` of its budget (learning passes counted).
+    #[test]
+    fn the_head_start_ends_after_its_frames_or_its_share_of_the_budget() {
+        let head = shared::RECORD_FIRST_FRAMES;
+        let mut untimed = FrameRace::default();
+        for g in 0..head {
+            assert_eq!(frame_kind(Some(&untimed), g, g, 0), FrameKind::Guided, "untimed, frame {g}");
+            assert!(!untimed.weighs(FrameKind::Guided, g, g, 0));
+            untimed.report_traced((FrameKind::Guided, g, g, 0), 1.0, 1e6, Some(1e6), 1);
+        }
+        assert!(untimed.head_start_over(head) && untimed.guided.frames == 0);
+        assert_eq!(frame_kind(Some(&untimed), head, head, 0), FrameKind::Unguided, "the race starts unguided");
+
+        // A budget of 100 ms: 10 ms of head start, here three frames of 3 ms and a pass of 0.5 ms.
+        let mut timed = FrameRace::default();
+        timed.set_time_left(100.0);
+        timed.set_time_left(95.0);
+        for g in 0..3 {
+            assert!(!timed.head_start_over(g), "after {g} frames");
+            assert_eq!(frame_kind(Some(&timed), g, g, 0), FrameKind::Guided);
+            timed.report_traced((FrameKind::Guided, g, g, 0), 1.0, 3.0, Some(0.5), 1);
+        }
+        assert!(timed.head_start_over(3), "10.5 ms of a 100 ms budget");
+        assert!(timed.weighs(FrameKind::Guided, 3, 3, 0) && timed.guided.frames == 0);
+        assert_eq!(frame_kind(Some(&timed), 3, 3, 0), FrameKind::Unguided);
+        // Learning frames are guided, head start or not; the image's then race.
+        assert_eq!(frame_kind(Some(&timed), 3, 3, 5), FrameKind::Guided);
+    }
+
+    /// In a timed render a burst of the trailing kind, or the first guided one,
+    /// is traced only where it takes at most `RACE_EXPLORE_SHARE` of the time
+    /// left; the leader's run then lasts until the time left changes.
+    #[test]
+    fn bursts_that_do_not_fit_the_time_left_are_not_traced() {
+        use FrameKind::*;
+        let head = shared::RECORD_FIRST_FRAMES;
+        let mut race = FrameRace::default();
+        race.set_time_left(1000.0);
+        for g in 0..head {
+            race.report_traced((Guided, g, g, 0), 1.0, 4.0, None, 1);
+        }
+        // Head start over; two unguided frames; a guided burst of 2 x 4 ms against 10 % of the time left.
+        for _ in 0..2 {
+            assert_eq!(race.next(), Unguided);
+            race.report(Unguided, 1.0, 1.0);
+        }
+        race.set_time_left(79.0);
+        assert_eq!(race.next(), Unguided, "8 ms of guided frames in 79 ms left");
+        race.set_time_left(80.0);
+        assert_eq!(race.next(), Guided, "8 ms of guided frames in 80 ms left");
+        for _ in 0..2 {
+            race.report(Guided, 1.0, 2.0);
+        }
+        assert_eq!(race.leader(), Some(Unguided));
+        // The leader's frames until the guided burst is due: guided is 2 times
+        // behind, so 32 times its burst's 2 x 2 ms of 1 ms frames.
+        let mut frames = 0;
+        while race.next() == Unguided {
+            race.report(Unguided, 1.0, 1.0);
+            frames += 1;
+        }
+        assert_eq!(frames, 128);
+        race.set_time_left(39.0);
+        assert_eq!((race.next(), race.run_left()), (Unguided, u32::MAX), "4 ms of guided frames in 39 ms left");
+        race.set_time_left(40.0);
+        assert_eq!(race.next(), Guided);
     }
 
     /// The more efficient kind gets most of the time; the other keeps a share

@@ -119,6 +119,9 @@ impl GpuRenderer {
     /// timestamps (the session judges the time by the wall clock) and before the
     /// first submission.
     pub fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
+        if let (Some(race), Some(left)) = (self.race.as_mut(), time_left_ms) {
+            race.set_time_left(left);
+        }
         let per_frame = self.round_frame_ms.filter(|_| self.ctx.info.timestamps);
         let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
         if let (Some(race), Some(l)) = (&self.race, &self.learning) {
@@ -246,11 +249,9 @@ impl GpuRenderer {
             for (i, &(push, kind, _)) in pushes.iter().enumerate() {
                 // A guided frame's push.frame counts the guided frames before it.
                 let guided_before = if kind == FrameKind::Guided { push.frame } else { self.counts.guided_traced };
-                if !crate::guide::race_weighs(kind, first + i as u32, guided_before, learning_frames) {
-                    continue;
-                }
-                let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
-                race.report_frame(kind, v, trace_ms, learned, l.schedule.learning_period(push.frame));
+                let learned = (kind == FrameKind::Guided && l.schedule.learns_after(push.frame)).then_some(learn_ms);
+                let at = (kind, first + i as u32, guided_before, learning_frames);
+                race.report_traced(at, v, trace_ms, learned, l.schedule.learning_period(push.frame));
             }
         }
         Ok(t)
