@@ -256,7 +256,9 @@ impl FrameRace {
     /// The kind of the next image frame: the two alternate, unguided first, until
     /// each has [`RACE_START_FRAMES`] (in bursts of [`RACE_BURST`]); then the more efficient, and the other
     /// once the leader has had its gap's worth of time and enough frames to keep
-    /// the other's share of the variance below [`RACE_TRAILING_VARIANCE`].
+    /// the other's share of the variance below [`RACE_TRAILING_VARIANCE`]. In a
+    /// timed render a guided burst before a leader, and the other kind's burst
+    /// after, only where it fits [`RACE_EXPLORE_SHARE`] of the time left.
     pub fn next(&self) -> FrameKind {
         let Some(leader) = self.leader() else {
             // Alternating in bursts, unguided first: the head start was guided,
