@@ -454,16 +454,11 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
         }
         // src/cpu/path.rs `mixture_fraction`, written inline: the probability of
         // guided sampling at the vertex; 0 at delta vertices and past the guided vertices.
-        float g_frac;
+        float g_frac = 0.0;
 #if GUIDED
-        g_frac = 0.0;
         if (guide && DEPTH < GUIDE_VERTICES && !bsdf_is_delta(bsdf)) {
             g_frac = fraction * (GLOSSY_PRODUCT && product_applies(bsdf) ? 1.0 : lobe_share(bsdf));
         }
-#else
-        g_frac = 0.0;
-#endif
-#if GUIDED
         glossy_product(bsdf, frame, wo_local, qrow, g_frac);
 #endif
         bool last = DEPTH >= MAX_BOUNCES;
@@ -477,7 +472,6 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
             // radiance, MIS against the mixture's density where the vertex mixes;
             // nee_here the light sample's estimate without the path's throughput
             // (MIS_TARGETS, where the path records; else 0).
-            float ls_nee_here = 0.0;
             LightSample ls;
             if (sample_light(hit.p, u_sel, u_light, ls) && sides_agree(n, ns, ls.wi)) {
                 vec3 ls_wi_local = to_local(frame, ls.wi);
@@ -496,11 +490,10 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
                         // A delta light is reached by no BSDF-sampled ray: weight 1.
                         float ls_w = (SCENE_DELTA && ls.delta) ? 1.0 : mis_weight(ls.pdf, ls_pdf_mix, power);
                         radiance += beta * ls_f * abs(ls_wi_local.z) * ls.le * (ls_w / ls.pdf);
-                        if (MIS_TARGETS && learn) ls_nee_here = mean3(ls_f * abs(ls_wi_local.z) * ls.le * (ls_w / ls.pdf));
+                        if (MIS_TARGETS && learn) nee_here = mean3(ls_f * abs(ls_wi_local.z) * ls.le * (ls_w / ls.pdf));
                     }
                 }
             }
-            nee_here = ls_nee_here;
         }
 
         // The continuation: sampled at the last bounce too when the path records,
