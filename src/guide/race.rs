@@ -153,6 +153,15 @@ impl KindRecord {
     }
 }
 
+/// The kind trailing a leader and what its next burst waits for ([`FrameRace::trailing`]).
+struct Trailing<'a> {
+    lead: &'a KindRecord,
+    other: FrameKind,
+    /// The leader's time (ms) and frames since the trailing kind's last frame.
+    wait_ms: f64,
+    wait_frames: f64,
+}
+
 /// The choice of kernel frame by frame ([`FrameKind`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameRace {
@@ -273,6 +282,23 @@ impl FrameRace {
                 FrameKind::Unguided
             };
         };
+        let t = self.trailing(leader);
+        if self.last == Some(t.other) && self.run < RACE_BURST {
+            return t.other;
+        }
+        let due = self.since_other_ms >= t.wait_ms && self.since_other_frames as f64 >= t.wait_frames;
+        if due && self.burst_fits(t.other) {
+            t.other
+        } else {
+            leader
+        }
+    }
+
+    /// What the kind trailing `leader` waits for before its next burst: the
+    /// leader's time, its gap (16 to 256 times, as far as it is behind) times the
+    /// burst's; and the leader's frames, enough to keep the trailing kind's share
+    /// of the image's variance below [`RACE_TRAILING_VARIANCE`].
+    fn trailing(&self, leader: FrameKind) -> Trailing<'_> {
         let (lead, trail, other) = match leader {
             FrameKind::Guided => (&self.guided, &self.unguided, FrameKind::Unguided),
             FrameKind::Unguided => (&self.unguided, &self.guided, FrameKind::Guided),
@@ -282,16 +308,8 @@ impl FrameRace {
         let gap = (RACE_MIN_GAP * behind).clamp(RACE_MIN_GAP, RACE_MAX_GAP);
         let noisier = if lead.variance > 0.0 { trail.variance / lead.variance } else { f64::INFINITY };
         let frames = (noisier / RACE_TRAILING_VARIANCE).min(u32::MAX as f64);
-        if self.last == Some(other) && self.run < RACE_BURST {
-            return other;
-        }
         let burst = RACE_BURST as f64;
-        let due = self.since_other_ms >= gap * burst * trail.ms && self.since_other_frames as f64 >= burst * frames;
-        if due && self.burst_fits(other) {
-            other
-        } else {
-            leader
-        }
+        Trailing { lead, other, wait_ms: gap * burst * trail.ms, wait_frames: burst * frames }
     }
 
     /// How many frames of [`next`](Self::next)'s kind come in a row, as the race
@@ -306,21 +324,13 @@ impl FrameRace {
             return burst - self.run;
         }
         let Some(leader) = self.leader().filter(|&l| l == kind) else { return burst };
-        let (lead, trail, other) = match leader {
-            FrameKind::Guided => (&self.guided, &self.unguided, FrameKind::Unguided),
-            FrameKind::Unguided => (&self.unguided, &self.guided, FrameKind::Guided),
-        };
+        let t = self.trailing(leader);
         // Until the time left changes, no burst of the other kind fits.
-        if !self.burst_fits(other) {
+        if !self.burst_fits(t.other) {
             return u32::MAX;
         }
-        let behind = if lead.inefficiency() > 0.0 { trail.inefficiency() / lead.inefficiency() } else { RACE_MAX_GAP };
-        let gap = (RACE_MIN_GAP * behind).clamp(RACE_MIN_GAP, RACE_MAX_GAP);
-        let noisier = if lead.variance > 0.0 { trail.variance / lead.variance } else { f64::INFINITY };
-        let frames = (noisier / RACE_TRAILING_VARIANCE).min(u32::MAX as f64);
-        let b = burst as f64;
-        let by_time = if lead.ms > 0.0 { (gap * b * trail.ms - self.since_other_ms) / lead.ms } else { 1.0 };
-        let by_frames = b * frames - self.since_other_frames as f64;
+        let by_time = if t.lead.ms > 0.0 { (t.wait_ms - self.since_other_ms) / t.lead.ms } else { 1.0 };
+        let by_frames = t.wait_frames - self.since_other_frames as f64;
         by_time.max(by_frames).ceil().clamp(1.0, u32::MAX as f64) as u32
     }
 

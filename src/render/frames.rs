@@ -249,7 +249,7 @@ impl GpuRenderer {
             for (i, &(push, kind, _)) in pushes.iter().enumerate() {
                 // A guided frame's push.frame counts the guided frames before it.
                 let guided_before = if kind == FrameKind::Guided { push.frame } else { self.counts.guided_traced };
-                let learned = (kind == FrameKind::Guided && l.schedule.learns_after(push.frame)).then_some(learn_ms);
+                let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
                 let at = (kind, first + i as u32, guided_before, learning_frames);
                 race.report_traced(at, v, trace_ms, learned, l.schedule.learning_period(push.frame));
             }
