@@ -52,8 +52,8 @@
 #             its own size, the furnaces at 64x64), a reference (unguided, seed
 #             77, 2 s of GPU time below 100000 pixels, else 6 s) with its
 #             variance, or the one in $REFS (a former OUTDIR) where there is one;
-#             one 0.2 s render per mode to warm the GPU; then $TIME s (default 1) each, seeds 1
-#             and 2, of every mode in $MODES (default "off sphere"; "auto" and
+#             one 0.2 s render per mode to warm the GPU; then $TIME s (default 1) each, the
+#             seeds in $SEEDS (default "1 2"), of every mode in $MODES (default "off sphere"; "auto" and
 #             "never" are sphere with --unguided-frames auto and never; sphere
 #             alone takes render's default), stats-S-WxH-M-K.json. With
 #             $RLPT_B, a second binary renders the modes in $MODES_B (default
@@ -269,7 +269,7 @@ never-worse)
             # shellcheck disable=SC2046
             "$bin" render "${args[@]}" -o "$out/warm.exr" --time 0.2 $(mode "$m") >/dev/null
         done
-        for k in 1 2; do
+        for k in ${SEEDS:-1 2}; do
             for r in "${runs[@]}"; do
                 read -r bin name m <<<"$r"
                 # shellcheck disable=SC2046

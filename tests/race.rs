@@ -123,9 +123,10 @@ fn gpu_and_cpu_weigh_a_frame_alike() {
 
 /// A timed render's race takes its budget from the time left at its first
 /// round (`FrameRace::set_time_left`), on the GPU (`GpuRenderer::render_round`)
-/// and the CPU (`CpuRenderer::render_frame_within`): where one guided frame is
-/// past `RACE_HEAD_START_SHARE` of it, the head start ends there and the next
-/// frame is unguided; without a time limit the head start is its eight frames.
+/// and the CPU (`CpuRenderer::render_frame_within`): where a second guided frame
+/// would take the head start past `RACE_HEAD_START_SHARE` of it (a budget of
+/// 12 frames: one is 8 %, two 17 %), the head start ends after the first and
+/// the next frame is unguided; without a time limit the head start is its eight frames.
 #[test]
 fn a_timed_render_bounds_the_head_start_by_its_budget() {
     let ctx = gpu();
@@ -142,13 +143,12 @@ fn a_timed_render_bounds_the_head_start_by_its_budget() {
         assert_eq!((t.kind, c.last_kind), (Some(FrameKind::Guided), Some(FrameKind::Guided)));
         let gpu_ms = t.total_ms();
         assert!(gpu_ms > 0.0, "lavapipe's timestamps time the frame");
-        // The time left for about one and a half frames: the budget.
-        let left = timed.then_some(1.5 * gpu_ms);
+        // The time left for twelve frames: the budget.
+        let left = timed.then_some(12.0 * gpu_ms);
         let round = g.render_round(1, left).expect("round");
         assert_eq!(round.frames, 1);
         if timed {
-            // Four frames' time left: a whole frame (twice the last fits).
-            c.render_frame_within(4.0 * cpu_ms);
+            c.render_frame_within(12.0 * cpu_ms);
         } else {
             c.render_frame();
         }
@@ -156,6 +156,30 @@ fn a_timed_render_bounds_the_head_start_by_its_budget() {
         assert_eq!(round.kind, Some(want), "GPU, timed: {timed}");
         assert_eq!(c.last_kind, Some(want), "CPU, timed: {timed}");
     }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A round of frames in one submission times its first frame apart
+/// (`FrameTimings::first_trace_ms`): the first of a kernel after the other's
+/// runs from cold caches, and the race times a kind by the frames after it.
+/// Here the race's opening round of three unguided frames after the head start.
+#[test]
+fn a_round_times_its_first_frame_apart() {
+    let ctx = gpu();
+    let scene = scene("seed-exp1.toml");
+    let opts = racing(&scene, 24, 16, 1024, 5);
+    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
+    let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    let head = g.render_frames(shared::RECORD_FIRST_FRAMES).expect("head start");
+    assert_eq!(head.kind, Some(FrameKind::Guided));
+    assert_eq!(g.race().expect("a race").unguided.frames, 0);
+    let t = g.render_frames(3).expect("round");
+    assert_eq!(t.kind, Some(FrameKind::Unguided));
+    assert!(0.0 < t.first_trace_ms && t.first_trace_ms < t.pathtrace_ms, "{t:?}");
+    let warm = (t.pathtrace_ms - t.first_trace_ms) / 2.0;
+    let race = g.race().expect("a race");
+    assert_eq!(race.unguided.frames, 3);
+    assert!((race.unguided.ms - warm).abs() <= 1e-9 * warm, "the race's {} ms against {warm} ms", race.unguided.ms);
     assert_no_validation_messages(&ctx);
 }
 
@@ -187,17 +211,23 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     let (out, stats) = (out.to_str().unwrap(), stats.to_str().unwrap());
     let size = ["--width", "16", "--height", "12"];
     let base = [&["render", "scenes/seed-exp1.toml"][..], &size, &["--spp", "1024"]].concat();
-    // The frames a guided render traces and how many of them unguided.
-    let unguided_frames = |args: &[&str]| {
+    // The kinds of the frames a guided render traces, 'g' or 'u', in order.
+    let kinds = |args: &[&str]| {
         let (ok, err) = run(&[args, &["--guiding", "sphere", "--stats", stats, "-o", out]].concat());
         assert!(ok, "{err}");
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap();
         let frames = json["frames"].as_array().unwrap();
-        (frames.len(), frames.iter().filter(|f| f["unguided"] == true).count())
+        frames.iter().map(|f| if f["unguided"] == true { 'u' } else { 'g' }).collect::<String>()
     };
-    // Eight guided frames, two more, then two unguided: the race's start.
-    let (frames, unguided) = unguided_frames(&[&base[..], &["--unguided-frames", "auto"]].concat());
-    assert!(frames == 16 && unguided >= 2, "{frames} frames, {unguided} unguided");
+    // How many frames, and how many of them unguided.
+    let unguided_frames = |args: &[&str]| {
+        let k = kinds(args);
+        (k.len(), k.matches('u').count())
+    };
+    // Eight guided frames, then two of each kind, unguided first: the race's start,
+    // whole though the session traces a small image's frames in rounds.
+    let k = kinds(&[&base[..], &["--unguided-frames", "auto"]].concat());
+    assert!(k.len() == 16 && k.starts_with("gggggggguugg"), "{k}");
     assert_eq!(unguided_frames(&[&base[..], &["--unguided-frames", "never"]].concat()), (16, 0));
     // The default: every frame guided with --spp; the race with --time, but not in
     // a scene with roulette, nor on several GPUs.

@@ -82,8 +82,8 @@ pub fn frames_before_image(n: u32, unguided_frames: bool) -> u32 {
 /// Frames of each kind measured before the race chooses by efficiency.
 pub const RACE_START_FRAMES: u32 = 1;
 /// The head start's guided frames, which the race does not weigh, take at most
-/// this share of a timed render's budget: a short render's first frames are
-/// most of its image, and where guiding does not pay they spoil it.
+/// this share of a timed render's budget (but its first frame): a short render's
+/// first frames are most of its image, and where guiding does not pay they spoil it.
 pub const RACE_HEAD_START_SHARE: f64 = 0.1;
 /// A burst of the trailing kind, or the first guided one, is traced only where
 /// it takes at most this share of a timed render's time left: near the end a
@@ -226,10 +226,42 @@ impl FrameRace {
     }
 
     /// Whether the head start is over after `guided_traced` guided frames: they
-    /// reached `RECORD_FIRST_FRAMES`, or took [`RACE_HEAD_START_SHARE`] of the budget.
+    /// reached `RECORD_FIRST_FRAMES`, or one more, taken to last their mean, would
+    /// take them past [`RACE_HEAD_START_SHARE`] of the budget (the first frame
+    /// is always traced: nothing times it before).
     pub fn head_start_over(&self, guided_traced: u32) -> bool {
+        let next_ms = if self.head_frames > 0 { self.head_ms / self.head_frames as f64 } else { 0.0 };
         guided_traced >= shared::RECORD_FIRST_FRAMES
-            || self.budget_ms.is_some_and(|b| self.head_ms >= RACE_HEAD_START_SHARE * b)
+            || self.budget_ms.is_some_and(|b| self.head_ms + next_ms > RACE_HEAD_START_SHARE * b)
+    }
+
+    /// The head start's guided frames left after `guided_traced`, as
+    /// [`head_start_over`](Self::head_start_over) counts them (each taken to last
+    /// the mean of those traced; at least one until it is over): a round of frames
+    /// traced in one submission ends with it, so that the race's first frame is its own.
+    pub fn head_start_left(&self, guided_traced: u32) -> u32 {
+        if self.head_start_over(guided_traced) {
+            return 0;
+        }
+        let by_frames = shared::RECORD_FIRST_FRAMES - guided_traced;
+        let by_time = match (self.budget_ms, self.head_frames) {
+            (Some(b), n) if n > 0 => {
+                let mean = self.head_ms / n as f64;
+                ((RACE_HEAD_START_SHARE * b - self.head_ms) / mean).floor().clamp(1.0, u32::MAX as f64) as u32
+            }
+            _ => u32::MAX,
+        };
+        by_frames.min(by_time)
+    }
+
+    /// How many image frames of one kind a round traced in one submission may
+    /// take after `guided_traced` guided frames: the head start's frames left
+    /// ([`head_start_left`](Self::head_start_left)), then [`run_left`](Self::run_left).
+    pub fn round_left(&self, guided_traced: u32) -> u32 {
+        match self.head_start_left(guided_traced) {
+            0 => self.run_left(),
+            head => head,
+        }
     }
 
     /// Whether the race weighs a frame of `kind` traced after `traced` frames,
@@ -454,27 +486,40 @@ mod tests {
         let head = shared::RECORD_FIRST_FRAMES;
         let mut untimed = FrameRace::default();
         for g in 0..head {
+            assert_eq!(untimed.head_start_left(g), head - g);
             assert_eq!(frame_kind(Some(&untimed), g, g, 0), FrameKind::Guided, "untimed, frame {g}");
             assert!(!untimed.weighs(FrameKind::Guided, g, g, 0));
             untimed.report_traced((FrameKind::Guided, g, g, 0), 1.0, 1e6, Some(1e6), 1);
         }
         assert!(untimed.head_start_over(head) && untimed.guided.frames == 0);
+        // A round ends with the head start: the race's first burst is its own.
+        assert_eq!((untimed.head_start_left(head), untimed.round_left(head)), (0, RACE_BURST));
+        assert_eq!(untimed.round_left(head - 1), 1);
         assert_eq!(frame_kind(Some(&untimed), head, head, 0), FrameKind::Unguided, "the race starts unguided");
 
-        // A budget of 100 ms: 10 ms of head start, here three frames of 3 ms and a pass of 0.5 ms.
+        // A budget of 100 ms: at most 10 ms of head start, here two frames of 3 ms
+        // and a pass of 0.5 ms each (a third would take it to 10.5 ms).
         let mut timed = FrameRace::default();
         timed.set_time_left(100.0);
         timed.set_time_left(95.0);
-        for g in 0..3 {
+        for g in 0..2 {
             assert!(!timed.head_start_over(g), "after {g} frames");
+            assert_eq!(timed.head_start_left(g), if g == 0 { head } else { 1 }, "after {g} frames");
             assert_eq!(frame_kind(Some(&timed), g, g, 0), FrameKind::Guided);
             timed.report_traced((FrameKind::Guided, g, g, 0), 1.0, 3.0, Some(0.5), 1);
         }
-        assert!(timed.head_start_over(3), "10.5 ms of a 100 ms budget");
-        assert!(timed.weighs(FrameKind::Guided, 3, 3, 0) && timed.guided.frames == 0);
-        assert_eq!(frame_kind(Some(&timed), 3, 3, 0), FrameKind::Unguided);
+        assert!(timed.head_start_over(2), "7 ms of a 100 ms budget, and 3.5 more");
+        assert_eq!(timed.head_start_left(2), 0);
+        assert!(timed.weighs(FrameKind::Guided, 2, 2, 0) && timed.guided.frames == 0);
+        assert_eq!(frame_kind(Some(&timed), 2, 2, 0), FrameKind::Unguided);
         // Learning frames are guided, head start or not; the image's then race.
-        assert_eq!(frame_kind(Some(&timed), 3, 3, 5), FrameKind::Guided);
+        assert_eq!(frame_kind(Some(&timed), 2, 2, 5), FrameKind::Guided);
+        // The first frame is traced whatever its budget.
+        let mut short = FrameRace::default();
+        short.set_time_left(1.0);
+        assert!(!short.head_start_over(0));
+        short.report_traced((FrameKind::Guided, 0, 0, 0), 1.0, 3.0, None, 1);
+        assert!(short.head_start_over(1));
     }
 
     /// In a timed render a burst of the trailing kind, or the first guided one,

@@ -114,10 +114,10 @@ impl GpuRenderer {
     /// at the last submission's time per frame, up to [`ROUND_MAX_FRAMES`] and
     /// `max`, and where `time_left_ms` is set, no more than fit it (each taken to
     /// last as long; none where not one does). Where a race chooses the image
-    /// frames' kernel, no more than its run of one kind (`FrameRace::run_left`),
-    /// and one frame until the image starts. One frame where there are no
-    /// timestamps (the session judges the time by the wall clock) and before the
-    /// first submission.
+    /// frames' kernel, no more than its run of one kind or the guided head
+    /// start's frames left (`FrameRace::round_left`), and one frame until the
+    /// image starts. One frame where there are no timestamps (the session judges
+    /// the time by the wall clock) and before the first submission.
     pub fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         if let (Some(race), Some(left)) = (self.race.as_mut(), time_left_ms) {
             race.set_time_left(left);
@@ -126,7 +126,7 @@ impl GpuRenderer {
         let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
         if let (Some(race), Some(l)) = (&self.race, &self.learning) {
             let image = self.counts.frames_traced >= l.cfg.learning_frames;
-            count = count.min(if image { race.run_left() } else { 1 });
+            count = count.min(if image { race.round_left(self.counts.guided_traced) } else { 1 });
         }
         if let (Some(ms), Some(left)) = (per_frame, time_left_ms) {
             count = count.min((left / ms).max(0.0) as u32);
@@ -181,11 +181,12 @@ impl GpuRenderer {
                 (PathPush { ablate: 0, ..self.next_frame(kind) }, kind, learning)
             })
             .collect();
-        // Stamps: 0 before the first frame, a pair around each learning pass (up
-        // to the timer's room; passes past it count as path tracing), the last
-        // after everything.
+        // Stamps: 0 before the first frame, 1 after its path tracing (the first
+        // frame of a kernel after the other's runs from cold caches: the race
+        // times it apart), a pair around each learning pass (up to the timer's
+        // room; passes past it count as path tracing), the last after everything.
         let passes = std::cell::Cell::new(0u32);
-        let pass_pairs = (self.timer.capacity() - 2) / 2;
+        let pass_pairs = (self.timer.capacity() - 3) / 2;
         let submitted = self.ctx.run_commands("pathtrace frames", |cmd| {
             self.counters.cmd_clear(cmd);
             self.ctx.barrier(cmd);
@@ -200,23 +201,26 @@ impl GpuRenderer {
                     self.timer.cmd_stamp(cmd, 0);
                 }
                 self.cmd_trace(cmd, push, kind, learning);
+                if timestamps && f == 0 {
+                    self.timer.cmd_stamp(cmd, 1);
+                }
                 if let Some(l) = &self.learning {
                     if learn && kind == FrameKind::Guided && l.schedule.learns_after(push.frame) {
                         let k = passes.get();
                         let stamped = timestamps && k < pass_pairs;
                         if stamped {
-                            self.timer.cmd_stamp(cmd, 1 + 2 * k);
+                            self.timer.cmd_stamp(cmd, 2 + 2 * k);
                         }
                         l.cmd_learn(&self.ctx, cmd, |_| {});
                         if stamped {
-                            self.timer.cmd_stamp(cmd, 2 + 2 * k);
+                            self.timer.cmd_stamp(cmd, 3 + 2 * k);
                             passes.set(k + 1);
                         }
                     }
                 }
             }
             if timestamps {
-                self.timer.cmd_stamp(cmd, 1 + 2 * passes.get());
+                self.timer.cmd_stamp(cmd, 2 + 2 * passes.get());
             }
             self.ctx.barrier(cmd);
             self.counters.cmd_copy_to(cmd, &self.counters_readback);
@@ -232,18 +236,23 @@ impl GpuRenderer {
         let mut t = FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, ..Default::default() };
         if timestamps {
             let passes = passes.get();
-            let s = self.timer.read(2 + 2 * passes)?;
-            t.learn_ms = (0..passes as usize).map(|k| self.timer.ticks_to_ms(s[1 + 2 * k], s[2 + 2 * k])).sum();
-            t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[1 + 2 * passes as usize]) - t.learn_ms;
+            let s = self.timer.read(3 + 2 * passes)?;
+            t.learn_ms = (0..passes as usize).map(|k| self.timer.ticks_to_ms(s[2 + 2 * k], s[3 + 2 * k])).sum();
+            t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[2 + 2 * passes as usize]) - t.learn_ms;
+            t.first_trace_ms = self.timer.ticks_to_ms(s[0], s[1]);
             self.round_frame_ms = Some(t.total_ms() / count as f64);
         }
         if let (Some(race), Some(v), Some(l)) = (self.race.as_mut(), variance, &self.learning) {
             let n = count as f64;
-            // Each learning pass of the submission taken to last their mean.
+            // The first frame's path tracing as timed, the others' their mean;
+            // each learning pass of the submission taken to last their mean.
             let (trace_ms, learn_ms) = if timestamps {
-                (t.pathtrace_ms / n, t.learn_ms / passes.get().max(1) as f64)
+                let first = t.first_trace_ms;
+                let rest = if count > 1 { (t.pathtrace_ms - first).max(0.0) / (n - 1.0) } else { first };
+                ((first, rest), t.learn_ms / passes.get().max(1) as f64)
             } else {
-                (wall.elapsed().as_secs_f64() * 1e3 / n, 0.0)
+                let ms = wall.elapsed().as_secs_f64() * 1e3 / n;
+                ((ms, ms), 0.0)
             };
             let first = self.counts.frames_traced - count;
             for (i, &(push, kind, _)) in pushes.iter().enumerate() {
@@ -251,7 +260,8 @@ impl GpuRenderer {
                 let guided_before = if kind == FrameKind::Guided { push.frame } else { self.counts.guided_traced };
                 let learned = l.schedule.learns_after(push.frame).then_some(learn_ms);
                 let at = (kind, first + i as u32, guided_before, learning_frames);
-                race.report_traced(at, v, trace_ms, learned, l.schedule.learning_period(push.frame));
+                let ms = if i == 0 { trace_ms.0 } else { trace_ms.1 };
+                race.report_traced(at, v, ms, learned, l.schedule.learning_period(push.frame));
             }
         }
         Ok(t)

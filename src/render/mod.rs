@@ -35,6 +35,9 @@ pub use set::*;
 pub struct FrameTimings {
     /// GPU time of path tracing, from timestamps (ms).
     pub pathtrace_ms: f64,
+    /// Of it, the first frame's (ms): a round's first frame of a kernel after
+    /// the other's runs from cold caches, and the race times it apart.
+    pub first_trace_ms: f64,
     /// GPU time of the learning pass (ms; 0 without guiding).
     pub learn_ms: f64,
     /// Paths that carried zero radiance; None where the kernel keeps no counters
@@ -388,7 +391,7 @@ impl GpuRenderer {
             counters,
             counters_readback,
             // Two per learning pass of a round, and its start and end.
-            timer: Timer::new(ctx, 2 + 2 * ROUND_MAX_FRAMES)?,
+            timer: Timer::new(ctx, 3 + 2 * ROUND_MAX_FRAMES)?,
             width: p.width,
             height: p.height,
             params: *p,
