@@ -57,10 +57,12 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint count
 // rng_frame: the frame index of the random numbers: frame, plus a part's offset on
 // the image's frames (src/math/sampler.rs `rng_frame`), so that parts draw disjoint samples;
 // fold_learned: 1 where the first image frame takes the learning frames' mean in as
-// one frame of the image (src/film.rs `accumulate`), 0 where it writes over them.
+// one frame of the image (src/film.rs `accumulate`), 0 where it writes over them;
+// samples: the frame's samples per pixel, SAMPLES_PER_FRAME but in a last frame
+// cut short at a time limit (its lanes from `samples` on trace nothing).
 layout(push_constant) uniform Push {
     uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames; uint rng_frame;
-    uint fold_learned;
+    uint fold_learned; uint samples;
 } push;
 
 // src/render/dispatch.rs `pixel_row`: the pixel row of workgroup row `g`.
@@ -73,10 +75,11 @@ uint pixel_row(uint g) {
     return g;
 }
 
-// src/film.rs `accumulate`. The first frame of an accumulation writes over what
-// the buffer holds; after the learning frames, it either takes their mean in as the
-// image's first frame (fold_learned) or keeps their mean3 sum in sum.w
-// (src/guide/roulette.rs `roulette_estimate` reads it).
+// src/film.rs `accumulate_samples`, the frame's push.samples summed in `sum`. The
+// first frame of an accumulation writes over what the buffer holds; after the
+// learning frames, it either takes their mean in as the image's first frame
+// (fold_learned) or keeps their mean3 sum in sum.w (src/guide/roulette.rs
+// `roulette_estimate` reads it). A frame of k samples weighs k / 64 of a whole one.
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
     uint n = push.accum_frames;
@@ -91,12 +94,13 @@ void accumulate(uint pixel, vec3 sum) {
         accum[pixel].m2_frame_mean = vec4(0.0);
         return;
     }
+    float w = float(push.samples) / per_frame;
     vec3 mean_old = accum[pixel].sum.xyz / (per_frame * float(n));
-    vec3 m = sum / per_frame;
+    vec3 m = sum / float(push.samples);
     vec3 delta = m - mean_old;
-    vec3 mean_new = mean_old + delta / float(n + 1u);
+    vec3 mean_new = mean_old + delta * w / (float(n) + w);
     accum[pixel].sum.xyz += sum;
-    accum[pixel].m2_frame_mean.xyz += delta * (m - mean_new);
+    accum[pixel].m2_frame_mean.xyz += w * delta * (m - mean_new);
 }
 
 // src/film.rs `frame_variance_term`: the relative variance of the frame's mean
@@ -596,18 +600,23 @@ vec3 trace_path(vec3 o, vec3 d, float pixel_estimate, inout PathSampler rng, ino
 void main() {
     uint px = gl_WorkGroupID.x * gl_WorkGroupSize.z + gl_LocalInvocationID.z;
     uint py = pixel_row(gl_WorkGroupID.y);
-    uint sample_index = gl_LocalInvocationID.x + uint(SAMPLES_X) * gl_LocalInvocationID.y;
+    uint lane = gl_LocalInvocationID.x + uint(SAMPLES_X) * gl_LocalInvocationID.y;
     bool inside = px < params.width && py < params.height;
     uint pixel = py * params.width + px;
+    // A frame cut short traces push.samples of the pixel's 64 sample indices
+    // in its first lanes (whole subgroups idle), from one drawn per pixel and frame.
+    bool whole = push.samples == uint(SAMPLES_PER_FRAME);
+    uint sample_index = whole ? lane : pass_sample(params.seed, pixel, push.rng_frame, lane);
+    bool traced = inside && lane < push.samples;
 
     vec3 radiance = vec3(0.0);
     uint segments = 0u;
     uint zero = 0u;
-    if (inside) {
+    if (traced) {
         PathSampler rng = sampler_init(params.seed, pixel, push.rng_frame, sample_index);
         // Stratified over the pixel: independent sample (x, y) of the 8 x 8 takes
         // its own sub-square, jittered (src/math/sampler.rs `sample_pixel`).
-        vec2 u = sample_pixel(rng, gl_LocalInvocationID.xy);
+        vec2 u = sample_pixel(rng, uvec2(sample_index % uint(SAMPLES_X), sample_index / uint(SAMPLES_X)));
         vec3 o, d;
         camera_ray(px, py, u, o, d);
         float estimate = 0.0;
@@ -648,11 +657,12 @@ void main() {
         float l = mean3(radiance);
         vec4 s = reduce_pixel_sum4(vec4(radiance, l * l));
         sum = s.xyz;
-        if (inside && sample_index == 0u) add_frame_variance(pixel, mean3(sum), s.w);
+        // A frame cut short ends the render: the race does not weigh it.
+        if (inside && lane == 0u && whole) add_frame_variance(pixel, mean3(sum), s.w);
     } else {
         sum = reduce_pixel_sum(radiance);
     }
-    if (inside && sample_index == 0u) {
+    if (inside && lane == 0u) {
         accumulate(pixel, sum);
     }
 }

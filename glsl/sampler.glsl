@@ -42,6 +42,14 @@ uint hash_combine(uint seed, uint v) {
     return pcg_hash(seed ^ ((v + 1u) * 0x9e3779b9u));
 }
 
+// src/cpu/passes.rs `pass_sample`: the sample index that pass (or lane) `pass`
+// of a frame cut short traces in `pixel`: the passes go through the 64 indices
+// from one drawn per pixel and frame, so that each lands anywhere in the pixel.
+uint pass_sample(uint seed, uint pixel, uint rng_frame, uint pass) {
+    uint first = hash_combine(hash_combine(pcg_hash(seed ^ 0x85ebca6bu), pixel), rng_frame);
+    return (first + pass) % uint(SAMPLES_PER_FRAME);
+}
+
 // The path's sampler. Independent: `state` is the PCG stream of rng_init and the
 // dimension is ignored (numbers come in the order drawn). Sobol: `state` is the
 // pixel's seed and `index` the sample's place in the pixel's sequence.

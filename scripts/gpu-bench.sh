@@ -50,7 +50,7 @@
 #             (default "0 4 8"; 4 is the default with roulette), stats-S-lN.
 # never-worse: for each SCENE:WxH (default: every shipped scene at 64x40 and at
 #             its own size, the furnaces at 64x64), a reference (unguided, seed
-#             77, 2 s of GPU time below 100000 pixels, else 6 s) with its
+#             77, 2 s of GPU time below 100000 pixels, else 6 s, or $REF_TIME) with its
 #             variance, or the one in $REFS (a former OUTDIR) where there is one;
 #             one 0.2 s render per mode to warm the GPU; then $TIME s (default 1) each, the
 #             seeds in $SEEDS (default "1 2"), of every mode in $MODES (default "off sphere"; "auto" and
@@ -262,6 +262,7 @@ never-worse)
             ref=$out/ref-$tag
             t=2
             [ $((w * h)) -ge 100000 ] && t=6
+            t=${REF_TIME:-$t}
             "$rlpt" render "${args[@]}" -o "$ref.exr" --time "$t" --seed 77 --variance "$ref.var.exr"
         fi
         for r in "${runs[@]}"; do

@@ -15,8 +15,9 @@ pub struct Film {
     /// a last one cut short ([`Film::partial_spp`]).
     pub frames: u32,
     /// The samples per pixel of the last frame where a deadline cut it short (1
-    /// to 63: a CPU render's `--time`, `crate::cpu::CpuRenderer::render_frame_until`);
-    /// 0 where every frame is whole. No frame is accumulated after a partial one.
+    /// to 63: a render's `--time`, `crate::cpu::CpuRenderer::render_frame_until`
+    /// and `crate::render::GpuRenderer::render_round`); 0 where every frame is
+    /// whole. No frame is accumulated after a partial one.
     pub partial_spp: u32,
     pub pixels: Vec<AccumPixel>,
 }
@@ -66,6 +67,7 @@ impl Learned {
 /// weighted by its share of a whole frame's samples, so that
 /// [`Film::variance_of_mean`] stays unbiased (docs/cli.md, `--time`). With 64
 /// samples every weight is 1 and the arithmetic is [`accumulate`]'s, bit for bit.
+/// The GLSL twin is `accumulate` in `glsl/pathtrace.comp`, `samples` its `push.samples`.
 pub fn accumulate_samples(
     acc: &mut AccumPixel,
     frames: u32,

@@ -41,7 +41,7 @@ pub struct RoundReport {
     /// The one frame's mean relative variance, where the renderer weighs it.
     pub variance: Option<f64>,
     /// The samples per pixel of a last frame cut short at the time limit (the
-    /// CPU's), None where every frame was whole.
+    /// CPU's, or one GPU's), None where every frame was whole.
     pub cut_spp: Option<u32>,
 }
 
@@ -54,7 +54,7 @@ pub trait Renderer {
     /// Traces a round of at most `max` frames (`max` at least 1), where
     /// `time_left_ms` is set none that its renderer judges would end past it.
     /// One frame, the time judged by the session, unless a renderer does more
-    /// (the CPU's last frame stops at the time left, cut short).
+    /// (the CPU's and one GPU's last frame is cut short to the time left).
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
         let _ = (max, time_left_ms);
         let r = self.render_frame()?;
@@ -73,7 +73,7 @@ pub trait Renderer {
     /// though their mean may be one of the film's frames (`crate::film::Learned`).
     fn image_frames(&self) -> u32;
     /// Samples per pixel of the image: its frames' 64 each, less what a last
-    /// frame cut short lacks ([`Film::partial_spp`], on the CPU).
+    /// frame cut short lacks ([`Film::partial_spp`]).
     fn image_spp(&self) -> u32 {
         self.image_frames() * crate::shared::SAMPLES_PER_FRAME
     }

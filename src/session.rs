@@ -99,6 +99,13 @@ impl Renderer for GpuRenderer {
     fn image_frames(&self) -> u32 {
         self.frames() - self.learning_folded() as u32
     }
+    fn image_spp(&self) -> u32 {
+        let lacks = match self.partial_spp() {
+            0 => 0,
+            k => crate::shared::SAMPLES_PER_FRAME - k,
+        };
+        self.image_frames() * crate::shared::SAMPLES_PER_FRAME - lacks
+    }
     fn film(&self) -> Result<Film, GpuError> {
         GpuRenderer::film(self)
     }
@@ -116,9 +123,10 @@ impl Renderer for GpuRenderer {
 /// How much a session may render: at most `frames` frames (the learning frames
 /// counted), and where `time_ms` is set, no frame that would end past it, each
 /// taken to last as long as the frame before (the first frame always runs; a
-/// frame slower than the one before ends past the limit by the difference). On
-/// the CPU the frame that would end past it is traced up to it, cut short
-/// ([`CpuRenderer::render_frame_within`]).
+/// frame slower than the one before ends past the limit by the difference). The
+/// frame that would end past it is traced cut short: on the CPU up to the limit
+/// ([`CpuRenderer::render_frame_within`]), on one GPU to the samples that fit
+/// (`GpuRenderer::render_round`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
     pub frames: u32,

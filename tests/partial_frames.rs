@@ -1,7 +1,9 @@
-//! A CPU frame cut short by `--time` (`CpuRenderer::render_frame_until` and
+//! A frame cut short by `--time` (on the CPU `CpuRenderer::render_frame_until`
+//! and `render_frame_samples`, on the GPU `GpuRenderer::render_round` and
 //! `render_frame_samples`): its film is its samples accumulated (the image, the
 //! sample count, the variance of the mean), its samples land anywhere in their
-//! pixels, and the film's variance stays unbiased with the frame's smaller weight.
+//! pixels, the film's variance stays unbiased with the frame's smaller weight,
+//! and the GPU's frame cut short is the CPU's.
 
 mod common;
 
@@ -13,6 +15,8 @@ use rlpt::layout::AccumPixel;
 use rlpt::math::rng::Rng;
 use rlpt::math::sampler::{rng_frame, PathSampler};
 use rlpt::prepared::PreparedScene;
+use rlpt::render::GpuRenderer;
+use rlpt::session::Renderer;
 
 fn prepared(width: u32, height: u32, seed: u32) -> PreparedScene {
     let s = scene("cornell-box.toml");
@@ -209,4 +213,91 @@ fn a_guided_frame_cut_short_teaches_its_targets() {
     assert!(w.visits.iter().zip(&c.visits).all(|(a, b)| b <= a), "16 passes recorded targets the frame has not");
     let (tw, tc) = (total(&w.visits), total(&c.visits));
     assert!(tc > 0 && tc < tw, "16 passes recorded {tc} targets of the whole frame's {tw}");
+}
+
+/// The GPU's frame cut short (`GpuRenderer::render_frame_samples`: the frame's
+/// first k lanes of each pixel trace the sample indices the CPU's k passes
+/// do) is the CPU's: two whole frames and one of 11 samples, of a part whose
+/// frames start at 3, give the same image, sample count and variance, to the
+/// rounding of the order the samples are summed in (seed-exp1, whose paths
+/// the two devices trace alike; a frame cut short to other indices, as the
+/// first k, which see only the pixels' top rows, gives another image).
+#[test]
+fn the_gpus_frame_cut_short_is_the_cpus() {
+    let ctx = common::gpu();
+    let (w, h, offset, k) = (32u32, 24u32, 3u32, 11u32);
+    let s = scene("seed-exp1.toml");
+    let mut o = options(&s, w, h, 64);
+    o.seed = 7;
+    let p = PreparedScene::new(&s, &o).expect("valid options");
+    let mut cpu = CpuRenderer::new(&p);
+    let mut gpu = GpuRenderer::new(&ctx, &p).expect("renderer");
+    cpu.set_frame_offset(offset);
+    gpu.set_frame_offset(offset);
+    for _ in 0..2 {
+        cpu.render_frame();
+        gpu.render_frames(1).expect("frame");
+    }
+    cpu.render_frame_samples(k);
+    gpu.render_frame_samples(k).expect("frame cut short");
+    let (c, g) = (cpu.film().clone(), gpu.film().expect("readback"));
+    assert_eq!((g.frames, g.partial_spp, g.samples_per_pixel()), (3, k, 2 * 64 + k as u64));
+    assert_eq!(Renderer::image_spp(&gpu), 2 * 64 + k);
+    let worst = |a: &rlpt::image::Image, b: &rlpt::image::Image, floor: f32| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .flat_map(|(p, q)| (0..3).map(move |i| (p[i] - q[i]).abs() / p[i].abs().max(floor)))
+            .fold(0.0f32, f32::max)
+    };
+    let d = worst(&g.mean(), &c.mean(), 1e-3);
+    assert!(d < 1e-4, "GPU against CPU image: relative difference {d}");
+    let (gv, cv) = (g.variance_of_mean().expect("3 frames"), c.variance_of_mean().expect("3 frames"));
+    let d = worst(&gv, &cv, 1e-6);
+    assert!(d < 1e-3, "GPU against CPU variance: relative difference {d}");
+    common::assert_no_validation_messages(&ctx);
+}
+
+/// A timed round where no whole frame fits the time left traces a last frame
+/// cut short to the samples that do, whole subgroups of them, a frame of k
+/// samples taken to cost `CUT_FRAME_FIXED` of the last frame's time plus k / 64
+/// of the rest (`GpuRenderer::samples_that_fit`), and says the time is up; a
+/// learning frame is whole or none.
+#[test]
+fn a_timed_round_cuts_the_last_frame_to_the_samples_that_fit() {
+    let ctx = common::gpu();
+    let p = prepared(16, 12, 5);
+    let mut r = GpuRenderer::new(&ctx, &p).expect("renderer");
+    let first = r.render_frames(1).expect("frame");
+    let ms = first.total_ms();
+    assert!(ms > 0.0, "lavapipe's timestamps time the frame");
+    let lanes = ctx.info.subgroup_size.min(64);
+    assert_eq!(r.samples_that_fit(ms, ms), 64);
+    assert_eq!(r.samples_that_fit(ms, 0.0), 0);
+    // The fixed cost and k / 64 of the rest: 0.8 of the rest fits 51 samples, whole
+    // subgroups of them (48 of lavapipe's 8 lanes, 32 of 32).
+    let fixed = rlpt::render::CUT_FRAME_FIXED;
+    assert_eq!(r.samples_that_fit(ms, fixed * ms), 0);
+    let left = (fixed + (1.0 - fixed) * 0.8) * ms;
+    let want = (0.8 * (64 / lanes) as f64) as u32 * lanes;
+    assert_eq!(r.samples_that_fit(ms, left), want);
+    let round = r.render_round(10, Some(left)).expect("round");
+    if want == 0 {
+        assert_eq!((round.frames, round.time_up), (0, Some(true)));
+    } else {
+        assert_eq!((round.frames, round.cut_spp, round.time_up), (1, Some(want), Some(true)), "{round:?}");
+        assert_eq!(round.variance, None, "the race does not weigh a frame cut short");
+        let film = r.film().expect("readback");
+        assert_eq!((film.frames, film.partial_spp, Renderer::image_spp(&r)), (2, want, 64 + want));
+    }
+
+    // Door learns for four frames before its image starts: none of them is cut short.
+    let s = scene("door.toml");
+    let mut o = options(&s, 16, 12, 64);
+    o.guiding = rlpt::guide::GuidingMode::Sphere;
+    let door = PreparedScene::new(&s, &o).expect("valid options");
+    assert!(door.learning_frames() > 0);
+    let r = GpuRenderer::new(&ctx, &door).expect("renderer");
+    assert_eq!((r.samples_that_fit(1.0, 0.9), r.samples_that_fit(1.0, 1.0)), (0, 64));
+    common::assert_no_validation_messages(&ctx);
 }

@@ -235,9 +235,10 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     let timed = [&size[..], &["--spp", "100000000", "--time", "1.5"]].concat();
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/seed-exp1.toml"][..], &timed].concat());
     assert!(frames >= 12 && unguided >= 2, "seed-exp1 --time: {frames} frames, {unguided} unguided");
-    // Door's fifth frame would be unguided where it raced (the learning frames' last).
+    // Door's fifth frame would be unguided where it raced (the learning frames' last);
+    // its first eight learn after each, which takes lavapipe 150 to 250 ms a frame.
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/door.toml"][..], &timed].concat());
-    assert!(frames >= 6 && unguided == 0, "door --time: {frames} frames, {unguided} unguided");
+    assert!(frames >= 5 && unguided == 0, "door --time: {frames} frames, {unguided} unguided");
     // Several GPUs refuse a race, so a render that succeeds there did not default to one.
     let o = common::cli::rlpt()
         .env("RLPT_TEST_DUPLICATE_GPUS", "1")

@@ -39,9 +39,10 @@ pub(crate) struct RenderArgs {
     guide_out: Option<PathBuf>,
     /// Stop at this much render time (GPU time from timestamps on the GPU, wall clock on
     /// the CPU). On the CPU the last frame is cut short at it, in passes of one sample per
-    /// pixel, and its samples counted exactly. On the GPU no frame starts that would end
-    /// past it, each judged to last as long as the frame before (the first always runs; a
-    /// slower frame ends past it by the difference). --spp is then the upper bound.
+    /// pixel, and its samples counted exactly. On one GPU no whole frame starts that would
+    /// end past it, each judged to last as long as the frame before (the first always
+    /// runs; a slower frame ends past it by the difference), and the last is cut short to
+    /// the samples per pixel that fit, in whole subgroups. --spp is then the upper bound.
     #[arg(long, value_parser = parse_seconds)]
     time: Option<f64>,
     /// Render part K (from 0) of N of the render that --spp asks for: its K-th of N

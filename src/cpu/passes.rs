@@ -20,7 +20,8 @@ use std::time::{Duration, Instant};
 /// each sample of a frame cut short is, whatever its index, one of the frame's
 /// own (its random numbers and, with independent samples, its sub-square of
 /// the pixel) and lands anywhere in the pixel with equal chance: the first k
-/// indices of every pixel would see only the top rows of its sub-squares.
+/// indices of every pixel would see only the top rows of its sub-squares. The
+/// GLSL twin is `pass_sample` in `glsl/sampler.glsl` (a GPU frame's lanes for passes).
 pub fn pass_sample(seed: u32, pixel: u32, rng_frame: u32, pass: u32) -> u32 {
     first_sample(seed, pixel, rng_frame).wrapping_add(pass) % shared::SAMPLES_PER_FRAME
 }

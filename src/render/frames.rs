@@ -11,6 +11,10 @@ use crate::renderer::RoundReport;
 /// submission waits for the host, and frames of a fraction of a millisecond one
 /// to a submission leave the GPU idle most of the time, and slower.
 pub const ROUND_MS: f64 = 2.0;
+/// What a frame cut short to a few samples per pixel costs at least, as a share
+/// of a whole frame: its idle subgroups still take their workgroups' places on
+/// the GPU (docs/cli.md, `--time`), so half the samples take about 0.7 of the time.
+pub const CUT_FRAME_FIXED: f64 = 0.5;
 
 /// Frames in one round at most.
 pub const ROUND_MAX_FRAMES: u32 = 64;
@@ -44,6 +48,7 @@ impl GpuRenderer {
             learned_frames: self.counts.learned_frames,
             table_frames: self.table_frames,
             fold_learned: folds as u32,
+            samples: shared::SAMPLES_PER_FRAME,
         };
         self.counts.frames_traced += 1;
         self.counts.accum_frames += 1;
@@ -113,7 +118,9 @@ impl GpuRenderer {
     /// Renders a round of frames in one submission: as many as fill [`ROUND_MS`]
     /// at the last submission's time per frame, up to [`ROUND_MAX_FRAMES`] and
     /// `max`, and where `time_left_ms` is set, no more than fit it (each taken to
-    /// last as long; none where not one does). Where a race chooses the image
+    /// last as long). Where not one whole frame fits, a last frame cut short to
+    /// the samples that do ([`samples_that_fit`](Self::samples_that_fit); none
+    /// where none fit), which ends the film. Where a race chooses the image
     /// frames' kernel, no more than its run of one kind or the guided head
     /// start's frames left (`FrameRace::round_left`), and one frame until the
     /// image starts. One frame where there are no timestamps (the session judges
@@ -128,21 +135,29 @@ impl GpuRenderer {
             let image = self.counts.frames_traced >= l.cfg.learning_frames;
             count = count.min(if image { race.round_left(self.counts.guided_traced) } else { 1 });
         }
+        let mut samples = shared::SAMPLES_PER_FRAME;
         if let (Some(ms), Some(left)) = (per_frame, time_left_ms) {
             count = count.min((left / ms).max(0.0) as u32);
             if count == 0 {
-                return Ok(RoundReport { frames: 0, time_up: Some(true), ..Default::default() });
+                samples = self.samples_that_fit(ms, left);
+                if samples == 0 {
+                    return Ok(RoundReport { frames: 0, time_up: Some(true), ..Default::default() });
+                }
+                count = 1;
             }
         }
-        let t = self.render_frames(count)?;
+        let t = self.submit_frames_of(count, true, samples)?;
         let timestamps = self.ctx.info.timestamps;
         let ms = t.total_ms();
-        // As the session judges one frame: the next is taken to last as long as these did.
+        // As the session judges one frame: the next is taken to last as long as
+        // these did, and a frame cut short to the samples that fit.
         let time_up = match (self.round_frame_ms, time_left_ms) {
-            (Some(next), Some(left)) if timestamps => Some(next > left - ms),
+            _ if self.counts.partial_spp > 0 => Some(true),
+            (Some(next), Some(left)) if timestamps => Some(self.samples_that_fit(next, left - ms) == 0),
             (_, None) if timestamps => Some(false),
             _ => None,
         };
+        let cut = samples < shared::SAMPLES_PER_FRAME;
         Ok(RoundReport {
             frames: count,
             gpu_ms: timestamps.then_some(ms),
@@ -150,9 +165,38 @@ impl GpuRenderer {
             zero_paths: t.zero_paths,
             time_up,
             kind: t.kind,
-            variance: t.variance,
-            cut_spp: None,
+            variance: t.variance.filter(|_| !cut),
+            cut_spp: cut.then_some(samples),
         })
+    }
+
+    /// The samples per pixel of a frame that fit `left_ms` where a whole one
+    /// takes `frame_ms`: 64 where it fits whole; in the image (a learning
+    /// frame is whole or none), else a multiple of the subgroup size (a frame
+    /// cut short traces its samples in the first lanes of each pixel, and whole
+    /// subgroups idle), a frame of k samples taken to cost [`CUT_FRAME_FIXED`]
+    /// of a whole one plus k / 64 of the rest.
+    pub fn samples_that_fit(&self, frame_ms: f64, left_ms: f64) -> u32 {
+        let whole = shared::SAMPLES_PER_FRAME;
+        if left_ms >= frame_ms {
+            return whole;
+        }
+        if self.counts.frames_traced < self.learning_frames() || frame_ms <= 0.0 || left_ms <= 0.0 {
+            return 0;
+        }
+        let lanes = self.ctx.info.subgroup_size.clamp(1, whole);
+        let share = ((left_ms / frame_ms - CUT_FRAME_FIXED) / (1.0 - CUT_FRAME_FIXED)).max(0.0);
+        let groups = (share * (whole / lanes) as f64) as u32;
+        (groups * lanes).min(whole - lanes)
+    }
+
+    /// Renders one frame of `samples` (1 to 64) samples per pixel, as the last
+    /// frame of a render cut short at a time limit does: the same samples as
+    /// `crate::cpu::CpuRenderer::render_frame_samples`. A frame of fewer than 64
+    /// ends the film: no frame follows it until the accumulation is reset.
+    pub fn render_frame_samples(&mut self, samples: u32) -> Result<FrameTimings, GpuError> {
+        assert!((1..=shared::SAMPLES_PER_FRAME).contains(&samples), "a frame holds 1 to 64 samples per pixel");
+        self.submit_frames_of(1, true, samples)
     }
 
     /// Renders `count` frames in one submission (each followed by learning when
@@ -167,6 +211,15 @@ impl GpuRenderer {
     /// `RecordSchedule::learns_after` names only where `learn` (else the targets
     /// wait in the frame sums: `MultiGpuRenderer` learns from every device's at once).
     pub(super) fn submit_frames(&mut self, count: u32, learn: bool) -> Result<FrameTimings, GpuError> {
+        self.submit_frames_of(count, learn, shared::SAMPLES_PER_FRAME)
+    }
+
+    /// [`submit_frames`](Self::submit_frames) of `samples` samples per pixel
+    /// each: fewer than 64 only in one frame, the film's last.
+    fn submit_frames_of(&mut self, count: u32, learn: bool, samples: u32) -> Result<FrameTimings, GpuError> {
+        assert_eq!(self.counts.partial_spp, 0, "a frame cut short ends the film: reset the accumulation first");
+        let cut = samples < shared::SAMPLES_PER_FRAME;
+        assert!(!cut || count == 1, "only one frame is cut short");
         self.check_device_lost_hook(count)?;
         let timestamps = self.ctx.info.timestamps;
         let wall = std::time::Instant::now();
@@ -178,9 +231,12 @@ impl GpuRenderer {
             .map(|_| {
                 let learning = self.counts.frames_traced < learning_frames;
                 let kind = if learning { self.next_kind() } else { image_kind };
-                (PathPush { ablate: 0, ..self.next_frame(kind) }, kind, learning)
+                (PathPush { ablate: 0, samples, ..self.next_frame(kind) }, kind, learning)
             })
             .collect();
+        if cut {
+            self.counts.partial_spp = samples;
+        }
         // Stamps: 0 before the first frame, 1 after its path tracing (the first
         // frame of a kernel after the other's runs from cold caches: the race
         // times it apart), a pair around each learning pass (up to the timer's
@@ -240,9 +296,12 @@ impl GpuRenderer {
             t.learn_ms = (0..passes as usize).map(|k| self.timer.ticks_to_ms(s[2 + 2 * k], s[3 + 2 * k])).sum();
             t.pathtrace_ms = self.timer.ticks_to_ms(s[0], s[2 + 2 * passes as usize]) - t.learn_ms;
             t.first_trace_ms = self.timer.ticks_to_ms(s[0], s[1]);
-            self.round_frame_ms = Some(t.total_ms() / count as f64);
+            if !cut {
+                self.round_frame_ms = Some(t.total_ms() / count as f64);
+            }
         }
-        if let (Some(race), Some(v), Some(l)) = (self.race.as_mut(), variance, &self.learning) {
+        // A frame cut short ends the render; the kernel sums no variance for it.
+        if let (Some(race), Some(v), Some(l), false) = (self.race.as_mut(), variance, &self.learning, cut) {
             let n = count as f64;
             // The first frame's path tracing as timed, the others' their mean;
             // each learning pass of the submission taken to last their mean.

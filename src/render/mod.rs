@@ -13,7 +13,7 @@ use std::sync::Arc;
 mod dispatch;
 pub mod display;
 mod frames;
-pub use frames::{ROUND_MAX_FRAMES, ROUND_MS};
+pub use frames::{CUT_FRAME_FIXED, ROUND_MAX_FRAMES, ROUND_MS};
 mod learning;
 mod memory;
 mod multi;
@@ -169,6 +169,9 @@ struct FrameCounts {
     learned_frames: u32,
     /// Whether the accumulation's first frame is the learning frames' mean.
     learning_folded: bool,
+    /// The samples per pixel of a last frame cut short at a time limit, 0 where
+    /// every frame is whole (`crate::film::Film::partial_spp`).
+    partial_spp: u32,
 }
 
 /// pathtrace.comp's push constants (`Push`).
@@ -192,6 +195,9 @@ struct PathPush {
     rng_frame: u32,
     /// 1 where this frame folds the learning frames into the image (`crate::film::Learned::Fold`).
     fold_learned: u32,
+    /// The frame's samples per pixel: 64, fewer in a last frame cut short at a
+    /// time limit (`GpuRenderer::render_round`).
+    samples: u32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -461,6 +467,12 @@ impl GpuRenderer {
         self.counts.accum_frames
     }
 
+    /// The samples per pixel of a last frame cut short at a time limit, 0 where
+    /// every frame is whole ([`GpuRenderer::render_frame_samples`]).
+    pub fn partial_spp(&self) -> u32 {
+        self.counts.partial_spp
+    }
+
     /// Whether the accumulation's first frame is the learning frames' mean
     /// (`crate::film::Learned::Fold`), not one of the image's own frames.
     pub fn learning_folded(&self) -> bool {
@@ -562,6 +574,7 @@ impl GpuRenderer {
         self.counts.accum_holds_learning = false;
         self.counts.learned_frames = 0;
         self.counts.learning_folded = false;
+        self.counts.partial_spp = 0;
         Ok(())
     }
 
@@ -588,7 +601,8 @@ impl GpuRenderer {
         })?;
         let n = (self.width * self.height) as usize * std::mem::size_of::<AccumPixel>();
         let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(&self.readback.read()[..n]);
-        Ok(Film { width: self.width, height: self.height, frames: self.counts.accum_frames, partial_spp: 0, pixels })
+        let (frames, partial_spp) = (self.counts.accum_frames, self.counts.partial_spp);
+        Ok(Film { width: self.width, height: self.height, frames, partial_spp, pixels })
     }
 
     /// Folds the targets recorded since the table last learned into it and
