@@ -11,10 +11,12 @@ over the seeds; per sample (the ratio at the end times the mode's samples over
 off's); and the samples per pixel at the end, off / mode (the first seed's).
 
 A run whose first frames took over 1.3 times as long per frame as the other
-seed's run of the same mode (the GPU's clocks slow some runs; timestamps time
-every frame) is named on stderr and left out of its mode's means (with its
-off run's seed), which then say which seeds they hold, e.g. `(seed 2)`; where no
-seed is left, all count and the row is marked `slow`: rerun it.
+seed's run of the same mode, or whose unguided frames after them (every frame of
+`off`) took over 1.05 times as long on average (the GPU's clocks slow some runs,
+at the start or on the way; timestamps time every frame), is named on stderr and
+left out of its mode's means (with its off run's seed), which then say which
+seeds they hold, e.g. `(seed 2)`; where no seed is left, all count and the row is
+marked `slow`: rerun it.
 """
 import functools
 import glob
@@ -48,10 +50,28 @@ def early_ms(path):
     return fr["elapsed_ms"] / max(fr.get("frame", 1), 1)
 
 
-def slow_seeds(seeds):
-    """The seeds of {seed: path} whose first frames ran over 1.3 times another's."""
+def unguided_ms(path, every):
+    """Mean GPU time of a run's unguided frames past its first five marks and
+    before its last (which may be cut short); `every` where all are unguided
+    (off). None where it has none."""
+    frames = frames_of(path)
+    total, n, before = 0.0, 0, 0
+    for i, fr in enumerate(frames):
+        count, before = fr["frame"] - before, fr["frame"]
+        if 5 <= i < len(frames) - 1 and fr.get("gpu_ms") and (every or fr.get("unguided")):
+            total, n = total + fr["gpu_ms"], n + count
+    return total / n if n else None
+
+
+def slow_seeds(seeds, mode):
+    """The seeds of {seed: path} whose first frames ran over 1.3 times another's,
+    or whose unguided frames after them over 1.05 times another's."""
     ms = {k: early_ms(p) for k, p in seeds.items()}
-    return [k for k in ms if any(ms[k] > 1.3 * ms[j] for j in ms if j != k)]
+    slow = {k for k in ms if any(ms[k] > 1.3 * ms[j] for j in ms if j != k)}
+    later = {k: unguided_ms(p, mode == "off") for k, p in seeds.items()}
+    later = {k: v for k, v in later.items() if v}
+    slow |= {k for k in later if any(later[k] > 1.05 * later[j] for j in later if j != k)}
+    return sorted(slow)
 
 
 def main():
@@ -72,9 +92,9 @@ def main():
     print(f"| scene | size | {head} | spp at 1 s, off / {' / '.join(modes)} |")
     print("|---|---|" + "---|---|" * len(modes) + "---|")
     for (scene, size), r in sorted(runs.items()):
-        slow = [(m, k) for m in r for k in slow_seeds(r[m])]
+        slow = [(m, k) for m in r for k in slow_seeds(r[m], m)]
         for m, k in slow:
-            print(f"{scene} {size}: {m}, seed {k}: its first frames ran slow", file=sys.stderr)
+            print(f"{scene} {size}: {m}, seed {k}: its frames ran slow", file=sys.stderr)
         off = r.get("off", {})
         cells, spp = [], [str(mark(off[min(off)], None)[1]) if off else "-"]
         slow_all = False
