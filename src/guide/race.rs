@@ -220,8 +220,7 @@ impl FrameRace {
     fn burst_fits(&self, kind: FrameKind) -> bool {
         let Some(left) = self.time_left_ms else { return true };
         let record = if kind == FrameKind::Guided { &self.guided } else { &self.unguided };
-        let head = if self.head_frames > 0 { self.head_ms / self.head_frames as f64 } else { 0.0 };
-        let ms = if record.timed > 0 { record.ms } else { head };
+        let ms = if record.timed > 0 { record.ms } else { self.head_frame_ms().unwrap_or(0.0) };
         RACE_BURST as f64 * ms <= RACE_EXPLORE_SHARE * left
     }
 
@@ -230,9 +229,14 @@ impl FrameRace {
     /// take them past [`RACE_HEAD_START_SHARE`] of the budget (the first frame
     /// is always traced: nothing times it before).
     pub fn head_start_over(&self, guided_traced: u32) -> bool {
-        let next_ms = if self.head_frames > 0 { self.head_ms / self.head_frames as f64 } else { 0.0 };
+        let next_ms = self.head_frame_ms().unwrap_or(0.0);
         guided_traced >= shared::RECORD_FIRST_FRAMES
             || self.budget_ms.is_some_and(|b| self.head_ms + next_ms > RACE_HEAD_START_SHARE * b)
+    }
+
+    /// The mean time of the head start's frames (ms), None before the first.
+    fn head_frame_ms(&self) -> Option<f64> {
+        (self.head_frames > 0).then(|| self.head_ms / self.head_frames as f64)
     }
 
     /// The head start's guided frames left after `guided_traced`, as
@@ -244,9 +248,8 @@ impl FrameRace {
             return 0;
         }
         let by_frames = shared::RECORD_FIRST_FRAMES - guided_traced;
-        let by_time = match (self.budget_ms, self.head_frames) {
-            (Some(b), n) if n > 0 => {
-                let mean = self.head_ms / n as f64;
+        let by_time = match (self.budget_ms, self.head_frame_ms()) {
+            (Some(b), Some(mean)) => {
                 ((RACE_HEAD_START_SHARE * b - self.head_ms) / mean).floor().clamp(1.0, u32::MAX as f64) as u32
             }
             _ => u32::MAX,
