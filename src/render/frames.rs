@@ -11,10 +11,11 @@ use crate::renderer::RoundReport;
 /// submission waits for the host, and frames of a fraction of a millisecond one
 /// to a submission leave the GPU idle most of the time, and slower.
 pub const ROUND_MS: f64 = 2.0;
-/// What a frame cut short to a few samples per pixel costs at least, as a share
-/// of a whole frame: its idle subgroups still take their workgroups' places on
-/// the GPU (docs/cli.md, `--time`), so half the samples take about 0.7 of the time.
-pub const CUT_FRAME_FIXED: f64 = 0.5;
+/// A frame cut short to k samples per pixel is taken to cost this share of a
+/// whole frame plus k/64 of it: its idle subgroups still take their workgroups'
+/// places, so half the samples take about 0.7 of the time or more (docs/cli.md,
+/// `--time`); the surplus keeps a cut frame from ending past the time limit.
+pub const CUT_FRAME_FIXED: f64 = 0.4;
 
 /// Frames in one round at most.
 pub const ROUND_MAX_FRAMES: u32 = 64;
@@ -175,7 +176,7 @@ impl GpuRenderer {
     /// frame is whole or none), else a multiple of the subgroup size (a frame
     /// cut short traces its samples in the first lanes of each pixel, and whole
     /// subgroups idle), a frame of k samples taken to cost [`CUT_FRAME_FIXED`]
-    /// of a whole one plus k / 64 of the rest.
+    /// of a whole one plus k / 64 of it.
     pub fn samples_that_fit(&self, frame_ms: f64, left_ms: f64) -> u32 {
         let whole = shared::SAMPLES_PER_FRAME;
         if left_ms >= frame_ms {
@@ -185,7 +186,7 @@ impl GpuRenderer {
             return 0;
         }
         let lanes = self.ctx.info.subgroup_size.clamp(1, whole);
-        let share = ((left_ms / frame_ms - CUT_FRAME_FIXED) / (1.0 - CUT_FRAME_FIXED)).max(0.0);
+        let share = (left_ms / frame_ms - CUT_FRAME_FIXED).max(0.0);
         let groups = (share * (whole / lanes) as f64) as u32;
         (groups * lanes).min(whole - lanes)
     }
