@@ -22,6 +22,16 @@ pub struct Film {
     pub pixels: Vec<AccumPixel>,
 }
 
+/// The samples per pixel of `frames` frames, the last of them cut short to
+/// `partial_spp` samples where that is not 0 ([`Film::partial_spp`]).
+pub fn samples_in(frames: u32, partial_spp: u32) -> u64 {
+    let whole = frames as u64 * shared::SAMPLES_PER_FRAME as u64;
+    match partial_spp {
+        0 => whole,
+        k => whole - (shared::SAMPLES_PER_FRAME - k) as u64,
+    }
+}
+
 /// Adds one frame's 64-sample sum to a pixel that already holds `frames` frames
 /// (Welford's update of the frame means' squared deviations); the GLSL twin is
 /// `accumulate` in `glsl/pathtrace.comp`. [`accumulate_samples`] with 64 samples.
@@ -156,11 +166,7 @@ impl Film {
     }
 
     pub fn samples_per_pixel(&self) -> u64 {
-        let whole = self.frames as u64 * shared::SAMPLES_PER_FRAME as u64;
-        match self.partial_spp {
-            0 => whole,
-            k => whole - (shared::SAMPLES_PER_FRAME - k) as u64,
-        }
+        samples_in(self.frames, self.partial_spp)
     }
 
     /// The radiance estimate: mean of all samples.

@@ -100,11 +100,7 @@ impl Renderer for GpuRenderer {
         self.frames() - self.learning_folded() as u32
     }
     fn image_spp(&self) -> u32 {
-        let lacks = match self.partial_spp() {
-            0 => 0,
-            k => crate::shared::SAMPLES_PER_FRAME - k,
-        };
-        self.image_frames() * crate::shared::SAMPLES_PER_FRAME - lacks
+        crate::film::samples_in(self.image_frames(), self.partial_spp()) as u32
     }
     fn film(&self) -> Result<Film, GpuError> {
         GpuRenderer::film(self)

@@ -360,11 +360,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
         _ => String::new(),
     };
     // Samples traced, the learning frames' included, less what a last frame cut short lacks.
-    let missing = match film.partial_spp {
-        0 => 0,
-        k => shared::SAMPLES_PER_FRAME - k,
-    };
-    let samples = opts.width as f64 * opts.height as f64 * (traced * shared::SAMPLES_PER_FRAME - missing) as f64;
+    let samples = opts.width as f64 * opts.height as f64 * rlpt::film::samples_in(traced, film.partial_spp) as f64;
     let gpu = match renderer.timestamps() {
         true => {
             format!(", GPU time {gpu_ms_total:.1} ms, {:.3} ms per frame", gpu_ms_total / traced as f64)
