@@ -229,9 +229,7 @@ impl FrameRace {
     /// take them past [`RACE_HEAD_START_SHARE`] of the budget (the first frame
     /// is always traced: nothing times it before).
     pub fn head_start_over(&self, guided_traced: u32) -> bool {
-        let next_ms = self.head_frame_ms().unwrap_or(0.0);
-        guided_traced >= shared::RECORD_FIRST_FRAMES
-            || self.budget_ms.is_some_and(|b| self.head_ms + next_ms > RACE_HEAD_START_SHARE * b)
+        self.head_start_left(guided_traced) == 0
     }
 
     /// The mean time of the head start's frames (ms), None before the first.
@@ -239,18 +237,16 @@ impl FrameRace {
         (self.head_frames > 0).then(|| self.head_ms / self.head_frames as f64)
     }
 
-    /// The head start's guided frames left after `guided_traced`, as
-    /// [`head_start_over`](Self::head_start_over) counts them (each taken to last
-    /// the mean of those traced; at least one until it is over): a round of frames
-    /// traced in one submission ends with it, so that the race's first frame is its own.
+    /// The head start's guided frames left after `guided_traced`: up to
+    /// `RECORD_FIRST_FRAMES` in all, and as many as fit what is left of
+    /// [`RACE_HEAD_START_SHARE`] of the budget, each taken to last the mean of
+    /// those traced (any number before the first). A round of frames traced in
+    /// one submission ends with it, so that the race's first frame is its own.
     pub fn head_start_left(&self, guided_traced: u32) -> u32 {
-        if self.head_start_over(guided_traced) {
-            return 0;
-        }
-        let by_frames = shared::RECORD_FIRST_FRAMES - guided_traced;
+        let by_frames = shared::RECORD_FIRST_FRAMES.saturating_sub(guided_traced);
         let by_time = match (self.budget_ms, self.head_frame_ms()) {
             (Some(b), Some(mean)) => {
-                ((RACE_HEAD_START_SHARE * b - self.head_ms) / mean).floor().clamp(1.0, u32::MAX as f64) as u32
+                ((RACE_HEAD_START_SHARE * b - self.head_ms) / mean).floor().clamp(0.0, u32::MAX as f64) as u32
             }
             _ => u32::MAX,
         };

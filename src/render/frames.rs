@@ -150,15 +150,15 @@ impl GpuRenderer {
         let t = self.submit_frames_of(count, true, samples)?;
         let timestamps = self.ctx.info.timestamps;
         let ms = t.total_ms();
+        let cut = samples < shared::SAMPLES_PER_FRAME;
         // As the session judges one frame: the next is taken to last as long as
         // these did, and a frame cut short to the samples that fit.
         let time_up = match (self.round_frame_ms, time_left_ms) {
-            _ if self.counts.partial_spp > 0 => Some(true),
+            _ if cut => Some(true),
             (Some(next), Some(left)) if timestamps => Some(self.samples_that_fit(next, left - ms) == 0),
             (_, None) if timestamps => Some(false),
             _ => None,
         };
-        let cut = samples < shared::SAMPLES_PER_FRAME;
         Ok(RoundReport {
             frames: count,
             gpu_ms: timestamps.then_some(ms),
