@@ -20,6 +20,12 @@ fn racing(scene: &rlpt::scene::Scene, w: u32, h: u32, spp: u32, seed: u32) -> rl
     o
 }
 
+/// seed-exp1 (no roulette: the image starts at once) at 24x16, racing, with `spp` and `seed`.
+fn seed_exp1_racing(spp: u32, seed: u32) -> PreparedScene {
+    let scene = scene("seed-exp1.toml");
+    PreparedScene::new(&scene, &racing(&scene, 24, 16, spp, seed)).expect("valid options")
+}
+
 /// Renders `opts` frame by frame on the GPU (the race chooses per submission),
 /// returning the film and the kinds of the frames.
 fn race_gpu(
@@ -96,9 +102,7 @@ fn images_of_guided_and_unguided_frames_are_unbiased() {
 #[test]
 fn gpu_and_cpu_weigh_a_frame_alike() {
     let ctx = gpu();
-    let scene = scene("seed-exp1.toml");
-    let opts = racing(&scene, 24, 16, 768, 7);
-    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
+    let prepared = seed_exp1_racing(768, 7);
     assert_eq!(prepared.learning_frames(), 0, "seed-exp1 has no roulette: the image starts at once");
     let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     let mut c = CpuRenderer::new(&prepared);
@@ -130,9 +134,7 @@ fn gpu_and_cpu_weigh_a_frame_alike() {
 #[test]
 fn a_timed_render_bounds_the_head_start_by_its_budget() {
     let ctx = gpu();
-    let scene = scene("seed-exp1.toml");
-    let opts = racing(&scene, 24, 16, 640, 9);
-    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
+    let prepared = seed_exp1_racing(640, 9);
     for timed in [true, false] {
         let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
         let mut c = CpuRenderer::new(&prepared);
@@ -166,9 +168,7 @@ fn a_timed_render_bounds_the_head_start_by_its_budget() {
 #[test]
 fn a_round_times_its_first_frame_apart() {
     let ctx = gpu();
-    let scene = scene("seed-exp1.toml");
-    let opts = racing(&scene, 24, 16, 1024, 5);
-    let prepared = PreparedScene::new(&scene, &opts).expect("valid options");
+    let prepared = seed_exp1_racing(1024, 5);
     let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     let head = g.render_frames(shared::RECORD_FIRST_FRAMES).expect("head start");
     assert_eq!(head.kind, Some(FrameKind::Guided));
