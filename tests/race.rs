@@ -161,6 +161,44 @@ fn a_timed_render_bounds_the_head_start_by_its_budget() {
     assert_no_validation_messages(&ctx);
 }
 
+/// A timed render opens with an unguided frame on either device; where its
+/// budget fits fewer than `RACE_MIN_FRAMES` frames of that time (here about 6)
+/// the frames after it are unguided too, and where it fits many (about 1000)
+/// the guided head start follows. Budgets from the unguided first frame of a
+/// render with a long one, far from the threshold on either side: lavapipe's
+/// frames vary under load.
+#[test]
+fn a_timed_render_opens_unguided_and_guides_only_where_enough_frames_fit() {
+    let ctx = gpu();
+    let prepared = seed_exp1_racing(640, 11);
+    let long = 1e9;
+    let probe = GpuRenderer::new(&ctx, &prepared).expect("renderer").render_round(1, Some(long)).expect("round");
+    assert_eq!(probe.kind, Some(FrameKind::Unguided));
+    let gpu_ms = probe.gpu_ms.expect("lavapipe's timestamps time the frame");
+    let mut c = CpuRenderer::new(&prepared);
+    let start = std::time::Instant::now();
+    c.render_frame_within(long);
+    let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+    assert_eq!(c.last_kind, Some(FrameKind::Unguided));
+    assert!(6.0 < rlpt::guide::RACE_MIN_FRAMES);
+    for (frames, then) in [(6.0, FrameKind::Unguided), (1000.0, FrameKind::Guided)] {
+        let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+        let budget = frames * gpu_ms;
+        let first = g.render_round(1, Some(budget)).expect("round");
+        assert_eq!(g.race().expect("a race").unguided.frames, 0, "the first frame is timed, not weighed");
+        let second = g.render_round(1, Some(budget - first.gpu_ms.expect("timestamps"))).expect("round");
+        assert_eq!((first.kind, second.kind), (Some(FrameKind::Unguided), Some(then)), "GPU, {frames} frames");
+
+        let mut c = CpuRenderer::new(&prepared);
+        let budget = frames * cpu_ms;
+        let (samples, _) = c.render_frame_within(budget);
+        assert_eq!((samples, c.last_kind), (64, Some(FrameKind::Unguided)), "CPU, {frames} frames");
+        c.render_frame_within(budget / 2.0);
+        assert_eq!(c.last_kind, Some(then), "CPU, {frames} frames");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// A round of frames in one submission times its first frame apart
 /// (`FrameTimings::first_trace_ms`): the first of a kernel after the other's
 /// runs from cold caches, and the race times a kind by the frames after it.

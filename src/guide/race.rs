@@ -59,9 +59,17 @@ pub fn default_unguided_frames(timed: bool, roulette: bool, several_gpus: bool) 
 /// a table that knows little, so they cost more and give less than the guided
 /// frames after them; judged by them, guiding would lose the race before it had
 /// learned anything.
+///
+/// A timed render's first image frame is unguided where no learning frame was
+/// (`FrameRace::opens_unguided`): it times the unguided kind before any guided
+/// frame is spent, and where the budget fits fewer than [`RACE_MIN_FRAMES`] of
+/// them no frame is guided ([`FrameRace::explores`]).
 pub fn frame_kind(race: Option<&FrameRace>, traced: u32, guided_traced: u32, learning_frames: u32) -> FrameKind {
     match race {
         Some(_) if learning_frames >= 2 && traced + 1 == learning_frames => FrameKind::Unguided,
+        Some(r) if traced >= learning_frames && (r.opens_unguided(traced, learning_frames) || !r.explores()) => {
+            FrameKind::Unguided
+        }
         Some(r) if traced >= learning_frames && r.head_start_over(guided_traced) => r.next(),
         _ => FrameKind::Guided,
     }
@@ -81,6 +89,15 @@ pub fn frames_before_image(n: u32, unguided_frames: bool) -> u32 {
 
 /// Frames of each kind measured before the race chooses by efficiency.
 pub const RACE_START_FRAMES: u32 = 1;
+/// A timed render whose budget fits fewer than this many unguided frames (timed
+/// by its first) traces none guided: after the head start's share, the first
+/// frame and the unguided opening burst, a guided burst, each frame taken to
+/// last at least an unguided one, would not fit [`RACE_EXPLORE_SHARE`] of the
+/// time left, so the head start's frames would be all the guided frames there
+/// are, spent on a table that could never repay them (about 25.6 frames;
+/// docs/guiding.md, "Short renders").
+pub const RACE_MIN_FRAMES: f64 =
+    (RACE_BURST as f64 / RACE_EXPLORE_SHARE + 1.0 + RACE_BURST as f64) / (1.0 - RACE_HEAD_START_SHARE);
 /// The head start's guided frames, which the race does not weigh, take at most
 /// this share of a timed render's budget (but its first frame): a short render's
 /// first frames are most of its image, and where guiding does not pay they spoil it.
@@ -184,6 +201,8 @@ pub struct FrameRace {
     time_left_ms: Option<f64>,
     head_frames: u32,
     head_ms: f64,
+    /// The first unguided frame's time (ms): [`FrameRace::explores`] reads it.
+    first_unguided_ms: Option<f64>,
 }
 
 impl Default for FrameRace {
@@ -202,6 +221,7 @@ impl Default for FrameRace {
             time_left_ms: None,
             head_frames: 0,
             head_ms: 0.0,
+            first_unguided_ms: None,
         }
     }
 }
@@ -212,6 +232,24 @@ impl FrameRace {
     pub fn set_time_left(&mut self, ms: f64) {
         self.budget_ms.get_or_insert(ms);
         self.time_left_ms = Some(ms);
+    }
+
+    /// Whether the frame after `traced` frames opens a timed render's image
+    /// unguided: its first image frame, where no unguided learning frame came
+    /// before ([`frame_kind`]). Without a time limit the render opens guided, so
+    /// that a seed's `--spp` image does not change with its race.
+    pub fn opens_unguided(&self, traced: u32, learning_frames: u32) -> bool {
+        self.budget_ms.is_some() && learning_frames < 2 && traced == learning_frames
+    }
+
+    /// Whether the race may trace guided frames: not where a timed render's
+    /// budget fits fewer than [`RACE_MIN_FRAMES`] frames of the unguided kind, as
+    /// its first frame timed it (always before that frame, and without a time limit).
+    pub fn explores(&self) -> bool {
+        match (self.budget_ms, self.first_unguided_ms) {
+            (Some(budget), Some(ms)) => budget >= RACE_MIN_FRAMES * ms,
+            _ => true,
+        }
     }
 
     /// Whether a burst of `kind` fits [`RACE_EXPLORE_SHARE`] of the time left
@@ -257,6 +295,9 @@ impl FrameRace {
     /// take after `guided_traced` guided frames: the head start's frames left
     /// ([`head_start_left`](Self::head_start_left)), then [`run_left`](Self::run_left).
     pub fn round_left(&self, guided_traced: u32) -> u32 {
+        if !self.explores() {
+            return u32::MAX;
+        }
         match self.head_start_left(guided_traced) {
             0 => self.run_left(),
             head => head,
@@ -265,11 +306,12 @@ impl FrameRace {
 
     /// Whether the race weighs a frame of `kind` traced after `traced` frames,
     /// `guided_traced` of them guided ([`frame_kind`]): every unguided frame (the
-    /// learning frames' one among them), and the image's guided frames once the
-    /// head start is over.
+    /// learning frames' one among them) but a render's first, whose variance is
+    /// measured against its own mean (no frame before it), which understates it;
+    /// and the image's guided frames once the head start is over.
     pub fn weighs(&self, kind: FrameKind, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
         match kind {
-            FrameKind::Unguided => true,
+            FrameKind::Unguided => traced > 0,
             FrameKind::Guided => traced >= learning_frames && self.head_start_over(guided_traced),
         }
     }
@@ -277,6 +319,7 @@ impl FrameRace {
     /// Takes in a traced frame as [`weighs`](Self::weighs) says: into its kind's
     /// record ([`report_frame`](Self::report_frame)), or, a guided frame of the
     /// head start, its time (path tracing and learning) into the head start's.
+    /// The first unguided frame's time is kept for [`explores`](Self::explores).
     pub fn report_traced(
         &mut self,
         (kind, traced, guided_traced, learning_frames): (FrameKind, u32, u32, u32),
@@ -285,9 +328,12 @@ impl FrameRace {
         learn_ms: Option<f64>,
         period: u32,
     ) {
+        if kind == FrameKind::Unguided {
+            self.first_unguided_ms.get_or_insert(trace_ms);
+        }
         if self.weighs(kind, traced, guided_traced, learning_frames) {
             self.report_frame(kind, variance, trace_ms, learn_ms, period);
-        } else {
+        } else if kind == FrameKind::Guided {
             self.head_frames += 1;
             self.head_ms += trace_ms + learn_ms.unwrap_or(0.0);
         }
@@ -498,19 +544,22 @@ mod tests {
 
         // A budget of 100 ms: at most 10 ms of head start, here two frames of 3 ms
         // and a pass of 0.5 ms each (a third would take it to 10.5 ms).
+        // (The timed render's first frame is unguided, of 1 ms: the budget fits 100.)
         let mut timed = FrameRace::default();
         timed.set_time_left(100.0);
+        assert_eq!(frame_kind(Some(&timed), 0, 0, 0), FrameKind::Unguided);
+        timed.report_traced((FrameKind::Unguided, 0, 0, 0), 1.0, 1.0, None, 1);
         timed.set_time_left(95.0);
         for g in 0..2 {
             assert!(!timed.head_start_over(g), "after {g} frames");
             assert_eq!(timed.head_start_left(g), if g == 0 { head } else { 1 }, "after {g} frames");
-            assert_eq!(frame_kind(Some(&timed), g, g, 0), FrameKind::Guided);
-            timed.report_traced((FrameKind::Guided, g, g, 0), 1.0, 3.0, Some(0.5), 1);
+            assert_eq!(frame_kind(Some(&timed), g + 1, g, 0), FrameKind::Guided);
+            timed.report_traced((FrameKind::Guided, g + 1, g, 0), 1.0, 3.0, Some(0.5), 1);
         }
         assert!(timed.head_start_over(2), "7 ms of a 100 ms budget, and 3.5 more");
         assert_eq!(timed.head_start_left(2), 0);
-        assert!(timed.weighs(FrameKind::Guided, 2, 2, 0) && timed.guided.frames == 0);
-        assert_eq!(frame_kind(Some(&timed), 2, 2, 0), FrameKind::Unguided);
+        assert!(timed.weighs(FrameKind::Guided, 3, 2, 0) && timed.guided.frames == 0);
+        assert_eq!(frame_kind(Some(&timed), 3, 2, 0), FrameKind::Unguided);
         // Learning frames are guided, head start or not; the image's then race.
         assert_eq!(frame_kind(Some(&timed), 2, 2, 5), FrameKind::Guided);
         // The first frame is traced whatever its budget.
@@ -519,6 +568,79 @@ mod tests {
         assert!(!short.head_start_over(0));
         short.report_traced((FrameKind::Guided, 0, 0, 0), 1.0, 3.0, None, 1);
         assert!(short.head_start_over(1));
+    }
+
+    /// A timed render opens with an unguided frame, which the race times but does
+    /// not weigh (no frame before it); where its budget fits fewer than
+    /// `RACE_MIN_FRAMES` of them every frame is unguided, else the head start
+    /// follows. Without a time limit, or after learning frames whose last is
+    /// unguided, the render opens as before.
+    #[test]
+    fn a_timed_render_opens_unguided_and_guides_only_where_enough_frames_fit() {
+        use FrameKind::*;
+        for (frame_ms, explores) in [(10.0, false), (100.0 / RACE_MIN_FRAMES, true)] {
+            let mut race = FrameRace::default();
+            race.set_time_left(100.0);
+            assert!(race.explores() && race.opens_unguided(0, 0));
+            assert_eq!(frame_kind(Some(&race), 0, 0, 0), Unguided);
+            race.report_traced((Unguided, 0, 0, 0), 1.0, frame_ms, None, 1);
+            assert_eq!(race.unguided.frames, 0, "the first frame's variance is not weighed");
+            assert_eq!(race.explores(), explores, "frames of {frame_ms} ms in 100");
+            race.set_time_left(100.0 - frame_ms);
+            let want = if explores { Guided } else { Unguided };
+            assert_eq!(frame_kind(Some(&race), 1, 0, 0), want, "frames of {frame_ms} ms");
+            if !explores {
+                assert_eq!(race.round_left(0), u32::MAX, "one kind to the end: rounds are not cut");
+                race.report_traced((Unguided, 1, 0, 0), 1.0, frame_ms, None, 1);
+                assert_eq!((race.unguided.frames, frame_kind(Some(&race), 2, 0, 0)), (1, Unguided));
+            }
+        }
+        // Untimed: the head start first.
+        let untimed = FrameRace::default();
+        assert!(!untimed.opens_unguided(0, 0));
+        assert_eq!(frame_kind(Some(&untimed), 0, 0, 0), Guided);
+        // One learning frame: the image's first frame is the unguided one. Four:
+        // their last is unguided, and its time is the unguided kind's.
+        let mut timed = FrameRace::default();
+        timed.set_time_left(100.0);
+        assert_eq!((frame_kind(Some(&timed), 0, 0, 1), frame_kind(Some(&timed), 1, 1, 1)), (Guided, Unguided));
+        assert_eq!(frame_kind(Some(&timed), 3, 3, 4), Unguided);
+        timed.report_traced((Unguided, 3, 3, 4), 1.0, 10.0, None, 1);
+        assert_eq!(timed.unguided.frames, 1);
+        assert!(!timed.explores());
+        assert_eq!(frame_kind(Some(&timed), 4, 3, 4), Unguided);
+    }
+
+    /// `RACE_MIN_FRAMES` is where the race's own rules start to allow a guided
+    /// frame after the head start: with every frame of either kind taking 1 ms
+    /// (guided frames take at least an unguided one's time), a race with a
+    /// budget of that many frames traces a guided burst, and one of two frames
+    /// fewer (the head start's frames are whole) traces unguided frames alone after it.
+    #[test]
+    fn below_the_minimum_budget_no_guided_frame_follows_the_head_start() {
+        let guided_after_head_start = |budget: f64| {
+            let mut race = FrameRace::default();
+            race.set_time_left(budget);
+            // The first frame, unguided: its time only (reported apart, so that
+            // the race still explores).
+            let (mut spent, mut g) = (1.0, 0);
+            while !race.head_start_over(g) {
+                race.set_time_left(budget - spent);
+                race.report_traced((FrameKind::Guided, g + 1, g, 0), 1.0, 1.0, None, 1);
+                (spent, g) = (spent + 1.0, g + 1);
+            }
+            while spent < budget {
+                race.set_time_left(budget - spent);
+                if race.next() == FrameKind::Guided {
+                    return true;
+                }
+                race.report(FrameKind::Unguided, 1.0, 1.0);
+                spent += 1.0;
+            }
+            false
+        };
+        assert!(guided_after_head_start(RACE_MIN_FRAMES.ceil()), "{RACE_MIN_FRAMES}");
+        assert!(!guided_after_head_start(RACE_MIN_FRAMES.floor() - 1.0), "{RACE_MIN_FRAMES}");
     }
 
     /// In a timed render a burst of the trailing kind, or the first guided one,
