@@ -121,7 +121,7 @@ void add_frame_variance(uint pixel, float sum, float sum_sq) {
     uint n = push.accum_frames > 0u ? push.accum_frames : push.learned_frames;
     float per_frame = float(SAMPLES_PER_FRAME);
     float before = n > 0u ? mean3(accum[pixel].sum.xyz) / (per_frame * float(n)) : sum / per_frame;
-    uint slot = uint(COUNTER_FRAME_VARIANCE) + 2u * (pixel % uint(FRAME_VARIANCE_SLOTS));
+    uint slot = uint(COUNTER_FRAME_VARIANCE) + uint(FRAME_VARIANCE_STRIDE) * (pixel % uint(FRAME_VARIANCE_SLOTS));
     counter_add64(slot, frame_variance_term(sum, sum_sq, before));
 }
 

@@ -333,15 +333,21 @@ impl GpuRenderer {
     }
 
     /// The mean relative variance of the last submission's `frames` frames, from
-    /// the kernel's `add_frame_variance` slots; None where it keeps none.
+    /// the kernel's `add_frame_variance` slots (each a low and a high word,
+    /// `FRAME_VARIANCE_STRIDE` words apart, the last within `NUM_COUNTERS`); None
+    /// where it keeps none.
     pub(super) fn read_frame_variance(&self, frames: u32) -> Option<f64> {
         if self.params.flags & shared::FLAG_FRAME_VARIANCE == 0 {
             return None;
         }
+        const _: () = assert!(
+            shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * (shared::FRAME_VARIANCE_SLOTS - 1) + 2
+                <= shared::NUM_COUNTERS
+        );
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
         let sum = (0..shared::FRAME_VARIANCE_SLOTS)
             .map(|i| {
-                let lo = (shared::COUNTER_FRAME_VARIANCE + 2 * i) as usize;
+                let lo = (shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * i) as usize;
                 c[lo] as u64 | (c[lo + 1] as u64) << 32
             })
             .sum::<u64>();
@@ -406,6 +412,10 @@ impl GpuRenderer {
         if flags & shared::FLAG_COUNTERS == 0 {
             return (None, None, None);
         }
+        const _: () = assert!(
+            shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * (shared::FRAME_VARIANCE_SLOTS - 1) + 2
+                <= shared::NUM_COUNTERS
+        );
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
         let zero = Some(c[shared::COUNTER_ZERO_PATHS as usize] as u64);
         if flags & shared::FLAG_COUNT_RAYS == 0 {
