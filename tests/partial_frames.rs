@@ -258,6 +258,32 @@ fn the_gpus_frame_cut_short_is_the_cpus() {
     common::assert_no_validation_messages(&ctx);
 }
 
+/// A round's first frame is taken to last as long as the last round's first
+/// frame (timed apart) where that was longer than its mean: a time left short
+/// of that gets no whole frame, only one cut short (or none), since a frame
+/// alone in its submission runs from cold caches. Before any round, no estimate.
+#[test]
+fn a_lone_last_frame_is_timed_as_a_rounds_first() {
+    let ctx = common::gpu();
+    let p = prepared(16, 12, 6);
+    let mut r = GpuRenderer::new(&ctx, &p).expect("renderer");
+    assert_eq!(r.lone_frame_ms(), None);
+    let t = r.render_frames(4).expect("round");
+    let mean = t.total_ms() / 4.0;
+    assert!(t.first_trace_ms > 0.0 && mean > 0.0, "lavapipe's timestamps time the frames: {t:?}");
+    let lone = r.lone_frame_ms().expect("an estimate");
+    assert_eq!(lone, t.first_trace_ms.max(mean));
+    eprintln!("a round of 4 frames: the first {} ms, the mean {mean} ms", t.first_trace_ms);
+    let round = r.render_round(10, Some(0.98 * lone)).expect("round");
+    assert!(
+        round.frames == 0 || round.cut_spp.is_some(),
+        "a whole frame in {} ms, a lone frame taken as {lone} ms (mean {mean} ms): {round:?}",
+        0.98 * lone
+    );
+    assert_eq!(round.time_up, Some(true));
+    common::assert_no_validation_messages(&ctx);
+}
+
 /// A timed round where no whole frame fits the time left traces a last frame
 /// cut short to the samples that do, whole subgroups of them, a frame of k
 /// samples taken to cost `CUT_FRAME_FIXED` of the last frame's time plus k / 64

@@ -458,6 +458,13 @@ impl FrameRace {
         }
     }
 
+    /// The mean time of a warm frame of `kind` (ms; a guided frame's with its
+    /// share of the learning passes), where frames of it were timed.
+    pub fn frame_ms(&self, kind: FrameKind) -> Option<f64> {
+        let record = if kind == FrameKind::Guided { &self.guided } else { &self.unguided };
+        (record.timed > 0).then_some(record.ms)
+    }
+
     /// The leading kind once both have been measured, else None: guided at
     /// first, and the other once it is more efficient by [`RACE_HYSTERESIS`].
     pub fn leader(&self) -> Option<FrameKind> {
@@ -664,9 +671,11 @@ mod tests {
         assert_eq!(race.next(), Unguided, "8 ms of guided frames in 79 ms left");
         race.set_time_left(80.0);
         assert_eq!(race.next(), Guided, "8 ms of guided frames in 80 ms left");
+        assert_eq!((race.frame_ms(Guided), race.frame_ms(Unguided)), (None, Some(1.0)));
         for _ in 0..2 {
             race.report(Guided, 1.0, 2.0);
         }
+        assert_eq!(race.frame_ms(Guided), Some(2.0));
         assert_eq!(race.leader(), Some(Unguided));
         // The leader's frames until the guided burst is due: guided is 2 times
         // behind, so 32 times its burst's 2 x 2 ms of 1 ms frames.

@@ -119,7 +119,8 @@ impl GpuRenderer {
     /// Renders a round of frames in one submission: as many as fill [`ROUND_MS`]
     /// at the last submission's time per frame, up to [`ROUND_MAX_FRAMES`] and
     /// `max`, and where `time_left_ms` is set, no more than fit it (each taken to
-    /// last as long). Where not one whole frame fits, a last frame cut short to
+    /// last as long, the first as long as the last round's first frame where that
+    /// was longer: [`lone_frame_ms`](Self::lone_frame_ms)). Where not one whole frame fits, a last frame cut short to
     /// the samples that do ([`samples_that_fit`](Self::samples_that_fit); none
     /// where none fit), which ends the film. Where a race chooses the image
     /// frames' kernel, no more than its run of one kind or the guided head
@@ -130,17 +131,18 @@ impl GpuRenderer {
         if let (Some(race), Some(left)) = (self.race.as_mut(), time_left_ms) {
             race.set_time_left(left);
         }
-        let per_frame = self.round_frame_ms.filter(|_| self.ctx.info.timestamps);
+        let per_frame = self.next_frame_ms();
         let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
         if let (Some(race), Some(l)) = (&self.race, &self.learning) {
             let image = self.counts.frames_traced >= l.cfg.learning_frames;
             count = count.min(if image { race.round_left(self.counts.guided_traced) } else { 1 });
         }
         let mut samples = shared::SAMPLES_PER_FRAME;
-        if let (Some(ms), Some(left)) = (per_frame, time_left_ms) {
-            count = count.min((left / ms).max(0.0) as u32);
+        if let (Some(ms), Some(first), Some(left)) = (per_frame, self.lone_frame_ms(), time_left_ms) {
+            let fit = if left >= first { 1.0 + (left - first) / ms } else { 0.0 };
+            count = count.min(fit as u32);
             if count == 0 {
-                samples = self.samples_that_fit(ms, left);
+                samples = self.samples_that_fit(first, left);
                 if samples == 0 {
                     return Ok(RoundReport { frames: 0, time_up: Some(true), ..Default::default() });
                 }
@@ -153,7 +155,7 @@ impl GpuRenderer {
         let cut = samples < shared::SAMPLES_PER_FRAME;
         // As the session judges one frame: the next is taken to last as long as
         // these did, and a frame cut short to the samples that fit.
-        let time_up = match (self.round_frame_ms, time_left_ms) {
+        let time_up = match (self.lone_frame_ms(), time_left_ms) {
             _ if cut => Some(true),
             (Some(next), Some(left)) if timestamps => Some(self.samples_that_fit(next, left - ms) == 0),
             (_, None) if timestamps => Some(false),
@@ -169,6 +171,28 @@ impl GpuRenderer {
             variance: t.variance.filter(|_| !cut),
             cut_spp: cut.then_some(samples),
         })
+    }
+
+    /// What a round's first frame is taken to last (ms): the last submission's
+    /// time per frame, or its first frame's (timed apart) where that was longer.
+    /// The first of a submission runs from cold caches, and a frame alone in its
+    /// submission (a timed render's last, whole or cut short) takes about as
+    /// long, at small sizes much longer than a warm one. None before the first
+    /// submission or without timestamps.
+    pub fn lone_frame_ms(&self) -> Option<f64> {
+        let ms = self.next_frame_ms()?;
+        Some(self.round_first_ms.map_or(ms, |first| first.max(ms)))
+    }
+
+    /// What a frame of the next round is taken to last (ms): the last
+    /// submission's time per frame, or where a race chooses the kernel, its
+    /// mean for the next frame's kind where that is longer (a round of guided
+    /// frames after unguided ones takes longer). None before the first
+    /// submission or without timestamps.
+    fn next_frame_ms(&self) -> Option<f64> {
+        let ms = self.round_frame_ms.filter(|_| self.ctx.info.timestamps)?;
+        let kind_ms = self.race.as_ref().filter(|_| self.learning.is_some()).and_then(|r| r.frame_ms(self.next_kind()));
+        Some(kind_ms.map_or(ms, |k| k.max(ms)))
     }
 
     /// The samples per pixel of a frame that fit `left_ms` where a whole one
@@ -299,6 +323,7 @@ impl GpuRenderer {
             t.first_trace_ms = self.timer.ticks_to_ms(s[0], s[1]);
             if !cut {
                 self.round_frame_ms = Some(t.total_ms() / count as f64);
+                self.round_first_ms = Some(t.first_trace_ms);
             }
         }
         // A frame cut short ends the render; the kernel sums no variance for it.

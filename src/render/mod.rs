@@ -147,6 +147,8 @@ pub struct GpuRenderer {
     /// GPU time per frame of the last submission, its learning passes included
     /// (timestamps): how many frames the next round takes ([`ROUND_MS`]).
     round_frame_ms: Option<f64>,
+    /// Its first frame's path tracing (ms), timed apart (`GpuRenderer::lone_frame_ms`).
+    round_first_ms: Option<f64>,
 }
 
 /// A GPU renderer's count of the frames it traced and accumulated: one value, so
@@ -407,6 +409,7 @@ impl GpuRenderer {
             ablate: 0,
             lose_device_after: std::env::var(DEVICE_LOST_HOOK).ok().and_then(|v| v.trim().parse().ok()),
             round_frame_ms: None,
+            round_first_ms: None,
         };
         renderer.bind_path_pipelines();
         Ok(renderer)
