@@ -257,8 +257,7 @@ impl FrameRace {
     /// the head start's frames did.
     fn burst_fits(&self, kind: FrameKind) -> bool {
         let Some(left) = self.time_left_ms else { return true };
-        let record = if kind == FrameKind::Guided { &self.guided } else { &self.unguided };
-        let ms = if record.timed > 0 { record.ms } else { self.head_frame_ms().unwrap_or(0.0) };
+        let ms = self.frame_ms(kind).or(self.head_frame_ms()).unwrap_or(0.0);
         RACE_BURST as f64 * ms <= RACE_EXPLORE_SHARE * left
     }
 

@@ -191,7 +191,7 @@ impl GpuRenderer {
     /// submission or without timestamps.
     fn next_frame_ms(&self) -> Option<f64> {
         let ms = self.round_frame_ms.filter(|_| self.ctx.info.timestamps)?;
-        let kind_ms = self.race.as_ref().filter(|_| self.learning.is_some()).and_then(|r| r.frame_ms(self.next_kind()));
+        let kind_ms = self.race.as_ref().and_then(|r| r.frame_ms(self.next_kind()));
         Some(kind_ms.map_or(ms, |k| k.max(ms)))
     }
 
@@ -437,10 +437,6 @@ impl GpuRenderer {
         if flags & shared::FLAG_COUNTERS == 0 {
             return (None, None, None);
         }
-        const _: () = assert!(
-            shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * (shared::FRAME_VARIANCE_SLOTS - 1) + 2
-                <= shared::NUM_COUNTERS
-        );
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
         let zero = Some(c[shared::COUNTER_ZERO_PATHS as usize] as u64);
         if flags & shared::FLAG_COUNT_RAYS == 0 {
