@@ -24,6 +24,7 @@ fn main() {
     const VARIANTS: &[(&str, &str, &[&str])] = &[
         ("pathtrace", "pathtrace_guided", &["RLPT_GUIDING"]),
         ("pathtrace", "pathtrace_guided_partitioned", &["RLPT_GUIDING", "RLPT_PARTITIONED"]),
+        ("pathtrace", "pathtrace_racing", &["RLPT_FRAME_VARIANCE"]),
         ("probe_atomics", "probe_atomics_partitioned", &["RLPT_PARTITIONED"]),
     ];
     let compiler = shaderc::Compiler::new().expect("shaderc compiler");

@@ -266,15 +266,15 @@
 // times min(subgroup size, 64) on the host, the rays the subgroups would trace if
 // every lane's path were as long as its subgroup's longest (src/render/mod.rs).
 #define COUNTER_SUBGROUP_SEGMENTS 3
-// FRAME_VARIANCE_SLOTS 64-bit sums of the pixels' relative variance, in fixed
-// point (FRAME_VARIANCE_SCALE per unit, each pixel's term clamped to 65536): the
-// pixels spread over the slots so that few atomics meet on one word, and the
-// slots FRAME_VARIANCE_STRIDE words apart, one to a 128-byte line, so that
-// their atomics do not queue on a few lines of the cache.
+// FRAME_VARIANCE_SLOTS float sums of the pixels' relative variance (each pixel's
+// term clamped to 65535), added by atomics that return nothing, so that no pixel
+// waits on one: the pixels spread over the slots so that few atomics meet on one
+// word, and the slots FRAME_VARIANCE_STRIDE words apart, one to a 128-byte line,
+// so that their atomics do not queue on a few lines of the cache.
 #define COUNTER_FRAME_VARIANCE 5
 #define FRAME_VARIANCE_SLOTS 64
 #define FRAME_VARIANCE_STRIDE 32
-#define FRAME_VARIANCE_SCALE 65536.0
+#define FRAME_VARIANCE_MAX 65535.0
 #define NUM_COUNTERS 2053
 // learn.comp: invocations per workgroup of the fold (phase 0), and of the rows'
 // rebuild (phase 1), whose group builds one row at a time in shared memory

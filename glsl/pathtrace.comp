@@ -5,6 +5,12 @@
 // src/cpu/path.rs (`trace_path`, stage for stage) and src/cpu/mod.rs (`render`)
 // are the same algorithm on the CPU.
 #extension GL_KHR_shader_subgroup_arithmetic : require
+// Kernels that may sum a race's frame variance (add_frame_variance): the guided
+// ones and the unguided one a race traces (build.rs `pathtrace_racing`).
+#if defined(RLPT_GUIDING) || defined(RLPT_FRAME_VARIANCE)
+#define RLPT_WEIGHS_FRAMES
+#extension GL_EXT_shader_atomic_float : require
+#endif
 // Compiled for the render at hand: the specialization constants of common.glsl
 // (guide.glsl takes the table's shape from them instead of params where this is set).
 #define RLPT_SPECIALIZED
@@ -43,6 +49,10 @@ struct AccumPixel {
 layout(std430, set = 0, binding = BINDING_ACCUM) buffer Accum { AccumPixel accum[]; };
 
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
+#ifdef RLPT_WEIGHS_FRAMES
+// The same buffer's words as floats: add_frame_variance's slots.
+layout(std430, set = 0, binding = BINDING_COUNTERS) buffer FrameVarianceSlots { float frame_variance_slots[]; };
+#endif
 #include "counters.glsl"
 
 // frame: frames traced so far (the recording schedule, learned roulette's wait);
@@ -103,14 +113,15 @@ void accumulate(uint pixel, vec3 sum) {
     accum[pixel].m2_frame_mean.xyz += w * delta * (m - mean_new);
 }
 
+#ifdef RLPT_WEIGHS_FRAMES
 // src/film.rs `frame_variance_term`: the relative variance of the frame's mean
 // of the pixel (mean3), from its samples' sum and sum of squares, over the square
-// of the pixel's mean before the frame plus relMSE's 0.01, in fixed point.
-uint frame_variance_term(float sum, float sum_sq, float mean_before) {
+// of the pixel's mean before the frame plus relMSE's 0.01, at most FRAME_VARIANCE_MAX.
+float frame_variance_term(float sum, float sum_sq, float mean_before) {
     float n = float(SAMPLES_PER_FRAME);
     float var = max((sum_sq - sum * sum / n) / (n - 1.0), 0.0) / n;
     float rel = var / (mean_before * mean_before + 0.01);
-    return uint(min(rel, 65535.0) * FRAME_VARIANCE_SCALE);
+    return min(rel, FRAME_VARIANCE_MAX);
 }
 
 // Adds the pixel's frame_variance_term to its slot (src/render/mod.rs reads the
@@ -122,8 +133,9 @@ void add_frame_variance(uint pixel, float sum, float sum_sq) {
     float per_frame = float(SAMPLES_PER_FRAME);
     float before = n > 0u ? mean3(accum[pixel].sum.xyz) / (per_frame * float(n)) : sum / per_frame;
     uint slot = uint(COUNTER_FRAME_VARIANCE) + uint(FRAME_VARIANCE_STRIDE) * (pixel % uint(FRAME_VARIANCE_SLOTS));
-    counter_add64(slot, frame_variance_term(sum, sum_sq, before));
+    atomicAdd(frame_variance_slots[slot], frame_variance_term(sum, sum_sq, before));
 }
+#endif
 
 // src/cpu/mod.rs `material_bsdf`: the material's BSDF at a hit of texture
 // coordinates uv, its textures applied (src/math/texture.rs `apply_textures`)
@@ -244,8 +256,13 @@ const bool COUNTERS = (FLAGS & FLAG_COUNTERS) != 0u;
 // function that reads it, and COUNT_RAYS is read in the path loop and in main; written
 // as COUNTERS && ..., the module was invalid SPIR-V and lavapipe rejected it.
 const bool COUNT_RAYS = (FLAGS & FLAG_COUNT_RAYS) != 0u;
-// The frame's relative variance is summed (add_frame_variance).
+// The frame's relative variance is summed (add_frame_variance), by the kernels
+// built for it (the host picks them where it sets the flag).
+#ifdef RLPT_WEIGHS_FRAMES
 const bool FRAME_VARIANCE = (FLAGS & FLAG_FRAME_VARIANCE) != 0u;
+#else
+const bool FRAME_VARIANCE = false;
+#endif
 // Where trace_path counts its rays: with the depth in one register where the
 // scene has roulette (see `depth_rays`), in `segments` otherwise. DEPTH selects
 // on the specialization constant so that kernels without roulette keep the plain
@@ -653,13 +670,16 @@ void main() {
 
     // Every invocation takes part in the reduction, inside the image or not.
     vec3 sum;
+#ifdef RLPT_WEIGHS_FRAMES
     if (FRAME_VARIANCE) {
         float l = mean3(radiance);
         vec4 s = reduce_pixel_sum4(vec4(radiance, l * l));
         sum = s.xyz;
         // A frame cut short ends the render: the race does not weigh it.
         if (inside && lane == 0u && whole) add_frame_variance(pixel, mean3(sum), s.w);
-    } else {
+    } else
+#endif
+    {
         sum = reduce_pixel_sum(radiance);
     }
     if (inside && lane == 0u) {

@@ -110,14 +110,14 @@ pub fn accumulate_samples(
 
 /// `pathtrace.comp` `frame_variance_term`: the relative variance of a frame's
 /// mean of a pixel (mean3), from its samples' `sum` and `sum_sq`, over the
-/// square of the pixel's mean before the frame plus relMSE's 0.01, in fixed
-/// point (`FRAME_VARIANCE_SCALE` per unit, clamped below 65536). Summed over the
-/// pixels, it is what a [`crate::guide::FrameRace`] weighs a frame by.
-pub fn frame_variance_term(sum: f32, sum_sq: f32, mean_before: f32) -> u32 {
+/// square of the pixel's mean before the frame plus relMSE's 0.01, at most
+/// `FRAME_VARIANCE_MAX`. Summed over the pixels, it is what a
+/// [`crate::guide::FrameRace`] weighs a frame by.
+pub fn frame_variance_term(sum: f32, sum_sq: f32, mean_before: f32) -> f32 {
     let n = shared::SAMPLES_PER_FRAME as f32;
     let var = ((sum_sq - sum * sum / n) / (n - 1.0)).max(0.0) / n;
     let rel = var / (mean_before * mean_before + 0.01);
-    (rel.min(65535.0) * shared::FRAME_VARIANCE_SCALE) as u32
+    rel.min(shared::FRAME_VARIANCE_MAX)
 }
 
 /// Host memory a render of `pixels` pixels holds at its peak, about: the film, the

@@ -225,16 +225,16 @@ fn a_round_times_its_first_frame_apart() {
 /// none; 32 zeros and 32 twos have sample variance 64/63, their mean 1/64 of it.
 #[test]
 fn frame_variance_term_is_the_relative_variance_of_the_frames_mean() {
-    let scale = shared::FRAME_VARIANCE_SCALE as f64;
-    assert_eq!(frame_variance_term(64.0 * 0.7, 64.0 * 0.49, 0.7), 0);
-    let want = (64.0 / 63.0) / 64.0 / (1.0 + 0.01) * scale;
+    // Equal samples: zero up to the rounding of sum_sq - sum^2 / n.
+    assert!(frame_variance_term(64.0 * 0.7, 64.0 * 0.49, 0.7) < 1e-6);
+    let want = (64.0 / 63.0) / 64.0 / (1.0 + 0.01);
     let got = frame_variance_term(64.0, 128.0, 1.0) as f64;
-    assert!((got - want).abs() <= 1.0, "got {got}, want {want}");
+    assert!((got - want).abs() <= 1e-6 * want, "got {got}, want {want}");
     // Relative to the pixel's mean before the frame, 0.01 added as relMSE does.
-    let want = (64.0 / 63.0) / 64.0 / (0.25 + 0.01) * scale;
-    assert!((frame_variance_term(64.0, 128.0, 0.5) as f64 - want).abs() <= 1.0);
-    // A firefly is clamped, not wrapped.
-    assert_eq!(frame_variance_term(1e6, 1e12, 0.0), (65535.0 * scale) as u32);
+    let want = (64.0 / 63.0) / 64.0 / (0.25 + 0.01);
+    assert!((frame_variance_term(64.0, 128.0, 0.5) as f64 - want).abs() <= 1e-6 * want);
+    // A firefly is clamped.
+    assert_eq!(frame_variance_term(1e6, 1e12, 0.0), shared::FRAME_VARIANCE_MAX);
 }
 
 /// `rlpt render --unguided-frames`: `auto` traces unguided frames and `--stats`

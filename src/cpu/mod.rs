@@ -90,7 +90,7 @@ pub struct FrameCounters {
     pub segments: u64,
     /// The pixels' `crate::film::frame_variance_term`s summed (0 where no race
     /// weighs the frame).
-    pub variance: u64,
+    pub variance: f64,
 }
 
 impl FrameCounters {
@@ -355,8 +355,7 @@ impl CpuRenderer {
         }
         let pixels = (p.width * p.height) as f64;
         // A frame cut short is the render's last: no race reads its weight.
-        let variance =
-            (weigh && whole).then(|| counters.variance as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels);
+        let variance = (weigh && whole).then(|| counters.variance / pixels);
         if let (Some(race), Some(kind), Some(v)) =
             (self.learning.as_mut().and_then(|l| l.race.as_mut()), kind, variance)
         {
@@ -545,7 +544,7 @@ impl FrameSetup<'_> {
     ) {
         if weigh {
             let before = pixel_mean_before(acc, self.accum_frames, self.learned_frames, mean3(px.sum));
-            counters.variance += crate::film::frame_variance_term(mean3(px.sum), px.sum_sq, before) as u64;
+            counters.variance += crate::film::frame_variance_term(mean3(px.sum), px.sum_sq, before) as f64;
         }
         crate::film::accumulate_samples(
             acc,

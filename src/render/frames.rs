@@ -358,7 +358,7 @@ impl GpuRenderer {
     }
 
     /// The mean relative variance of the last submission's `frames` frames, from
-    /// the kernel's `add_frame_variance` slots (each a low and a high word,
+    /// the kernel's `add_frame_variance` slots (each a float word,
     /// `FRAME_VARIANCE_STRIDE` words apart, the last within `NUM_COUNTERS`); None
     /// where it keeps none.
     pub(super) fn read_frame_variance(&self, frames: u32) -> Option<f64> {
@@ -366,18 +366,15 @@ impl GpuRenderer {
             return None;
         }
         const _: () = assert!(
-            shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * (shared::FRAME_VARIANCE_SLOTS - 1) + 2
-                <= shared::NUM_COUNTERS
+            shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * (shared::FRAME_VARIANCE_SLOTS - 1)
+                < shared::NUM_COUNTERS
         );
-        let c: Vec<u32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
+        let c: Vec<f32> = bytemuck::pod_collect_to_vec(self.counters_readback.read());
         let sum = (0..shared::FRAME_VARIANCE_SLOTS)
-            .map(|i| {
-                let lo = (shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * i) as usize;
-                c[lo] as u64 | (c[lo + 1] as u64) << 32
-            })
-            .sum::<u64>();
+            .map(|i| c[(shared::COUNTER_FRAME_VARIANCE + shared::FRAME_VARIANCE_STRIDE * i) as usize] as f64)
+            .sum::<f64>();
         let pixels = (self.width * self.height) as f64;
-        Some(sum as f64 / shared::FRAME_VARIANCE_SCALE as f64 / pixels / frames as f64)
+        Some(sum / pixels / frames as f64)
     }
 
     /// Renders one frame in its own submission with a timestamp after each pass:

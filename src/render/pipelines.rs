@@ -35,7 +35,10 @@ pub(super) fn unguided_twin(
     p: &crate::layout::RenderParams,
     geometry: &[u32],
 ) -> Result<Pipeline, GpuError> {
-    path_pipeline(ctx, "pathtrace", false, false, p, geometry)
+    // A race's unguided frames sum their variance by float atomics, which the plain
+    // unguided kernel leaves out for devices without them.
+    let kernel = if p.flags & shared::FLAG_FRAME_VARIANCE != 0 { "pathtrace_racing" } else { "pathtrace" };
+    path_pipeline(ctx, kernel, false, false, p, geometry)
 }
 
 /// The path-tracing pipeline, specialized to the scene and settings of `p`;
