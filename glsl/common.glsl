@@ -167,6 +167,9 @@
 #define BINDING_QUADS 3
 #define BINDING_LIGHTS 4
 #define BINDING_ACCUM 5
+// Per pixel the Kahan compensation of the accumulation's sum (pathtrace.comp
+// `accumulate`, `kahan_add`), kept on the device alone.
+#define BINDING_ACCUM_CARRY 28
 // Learned guiding (pathtrace.comp): the table, the targets' sums since it last learned, the sampling rows (alias tables).
 #define BINDING_Q 6
 #define BINDING_FRAME_SUMS 7

@@ -19,6 +19,7 @@
 #include "geometry.glsl"
 #include "camera.glsl"
 #include "reduce.glsl"
+#include "film.glsl"
 // params.flags and params.max_bounces, fixed for the pipeline (the renderer
 // builds a new one when they change). FLAGS before guide.glsl, which reads it.
 layout(constant_id = SPEC_FLAGS) const uint FLAGS = 0u;
@@ -47,6 +48,8 @@ struct AccumPixel {
     vec4 m2_frame_mean;  // Welford: squared deviations of the per-frame means
 };
 layout(std430, set = 0, binding = BINDING_ACCUM) buffer Accum { AccumPixel accum[]; };
+// The sums' Kahan compensation per pixel (xyz): `accumulate`.
+layout(std430, set = 0, binding = BINDING_ACCUM_CARRY) buffer AccumCarry { vec4 accum_carry[]; };
 
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
 #ifdef RLPT_WEIGHS_FRAMES
@@ -96,20 +99,28 @@ void accumulate(uint pixel, vec3 sum) {
     if (n == 0u && push.learned_frames > 0u && push.fold_learned != 0u) {
         accum[pixel].sum = vec4(accum[pixel].sum.xyz / float(push.learned_frames), 0.0);
         accum[pixel].m2_frame_mean = vec4(0.0);
+        accum_carry[pixel] = vec4(0.0);
         n = 1u;
     } else if (n == 0u) {
         float learned = 0.0;
         if (push.learned_frames > 0u) learned = mean3(accum[pixel].sum.xyz);
         accum[pixel].sum = vec4(sum, learned);
         accum[pixel].m2_frame_mean = vec4(0.0);
+        accum_carry[pixel] = vec4(0.0);
         return;
     }
     float w = float(push.samples) / per_frame;
-    vec3 mean_old = accum[pixel].sum.xyz / (per_frame * float(n));
+    vec3 total = accum[pixel].sum.xyz;
+    vec3 mean_old = total / (per_frame * float(n));
     vec3 m = sum / float(push.samples);
     vec3 delta = m - mean_old;
     vec3 mean_new = mean_old + delta * w / (float(n) + w);
-    accum[pixel].sum.xyz += sum;
+    // Compensated: after a million frames a frame's sum is a millionth of the
+    // pixel's, and added plainly its low bits would be lost.
+    vec3 carry = accum_carry[pixel].xyz;
+    kahan_add(total, carry, sum);
+    accum[pixel].sum.xyz = total;
+    accum_carry[pixel].xyz = carry;
     accum[pixel].m2_frame_mean.xyz += w * delta * (m - mean_new);
 }
 

@@ -205,7 +205,7 @@ fn a_render_larger_than_the_device_memory_says_what_to_do() {
     };
     let e = run(&["render", "scenes/smallpt.toml", "--width", "1024", "--height", "768", "--spp", "64"]);
     assert!(
-        e.contains("the render needs about 49 MB of GPU memory (24 MB for the 1024x768 image, 24 MB to read it back)")
+        e.contains("the render needs about 61 MB of GPU memory (36 MB for the 1024x768 image, 24 MB to read it back)")
             && e.contains("has 16 MB: render a smaller image (--width, --height), or on the CPU (--device cpu)"),
         "{e}"
     );

@@ -538,3 +538,49 @@ fn frame_counters_sum_past_32_bits() {
     assert_eq!(got[0] as u64 | (got[1] as u64) << 32, want);
     common::assert_no_validation_messages(&ctx);
 }
+
+/// glsl/film.glsl's `kahan_add` is src/film.rs's bit for bit, and after 2^20
+/// terms of nearly one size (a furnace's frames; each exact in f32, so that the
+/// devices add the same terms) its sum is the exact one to float precision where
+/// a plain f32 sum has lost a part in ten thousand.
+#[test]
+fn the_compensated_sum_matches_its_twin_and_keeps_a_million_terms() {
+    let ctx = common::gpu();
+    let (count, invocations, per_dispatch) = (1u32 << 20, 8u32, 1u32 << 15);
+    let zeros = vec![0u8; invocations as usize * 32];
+    let state = Buffer::with_data(&ctx, "film state", &zeros, false).unwrap();
+    let p = Pipeline::new(&ctx, "probe_film", shader("probe_film"), &[Binding::Storage], 12).unwrap();
+    p.bind(&[&state]);
+    // Many dispatches, each adding its share of the terms to what the last left.
+    ctx.run_commands("probe film", |cmd| {
+        for first in (0..count).step_by(per_dispatch as usize) {
+            p.cmd_dispatch(cmd, [1, 1, 1], bytemuck::cast_slice(&[first, per_dispatch, invocations]));
+            ctx.barrier(cmd);
+        }
+    })
+    .unwrap();
+    let got: Vec<[u32; 8]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &state));
+    for (i, g) in got.iter().enumerate() {
+        let term = |k: u32| {
+            let wobble = 1.0 + ((k % 7) as f32 - 3.0) / 4096.0;
+            [23.6875f32, 11.125, 40.3125].map(|b| b * ((i as f32 + 1.0) * wobble))
+        };
+        let (mut sum, mut carry, mut plain, mut exact) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 3], [0.0f64; 3]);
+        for k in 0..count {
+            for (c, x) in term(k).into_iter().enumerate() {
+                rlpt::film::kahan_add(&mut sum[c], &mut carry[c], x);
+                plain[c] += x;
+                exact[c] += x as f64;
+            }
+        }
+        assert_eq!(g[..3], sum.map(f32::to_bits), "invocation {i}: the sums");
+        assert_eq!(g[4..7], carry.map(f32::to_bits), "invocation {i}: the carries");
+        for c in 0..3 {
+            let err = (f32::from_bits(g[c]) as f64 - exact[c]).abs() / exact[c];
+            assert!(err < 1e-7, "invocation {i}, channel {c}: relative error {err:e}");
+            let plain_err = (plain[c] as f64 - exact[c]).abs() / exact[c];
+            assert!(plain_err > 1e-4, "invocation {i}, channel {c}: a plain sum lost only {plain_err:e}");
+        }
+    }
+    common::assert_no_validation_messages(&ctx);
+}

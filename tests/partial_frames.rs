@@ -159,16 +159,18 @@ fn the_variance_with_a_frame_cut_short_is_unbiased() {
                 [s, s, s]
             };
             let (mut acc, mut plain) = (AccumPixel::default(), AccumPixel::default());
+            let (mut carry, mut plain_carry) = ([0.0f32; 3], [0.0f32; 3]);
             for f in 0..whole {
                 let s = frame(64);
-                accumulate(&mut acc, f, 0, Learned::Fold, s);
-                accumulate(&mut plain, f, 0, Learned::Fold, s);
+                accumulate(&mut acc, &mut carry, f, 0, Learned::Fold, s);
+                accumulate(&mut plain, &mut plain_carry, f, 0, Learned::Fold, s);
             }
             let s = frame(k);
-            accumulate_samples(&mut acc, whole, 0, Learned::Fold, s, k);
+            accumulate_samples(&mut acc, &mut carry, whole, 0, Learned::Fold, s, k);
             // The cut frame's mean scaled to a whole frame's sum, and weighted as one.
-            accumulate(&mut plain, whole, 0, Learned::Fold, s.map(|v| v * 64.0 / k as f32));
-            let film = Film { width: 1, height: 1, frames: whole + 1, partial_spp: k, pixels: vec![acc] };
+            accumulate(&mut plain, &mut plain_carry, whole, 0, Learned::Fold, s.map(|v| v * 64.0 / k as f32));
+            let film =
+                Film { width: 1, height: 1, frames: whole + 1, partial_spp: k, pixels: vec![acc], carry: vec![carry] };
             let v = film.variance_of_mean().expect("2 frames or more").pixels[0][0] as f64;
             sum += v;
             sum_sq += v * v;

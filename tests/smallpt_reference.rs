@@ -148,7 +148,7 @@ fn render_reference(scene: &Scene, width: u32, height: u32, frames: u32) -> Film
     let aspect = width as f64 / height as f64;
     let mut film = Film::new(width, height);
     for frame in 0..frames {
-        film.pixels.par_iter_mut().enumerate().for_each(|(i, acc)| {
+        film.pixels.par_iter_mut().zip(film.carry.par_iter_mut()).enumerate().for_each(|(i, (acc, carry))| {
             let (x, y) = ((i as u32 % width) as f64, (i as u32 / width) as f64);
             let mut rng = Rng((i as u64) << 32 | frame as u64);
             let mut sum = [0.0f64; 3];
@@ -159,7 +159,7 @@ fn render_reference(scene: &Scene, width: u32, height: u32, frames: u32) -> Film
                 let o = add(v(cam.position), mul(d, cam.near as f64));
                 sum = add(sum, radiance(scene, o, d, &mut rng));
             }
-            rlpt::film::accumulate(acc, frame, 0, rlpt::film::Learned::Fold, sum.map(|x| x as f32));
+            rlpt::film::accumulate(acc, carry, frame, 0, rlpt::film::Learned::Fold, sum.map(|x| x as f32));
         });
         film.frames += 1;
     }

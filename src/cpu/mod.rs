@@ -322,12 +322,13 @@ impl CpuRenderer {
         let no_sums = || scene.guide.as_ref().map_or_else(|| FrameSums::new(0, 0), FrameSums::for_config);
         let (sums, counters, samples) = match end {
             FrameEnd::Whole => {
-                let (sums, counters) = setup.trace_whole(&mut self.film.pixels, weigh, &no_sums);
+                let (sums, counters) = setup.trace_whole(&mut self.film.pixels, &mut self.film.carry, weigh, &no_sums);
                 self.pass_ms = None;
                 (sums, counters, shared::SAMPLES_PER_FRAME)
             }
             FrameEnd::Deadline(_) | FrameEnd::Samples(_) => {
-                let traced = passes::trace_passes(&setup, &mut self.film.pixels, end, weigh, &no_sums);
+                let traced =
+                    passes::trace_passes(&setup, &mut self.film.pixels, &mut self.film.carry, end, weigh, &no_sums);
                 self.pass_ms = traced.pass_ms;
                 (traced.sums, traced.counters, traced.samples)
             }
@@ -471,28 +472,30 @@ impl FrameSetup<'_> {
     fn trace_whole(
         &self,
         film: &mut [crate::layout::AccumPixel],
+        carry: &mut [[f32; 3]],
         weigh: bool,
         no_sums: &(dyn Fn() -> FrameSums + Sync),
     ) -> (Option<FrameSums>, FrameCounters) {
-        let traced: Vec<(Option<FrameSums>, FrameCounters)> =
-            row_groups(film.chunks_mut(self.scene.params.width as usize))
-                .into_par_iter()
-                .map(|rows| {
-                    let (mut sums, mut counters) = (None::<FrameSums>, FrameCounters::default());
-                    for (y, row) in rows {
-                        let record = self.records(y);
-                        for (x, acc) in row.iter_mut().enumerate() {
-                            let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
-                            for sample in 0..shared::SAMPLES_PER_FRAME {
-                                let learn = record.then(|| sums.get_or_insert_with(no_sums) as &mut dyn Recorder);
-                                self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
-                            }
-                            self.finish_pixel(acc, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
-                        }
+        let traced: Vec<(Option<FrameSums>, FrameCounters)> = row_groups(
+            film.chunks_mut(self.scene.params.width as usize).zip(carry.chunks_mut(self.scene.params.width as usize)),
+        )
+        .into_par_iter()
+        .map(|rows| {
+            let (mut sums, mut counters) = (None::<FrameSums>, FrameCounters::default());
+            for (y, (row, carries)) in rows {
+                let record = self.records(y);
+                for (x, (acc, carry)) in row.iter_mut().zip(carries.iter_mut()).enumerate() {
+                    let (mut px, estimate) = (PixelSums::default(), self.estimate(acc));
+                    for sample in 0..shared::SAMPLES_PER_FRAME {
+                        let learn = record.then(|| sums.get_or_insert_with(no_sums) as &mut dyn Recorder);
+                        self.trace_sample((x as u32, y), sample, estimate, learn, &mut px, &mut counters);
                     }
-                    (sums, counters)
-                })
-                .collect();
+                    self.finish_pixel(acc, carry, px, shared::SAMPLES_PER_FRAME, weigh, &mut counters);
+                }
+            }
+            (sums, counters)
+        })
+        .collect();
         traced.into_iter().fold((None, FrameCounters::default()), |(all, c), (sums, counters)| {
             (add_sums(all, sums), c.plus(counters))
         })
@@ -537,6 +540,7 @@ impl FrameSetup<'_> {
     pub(super) fn finish_pixel(
         &self,
         acc: &mut crate::layout::AccumPixel,
+        carry: &mut [f32; 3],
         px: PixelSums,
         samples: u32,
         weigh: bool,
@@ -548,6 +552,7 @@ impl FrameSetup<'_> {
         }
         crate::film::accumulate_samples(
             acc,
+            carry,
             self.accum_frames,
             self.learned_frames,
             self.learned,

@@ -72,6 +72,7 @@ fn group(end: FrameEnd, done: u32, last: u32, pass_ms: Option<f64>, now: Instant
 pub(super) fn trace_passes(
     setup: &FrameSetup,
     film: &mut [AccumPixel],
+    carry: &mut [[f32; 3]],
     end: FrameEnd,
     weigh: bool,
     no_sums: &(dyn Fn() -> FrameSums + Sync),
@@ -127,11 +128,12 @@ pub(super) fn trace_passes(
     let weigh = weigh && samples == shared::SAMPLES_PER_FRAME;
     let finished = film
         .par_chunks_mut(width)
+        .zip(carry.par_chunks_mut(width))
         .zip(pixels.par_chunks(width))
-        .map(|(row, sums)| {
+        .map(|((row, carries), sums)| {
             let mut c = FrameCounters::default();
-            for (acc, &px) in row.iter_mut().zip(sums) {
-                setup.finish_pixel(acc, px, samples, weigh, &mut c);
+            for ((acc, carry), &px) in row.iter_mut().zip(carries.iter_mut()).zip(sums) {
+                setup.finish_pixel(acc, carry, px, samples, weigh, &mut c);
             }
             c
         })

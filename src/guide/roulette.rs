@@ -75,20 +75,20 @@ mod tests {
         // Left out of the image (Keep), the image's first frame, of mean3 2 (and 1,
         // 2, 3 per channel), replaces them and keeps their share.
         let frame = [per_frame, 2.0 * per_frame, 3.0 * per_frame];
-        crate::film::accumulate(&mut acc, 0, n, Learned::Keep, frame);
+        crate::film::accumulate(&mut acc, &mut [0.0; 3], 0, n, Learned::Keep, frame);
         assert_eq!(acc.sum, [per_frame, 2.0 * per_frame, 3.0 * per_frame, 6.0 * per_frame * n as f32]);
         assert_eq!(acc.m2_frame_mean, [0.0; 4]);
         assert_eq!(roulette_estimate(&acc, 1, n, n + 1), (2.0 + 6.0 * n as f32) / (n + 1) as f32);
         // Folded (Fold), their mean (3, 6, 9 per sample) is the image's
         // first frame and this one its second; their spread is not the image's.
         let mut folded = held;
-        crate::film::accumulate(&mut folded, 0, n, Learned::Fold, frame);
+        crate::film::accumulate(&mut folded, &mut [0.0; 3], 0, n, Learned::Fold, frame);
         assert_eq!(folded.sum, [4.0 * per_frame, 8.0 * per_frame, 12.0 * per_frame, 0.0]);
         // Welford over the two frame means (3, 6, 9) and (1, 2, 3): half their squared difference.
         assert_eq!(folded.m2_frame_mean, [2.0, 8.0, 18.0, 0.0]);
         assert_eq!(roulette_estimate(&folded, 2, 0, n + 1), 4.0);
         // Without learning frames the first frame keeps nothing of what the pixel held.
-        crate::film::accumulate(&mut acc, 0, 0, Learned::Fold, [per_frame; 3]);
+        crate::film::accumulate(&mut acc, &mut [0.0; 3], 0, 0, Learned::Fold, [per_frame; 3]);
         assert_eq!(acc.sum, [per_frame, per_frame, per_frame, 0.0]);
     }
 }

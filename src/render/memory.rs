@@ -42,7 +42,10 @@ pub fn scene_geometry_bytes(scene: &crate::layout::SceneArrays) -> u64 {
 pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result<(), GpuError> {
     let available = ctx.info.device_memory;
     let p = &scene.params;
-    let accum = p.width as u64 * p.height as u64 * std::mem::size_of::<AccumPixel>() as u64;
+    let pixels = p.width as u64 * p.height as u64;
+    let accum = pixels * std::mem::size_of::<AccumPixel>() as u64;
+    // The sums' Kahan compensation, a vec4 a pixel, on the device alone.
+    let carry = pixels * 16;
     let table = scene.guide.as_ref().map_or(0, |cfg| {
         let entries = cfg.entries() as u64;
         let cells = cfg.cells() as u64;
@@ -66,11 +69,11 @@ pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result
     .sum::<u64>();
     let geometry = scene_geometry_bytes(scene);
     let unified = ctx.info.unified_memory;
-    let needed = accum + table + geometry + if unified { accum + uploads } else { 0 };
+    let needed = accum + carry + table + geometry + if unified { accum + uploads } else { 0 };
     if available == 0 || needed <= available {
         return Ok(());
     }
-    let mut parts = vec![format!("{} MB for the {}x{} image", mb(accum), p.width, p.height)];
+    let mut parts = vec![format!("{} MB for the {}x{} image", mb(accum + carry), p.width, p.height)];
     if geometry > 0 {
         let images = !scene.texels.is_empty() || !scene.env_texels.is_empty();
         let what = if images { "the meshes, the BVH and the images" } else { "the meshes and the BVH" };

@@ -124,6 +124,8 @@ pub struct GpuRenderer {
     /// The scene's room, whose `entering` follows the camera (`set_params`).
     room: crate::layout::Room,
     accum: Buffer,
+    /// The accumulation's Kahan compensation, a vec4 per pixel, read by the kernel alone.
+    accum_carry: Buffer,
     readback: Buffer,
     counters: Buffer,
     counters_readback: Buffer,
@@ -295,6 +297,9 @@ impl GpuRenderer {
         fits_one_buffer(ctx, "the accumulation buffer", accum_size, "render a smaller image")?;
         let accum = Buffer::new(ctx, "accumulation", accum_size, BufferUsage::Storage)?;
         let readback = Buffer::new(ctx, "accumulation readback", accum_size, BufferUsage::Readback)?;
+        // The sums' Kahan compensation, a vec4 a pixel (the kernel's `accumulate`).
+        let accum_carry =
+            Buffer::new(ctx, "accumulation carry", (p.width as u64) * (p.height as u64) * 16, BufferUsage::Storage)?;
         let counters = Buffer::new(ctx, "frame counters", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Storage)?;
         let counters_readback =
             Buffer::new(ctx, "frame counters readback", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Readback)?;
@@ -361,6 +366,7 @@ impl GpuRenderer {
         };
         ctx.run_commands("clear buffers", |cmd| {
             accum.cmd_clear(cmd);
+            accum_carry.cmd_clear(cmd);
             counters.cmd_clear(cmd);
             if let Some(l) = &learning {
                 // Fractions 0: every row unlearned.
@@ -395,6 +401,7 @@ impl GpuRenderer {
             geometry,
             room: scene.room,
             accum,
+            accum_carry,
             readback,
             counters,
             counters_readback,
@@ -419,7 +426,7 @@ impl GpuRenderer {
     /// of the bindings `path_pipeline` declares.
     fn bind_path_pipelines(&self) {
         let mut all: Vec<&Buffer> = self.scene_buffers.iter().collect();
-        all.push(&self.accum);
+        all.extend([&self.accum, &self.accum_carry]);
         if let Some(l) = &self.learning {
             all.extend([&l.q, &l.sums, &l.counts, &l.sampler]);
         }
@@ -439,7 +446,7 @@ impl GpuRenderer {
         if let Some(u) = &self.unguided {
             // The unguided kernel's bindings: the same less the table's.
             let mut plain: Vec<&Buffer> = self.scene_buffers.iter().collect();
-            plain.extend([&self.accum, &self.counters, &self.scene_constants]);
+            plain.extend([&self.accum, &self.accum_carry, &self.counters, &self.scene_constants]);
             plain.extend(self.geometry_buffers.iter());
             u.bind(&plain);
         }
@@ -605,7 +612,7 @@ impl GpuRenderer {
         let n = (self.width * self.height) as usize * std::mem::size_of::<AccumPixel>();
         let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(&self.readback.read()[..n]);
         let (frames, partial_spp) = (self.counts.accum_frames, self.counts.partial_spp);
-        Ok(Film { width: self.width, height: self.height, frames, partial_spp, pixels })
+        Ok(Film { width: self.width, height: self.height, frames, partial_spp, pixels, carry: Vec::new() })
     }
 
     /// Folds the targets recorded since the table last learned into it and

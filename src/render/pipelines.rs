@@ -57,6 +57,7 @@ fn path_pipeline(
         bindings.push((b, Binding::Storage));
     }
     bindings.push((shared::BINDING_ACCUM, Binding::Storage));
+    bindings.push((shared::BINDING_ACCUM_CARRY, Binding::Storage));
     if guided {
         for b in [shared::BINDING_Q, shared::BINDING_FRAME_SUMS, shared::BINDING_FRAME_COUNTS, shared::BINDING_SAMPLER]
         {
