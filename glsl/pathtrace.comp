@@ -125,26 +125,25 @@ void accumulate(uint pixel, vec3 sum) {
 }
 
 #ifdef RLPT_WEIGHS_FRAMES
-// src/film.rs `frame_variance_term`: the relative variance of the frame's mean
-// of the pixel (mean3), from its samples' sum and sum of squares, over the square
-// of the pixel's mean before the frame plus relMSE's 0.01, at most FRAME_VARIANCE_MAX.
-float frame_variance_term(float sum, float sum_sq, float mean_before) {
-    float n = float(SAMPLES_PER_FRAME);
-    float var = max((sum_sq - sum * sum / n) / (n - 1.0), 0.0) / n;
-    float rel = var / (mean_before * mean_before + 0.01);
-    return min(rel, FRAME_VARIANCE_MAX);
+// src/film.rs `frame_variance_term`: the squared deviation of the frame's mean of
+// the pixel (mean3) from the pixel's mean before the frame, over that mean's
+// square plus relMSE's 0.01, at most FRAME_VARIANCE_MAX: the frame mean's
+// relative variance, whatever its samples share (stratified pixel positions).
+float frame_variance_term(float frame_mean, float mean_before) {
+    float d = frame_mean - mean_before;
+    return min(d * d / (mean_before * mean_before + 0.01), FRAME_VARIANCE_MAX);
 }
 
 // Adds the pixel's frame_variance_term to its slot (src/render/mod.rs reads the
 // slots). The pixel's mean before the frame is the accumulation's, the learning
 // frames' where the image has none yet, and this frame's on the first frame
 // (as src/cpu/mod.rs `pixel_mean_before`).
-void add_frame_variance(uint pixel, float sum, float sum_sq) {
+void add_frame_variance(uint pixel, float sum) {
     uint n = push.accum_frames > 0u ? push.accum_frames : push.learned_frames;
     float per_frame = float(SAMPLES_PER_FRAME);
     float before = n > 0u ? mean3(accum[pixel].sum.xyz) / (per_frame * float(n)) : sum / per_frame;
     uint slot = uint(COUNTER_FRAME_VARIANCE) + uint(FRAME_VARIANCE_STRIDE) * (pixel % uint(FRAME_VARIANCE_SLOTS));
-    atomicAdd(frame_variance_slots[slot], frame_variance_term(sum, sum_sq, before));
+    atomicAdd(frame_variance_slots[slot], frame_variance_term(sum / per_frame, before));
 }
 #endif
 
@@ -680,19 +679,11 @@ void main() {
     }
 
     // Every invocation takes part in the reduction, inside the image or not.
-    vec3 sum;
+    vec3 sum = reduce_pixel_sum(radiance);
 #ifdef RLPT_WEIGHS_FRAMES
-    if (FRAME_VARIANCE) {
-        float l = mean3(radiance);
-        vec4 s = reduce_pixel_sum4(vec4(radiance, l * l));
-        sum = s.xyz;
-        // A frame cut short ends the render: the race does not weigh it.
-        if (inside && lane == 0u && whole) add_frame_variance(pixel, mean3(sum), s.w);
-    } else
+    // A frame cut short ends the render: the race does not weigh it.
+    if (FRAME_VARIANCE && inside && lane == 0u && whole) add_frame_variance(pixel, mean3(sum));
 #endif
-    {
-        sum = reduce_pixel_sum(radiance);
-    }
     if (inside && lane == 0u) {
         accumulate(pixel, sum);
     }

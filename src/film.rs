@@ -135,16 +135,18 @@ pub fn kahan_add(sum: &mut f32, carry: &mut f32, x: f32) {
     *sum = t;
 }
 
-/// `pathtrace.comp` `frame_variance_term`: the relative variance of a frame's
-/// mean of a pixel (mean3), from its samples' `sum` and `sum_sq`, over the
-/// square of the pixel's mean before the frame plus relMSE's 0.01, at most
-/// `FRAME_VARIANCE_MAX`. Summed over the pixels, it is what a
+/// `pathtrace.comp` `frame_variance_term`: the squared deviation of a frame's
+/// mean of a pixel (mean3) from the pixel's mean before the frame, over that
+/// mean's square plus relMSE's 0.01, at most `FRAME_VARIANCE_MAX`. Its
+/// expectation is the frame mean's relative variance (plus the mean before's,
+/// small after a few frames), whatever the frame's samples share: a pixel's 64
+/// samples are stratified over its area, and their own spread overstated the
+/// variance of their mean where the image varies within the pixel (docs/guiding.md,
+/// "Guided and unguided frames"). Summed over the pixels, it is what a
 /// [`crate::guide::FrameRace`] weighs a frame by.
-pub fn frame_variance_term(sum: f32, sum_sq: f32, mean_before: f32) -> f32 {
-    let n = shared::SAMPLES_PER_FRAME as f32;
-    let var = ((sum_sq - sum * sum / n) / (n - 1.0)).max(0.0) / n;
-    let rel = var / (mean_before * mean_before + 0.01);
-    rel.min(shared::FRAME_VARIANCE_MAX)
+pub fn frame_variance_term(frame_mean: f32, mean_before: f32) -> f32 {
+    let d = frame_mean - mean_before;
+    (d * d / (mean_before * mean_before + 0.01)).min(shared::FRAME_VARIANCE_MAX)
 }
 
 /// Host memory a render of `pixels` pixels holds at its peak, about: the film, the

@@ -115,6 +115,11 @@ fn gpu_and_cpu_weigh_a_frame_alike() {
         let want = if unguided { FrameKind::Unguided } else { FrameKind::Guided };
         assert_eq!(t.kind, Some(want), "frame {frame}");
         let (gv, cv) = (t.variance.expect("GPU variance"), c.last_variance.expect("CPU variance"));
+        // The first frame's mean is the pixel's mean before it: no deviation.
+        if frame == 0 {
+            assert_eq!((gv, cv), (0.0, 0.0), "frame 0");
+            continue;
+        }
         assert!(gv > 0.0 && cv > 0.0, "frame {frame}: variances {gv}, {cv}");
         eprintln!("frame {frame} {want:?}: variance GPU {gv:.5e}, CPU {cv:.5e}");
         // The first unguided frame exactly, up to rounding; the others trace a
@@ -221,20 +226,17 @@ fn a_round_times_its_first_frame_apart() {
     assert_no_validation_messages(&ctx);
 }
 
-/// `frame_variance_term` against values worked by hand: 64 equal samples have
-/// none; 32 zeros and 32 twos have sample variance 64/63, their mean 1/64 of it.
+/// `frame_variance_term` against values worked by hand: a frame whose mean is
+/// the pixel's mean before it adds nothing; one of mean 1 where the pixel held
+/// 0.5 adds 0.5^2 / (0.5^2 + 0.01), relative to the mean before as relMSE is.
 #[test]
-fn frame_variance_term_is_the_relative_variance_of_the_frames_mean() {
-    // Equal samples: zero up to the rounding of sum_sq - sum^2 / n.
-    assert!(frame_variance_term(64.0 * 0.7, 64.0 * 0.49, 0.7) < 1e-6);
-    let want = (64.0 / 63.0) / 64.0 / (1.0 + 0.01);
-    let got = frame_variance_term(64.0, 128.0, 1.0) as f64;
-    assert!((got - want).abs() <= 1e-6 * want, "got {got}, want {want}");
-    // Relative to the pixel's mean before the frame, 0.01 added as relMSE does.
-    let want = (64.0 / 63.0) / 64.0 / (0.25 + 0.01);
-    assert!((frame_variance_term(64.0, 128.0, 0.5) as f64 - want).abs() <= 1e-6 * want);
+fn frame_variance_term_is_the_frames_squared_deviation_from_the_pixels_mean() {
+    assert_eq!(frame_variance_term(0.7, 0.7), 0.0);
+    let want = 0.25 / (0.25 + 0.01);
+    assert!((frame_variance_term(1.0, 0.5) - want).abs() <= 1e-6 * want);
+    assert!((frame_variance_term(0.0, 0.5) - want).abs() <= 1e-6 * want);
     // A firefly is clamped.
-    assert_eq!(frame_variance_term(1e6, 1e12, 0.0), shared::FRAME_VARIANCE_MAX);
+    assert_eq!(frame_variance_term(1e6, 0.0), shared::FRAME_VARIANCE_MAX);
 }
 
 /// `rlpt render --unguided-frames`: `auto` traces unguided frames and `--stats`

@@ -445,11 +445,10 @@ pub(super) fn add_sums(a: Option<FrameSums>, b: Option<FrameSums>) -> Option<Fra
     }
 }
 
-/// One pixel's radiance sum over a frame's samples so far, and its mean3 squares.
+/// One pixel's radiance sum over a frame's samples so far.
 #[derive(Clone, Copy, Default)]
 pub(super) struct PixelSums {
     sum: Vec3,
-    sum_sq: f32,
 }
 
 impl FrameSetup<'_> {
@@ -528,7 +527,6 @@ impl FrameSetup<'_> {
         // (as on the GPU) and counted as carrying nothing.
         if l.is_finite() {
             px.sum += l;
-            px.sum_sq += mean3(l) * mean3(l);
         }
         if !(l.max_element() > 0.0) {
             counters.zero_paths += 1;
@@ -548,7 +546,8 @@ impl FrameSetup<'_> {
     ) {
         if weigh {
             let before = pixel_mean_before(acc, self.accum_frames, self.learned_frames, mean3(px.sum));
-            counters.variance += crate::film::frame_variance_term(mean3(px.sum), px.sum_sq, before) as f64;
+            let frame_mean = mean3(px.sum) / shared::SAMPLES_PER_FRAME as f32;
+            counters.variance += crate::film::frame_variance_term(frame_mean, before) as f64;
         }
         crate::film::accumulate_samples(
             acc,
