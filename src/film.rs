@@ -155,7 +155,7 @@ pub fn frame_variance_term(frame_mean: f32, mean_before: f32) -> f32 {
 /// GPU's taken from a CPU driver, whose device memory is host memory too, so
 /// that the warning comes early rather than late (docs/ARCHITECTURE.md, "Host memory").
 pub fn host_bytes_estimate(pixels: u64, gpu: bool) -> u64 {
-    pixels * if gpu { 115 } else { 80 }
+    pixels * if gpu { 170 } else { 104 }
 }
 
 /// A warning where a render of `pixels` pixels would hold more host memory
