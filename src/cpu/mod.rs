@@ -475,6 +475,8 @@ impl FrameSetup<'_> {
         weigh: bool,
         no_sums: &(dyn Fn() -> FrameSums + Sync),
     ) -> (Option<FrameSums>, FrameCounters) {
+        // A pixel without its carry would be skipped by the zip below, not traced.
+        assert_eq!(film.len(), carry.len(), "a film accumulated on the host keeps a carry per pixel");
         let traced: Vec<(Option<FrameSums>, FrameCounters)> = row_groups(
             film.chunks_mut(self.scene.params.width as usize).zip(carry.chunks_mut(self.scene.params.width as usize)),
         )

@@ -79,6 +79,8 @@ pub(super) fn trace_passes(
 ) -> Passes {
     let p = &setup.scene.params;
     let width = p.width as usize;
+    // A pixel without its carry would be skipped by the zips below, not accumulated.
+    assert_eq!(film.len(), carry.len(), "a film accumulated on the host keeps a carry per pixel");
     let mut pixels = vec![PixelSums::default(); film.len()];
     // The rows in fixed groups, each with its sums kept over the passes (`row_groups`).
     let mut groups: Vec<_> = row_groups(pixels.chunks_mut(width).zip(film.chunks(width)))
