@@ -4,6 +4,10 @@
 
 use super::*;
 
+/// Bytes per pixel of the accumulation's Kahan carry, a vec4 (`accum_carry` in
+/// `glsl/pathtrace.comp`), which lies on the device alone.
+pub(super) const ACCUM_CARRY_BYTES: u64 = 16;
+
 /// An error naming `what` where `bytes` are more than one storage buffer the
 /// device's shaders can address.
 pub(super) fn fits_one_buffer(ctx: &Context, what: &str, bytes: u64, hint: &'static str) -> Result<(), GpuError> {
@@ -44,8 +48,7 @@ pub(super) fn fits_device_memory(ctx: &Context, scene: &PreparedScene) -> Result
     let p = &scene.params;
     let pixels = p.width as u64 * p.height as u64;
     let accum = pixels * std::mem::size_of::<AccumPixel>() as u64;
-    // The sums' Kahan compensation, a vec4 a pixel, on the device alone.
-    let carry = pixels * 16;
+    let carry = pixels * ACCUM_CARRY_BYTES;
     let table = scene.guide.as_ref().map_or(0, |cfg| {
         let entries = cfg.entries() as u64;
         let cells = cfg.cells() as u64;

@@ -297,9 +297,8 @@ impl GpuRenderer {
         fits_one_buffer(ctx, "the accumulation buffer", accum_size, "render a smaller image")?;
         let accum = Buffer::new(ctx, "accumulation", accum_size, BufferUsage::Storage)?;
         let readback = Buffer::new(ctx, "accumulation readback", accum_size, BufferUsage::Readback)?;
-        // The sums' Kahan compensation, a vec4 a pixel (the kernel's `accumulate`).
-        let accum_carry =
-            Buffer::new(ctx, "accumulation carry", (p.width as u64) * (p.height as u64) * 16, BufferUsage::Storage)?;
+        let carry_size = (p.width as u64) * (p.height as u64) * ACCUM_CARRY_BYTES;
+        let accum_carry = Buffer::new(ctx, "accumulation carry", carry_size, BufferUsage::Storage)?;
         let counters = Buffer::new(ctx, "frame counters", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Storage)?;
         let counters_readback =
             Buffer::new(ctx, "frame counters readback", 4 * shared::NUM_COUNTERS as u64, BufferUsage::Readback)?;
