@@ -329,6 +329,10 @@
 // learned one times n / (n + FRACTION_EVIDENCE_PER_BIN * bins), n the targets
 // its entries have taken (src/guide/fraction.rs `evidence_weight`).
 #define FRACTION_EVIDENCE_PER_BIN 16
+// Adaptive directions (src/guide/sampler.rs `pooled_q`): a bin's sampling weight
+// takes the Q of the smallest block of 1, 2x2 or 4x4 bins around it whose
+// entries have taken BIN_POOL_TARGETS targets a bin, the largest where none has.
+#define BIN_POOL_TARGETS 16
 // The adaptive grid (src/guide/tree.rs): per cell a CellNode (first child, 0 for
 // a leaf; depth; the targets its entries had taken at the last rebuild of its
 // rows, as float bits; unused), then one word: the cells in use. A leaf splits

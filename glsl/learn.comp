@@ -51,6 +51,7 @@ layout(push_constant) uniform Push {
     uint learn_fraction;
     float rate_exponent;  // omega of Q's learning rate 1 / i^omega
     uint adaptive;        // the grid's cells split (FLAG_ADAPTIVE_GRID)
+    uint pool_largest;    // adaptive directions' largest block (1: none; pooled_q)
 } push;
 
 // src/guide/table.rs `batch_rate`: the weight with which c targets move an entry
@@ -214,6 +215,36 @@ float row_weights(uint i) {
     return total;
 }
 
+// src/guide/sampler.rs `pooled_q`: the Q that bin b of the cell whose entries
+// start at qrow weighs its density by: the visit-weighted mean of the smallest
+// block of 1, 2x2 or 4x4 bins around it (up to push.pool_largest, the sizes
+// dividing the rows and columns) whose entries took BIN_POOL_TARGETS targets a
+// bin, of the largest where none did. `precise`: the sums as the CPU's.
+float pooled_q(uint qrow, uint b) {
+    uint row = b / push.cols;
+    uint col = b % push.cols;
+    for (uint s = 1u; s <= push.pool_largest; s *= 2u) {
+        uint r0 = row / s * s;
+        uint c0 = col / s * s;
+        uint n = 0u;
+        for (uint r = r0; r < r0 + s; ++r) {
+            for (uint c = c0; c < c0 + s; ++c) n += visits[qrow + r * push.cols + c];
+        }
+        if (n < uint(BIN_POOL_TARGETS) * s * s && s != push.pool_largest) continue;
+        if (s == 1u) return q_table[qrow + b];
+        precise float nq = 0.0;
+        for (uint r = r0; r < r0 + s; ++r) {
+            for (uint c = c0; c < c0 + s; ++c) {
+                uint e = qrow + r * push.cols + c;
+                precise float t = float(visits[e]) * q_table[e];
+                nq += t;
+            }
+        }
+        return n > 0u ? nq / float(n) : 0.0;
+    }
+    return q_table[qrow + b];
+}
+
 // Phase 1 for sampling row i, of cell i / NORMAL_CLASSES, by the whole group:
 // rebuild it where a recording path has read it (else it stays unlearned, its
 // fraction 0), as src/guide/sampler.rs `build_sampling_rows` and `build_alias_row`.
@@ -226,7 +257,8 @@ void build_row(uint i) {
     uint row = i * n;
     // Each bin's Q, read from the table once, and cosine, in its column and density slots.
     for (uint b = lid; b < n; b += GROUP) {
-        staged[b] = uvec2(floatBitsToUint(q_table[qrow + b]), floatBitsToUint(bin_cosine(b, class_)));
+        float q = push.pool_largest > 1u ? pooled_q(qrow, b) : q_table[qrow + b];
+        staged[b] = uvec2(floatBitsToUint(q), floatBitsToUint(bin_cosine(b, class_)));
     }
     barrier();
     if (lid == 0u) staged_total = row_weights(i);

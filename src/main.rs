@@ -215,6 +215,13 @@ struct Settings {
     /// [default: the scene's `[guiding] grid`, else uniform].
     #[arg(long, value_enum)]
     guide_grid: Option<rlpt::scene::GridKind>,
+    /// Adaptive directions: `on` weighs each bin's guided density by the Q of the
+    /// smallest block of 1, 2x2 or 4x4 bins around it whose entries have taken 16
+    /// targets a bin, so that the directions refine where paths record many
+    /// targets and stay coarse where few go (docs/guiding.md, "Adaptive
+    /// directions"); `off`, each bin by its own Q [default: off].
+    #[arg(long, value_enum)]
+    adaptive_directions: Option<OnOff>,
     /// What a Q-learning target counts of the light its ray meets, with NEE on: `mis`
     /// counts the emission met with the MIS weight the image gives it and adds the light
     /// sample at the vertex met, so that guided directions seek what light sampling
@@ -267,6 +274,7 @@ impl Settings {
         opts.learning_period = self.learning_period.and_then(|p| p.0);
         opts.unguided_frames = self.unguided_frames.unwrap_or_default();
         opts.guide_grid = self.guide_grid;
+        opts.adaptive_directions = self.adaptive_directions == Some(OnOff::On);
         opts.q_targets = self.q_targets.unwrap_or(rlpt::guide::QTargets::Mis);
         opts.sampler = self.sampler;
         opts.glossy_product = self.glossy_product.map_or(rlpt::guide::DEFAULT_GLOSSY_PRODUCT, |g| g == OnOff::On);
@@ -295,6 +303,7 @@ impl Settings {
                 ("--learning-period", self.learning_period.is_some()),
                 ("--unguided-frames", self.unguided_frames.is_some()),
                 ("--guide-grid", self.guide_grid.is_some()),
+                ("--adaptive-directions", self.adaptive_directions.is_some()),
                 ("--q-targets", self.q_targets.is_some()),
                 ("--glossy-product", self.glossy_product.is_some()),
             ];

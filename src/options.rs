@@ -74,6 +74,9 @@ pub struct RenderOptions {
     /// Uniform or adaptive guiding cells, over the scene's `[guiding] grid`
     /// (None: the scene's, else uniform; [`GridKind`]).
     pub guide_grid: Option<GridKind>,
+    /// Adaptive directions: a bin's sampling weight from the smallest block of
+    /// bins around it that has taken enough targets (`guide::pooled_q`).
+    pub adaptive_directions: bool,
     /// What Q-learning targets count of the light their rays meet where NEE is on
     /// ([`guide::QTargets`]; `FLAG_MIS_TARGETS`).
     pub q_targets: guide::QTargets,
@@ -134,6 +137,7 @@ impl RenderOptions {
             learning_period: None,
             unguided_frames: guide::UnguidedFrames::Never,
             guide_grid: None,
+            adaptive_directions: false,
             q_targets: guide::QTargets::Mis,
             guided_vertices: None,
             counters: Counters::Off,

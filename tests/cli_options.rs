@@ -128,6 +128,9 @@ fn render_stats_record_the_guiding_settings_given() {
     assert_eq!(s["learning_rate_exponent"], 1.0, "{s}");
     let label = s["label"].as_str().unwrap();
     assert!(label.contains(" floor=0.3") && label.contains(" targets=full"), "{label}");
+    assert!(!label.contains("adaptive-directions"), "{label}");
+    let s = read(&["--guiding", "sphere", "--adaptive-directions", "on"]);
+    assert!(s["label"].as_str().unwrap().contains(" adaptive-directions=on"), "{s}");
     // The defaults are recorded, and the label names only what differs from them.
     let s = read(&["--guiding", "octant"]);
     assert_eq!((s["exploration_floor"].as_f64(), &s["q_targets"]), (Some(0.1), &"mis".into()), "{s}");
@@ -213,6 +216,8 @@ fn options_that_change_nothing_are_named() {
     assert!(err.contains("note: --exploration-floor is a setting of learned guiding"), "{err}");
     let (ok, err) = with(&["--q-targets", "full"]);
     assert!(ok && err.contains("note: --q-targets is a setting of learned guiding"), "{err}");
+    let (ok, err) = with(&["--adaptive-directions", "on"]);
+    assert!(ok && err.contains("note: --adaptive-directions is a setting of learned guiding"), "{err}");
     let (ok, err) = with(&["--q-targets", "full", "--guiding", "octant", "--nee", "off"]);
     assert!(ok && err.contains("note: --q-targets weighs the light met against light sampling"), "{err}");
     let (ok, err) = with(&["--mis", "balance", "--nee", "off", "--gpu", "7"]);

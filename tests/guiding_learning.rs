@@ -10,8 +10,8 @@ use rlpt::cpu::CpuRenderer;
 use rlpt::film::{Film, Learned};
 use rlpt::gpu::Context;
 use rlpt::guide::{
-    build_sampling_rows, class_cosines, learned, AliasBin, Bins, GuideConfig, GuidingMode, QTable, RecordSchedule,
-    NORMAL_CLASSES,
+    build_sampling_rows, class_cosines, learned, pool_sizes, pooled_q, AliasBin, Bins, GuideConfig, GuidingMode,
+    QTable, RecordSchedule, NORMAL_CLASSES,
 };
 use rlpt::math::Vec3;
 use rlpt::options::RenderOptions;
@@ -29,7 +29,30 @@ fn glsl_learning_builds_the_same_sampling_rows_as_rust() {
     for bins in
         [Bins { rows: 4, cols: 8 }, Bins { rows: 9, cols: 13 }, Bins::SPHERE_DEFAULT, Bins { rows: 20, cols: 40 }]
     {
-        glsl_learning_matches_rust(&ctx, bins);
+        glsl_learning_matches_rust(&ctx, bins, false);
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// With adaptive directions learn.comp weighs each bin by the same pooled Q as
+/// Rust (`pooled_q`): blocks up to 4x4 (8x16, 20x40 bins), up to 2x2 (6x10), none
+/// (9x13); and after three frames of door at 32x24 the pooling changes rows
+/// (bins with few targets take their block's mean), which a test of rows built
+/// from the bins' own Q would not see.
+#[test]
+fn glsl_adaptive_directions_pool_the_same_bins_as_rust() {
+    let ctx = gpu();
+    for bins in
+        [Bins::SPHERE_DEFAULT, Bins { rows: 20, cols: 40 }, Bins { rows: 6, cols: 10 }, Bins { rows: 9, cols: 13 }]
+    {
+        let t = glsl_learning_matches_rust(&ctx, bins, true);
+        let n = bins.count() as usize;
+        let sizes = pool_sizes(&bins);
+        let pooled_somewhere =
+            t.q.chunks(n)
+                .zip(t.visits.chunks(n))
+                .any(|(q, v)| (0..n as u32).any(|b| pooled_q(&bins, &sizes, q, v, b) != q[b as usize]));
+        assert_eq!(pooled_somewhere, sizes.len() > 1, "{bins:?}: pool sizes {sizes:?}");
     }
     assert_no_validation_messages(&ctx);
 }
@@ -44,7 +67,7 @@ fn learning_reaches_past_one_dispatch() {
     let ctx = gpu();
     // Door's 1056 cells of 32x32 bins: 1081344 entries, past the fold's 65535
     // groups of 16 (1048560 invocations).
-    let t = glsl_learning_matches_rust(&ctx, Bins { rows: 32, cols: 32 });
+    let t = glsl_learning_matches_rust(&ctx, Bins { rows: 32, cols: 32 }, false);
     let reach = (rlpt::shared::LEARN_MAX_GROUPS * rlpt::shared::LEARN_FOLD_GROUP) as usize;
     assert!(t.q.len() > reach, "{} entries", t.q.len());
     // Only the fold counts visits.
@@ -77,11 +100,12 @@ fn a_table_past_the_devices_buffer_range_is_refused_by_name() {
 /// Door at 32x24 guided over `bins` for 3 frames on the GPU: its sampling rows
 /// are those Rust builds from its Q, and most orientation rows of the cells that
 /// learned are never read; the table.
-fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) -> QTable {
+fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins, adaptive_directions: bool) -> QTable {
     let scene = scene("door.toml");
     let mut o = options(&scene, 32, 24, 64);
     o.guiding = GuidingMode::Sphere;
     o.bins = Some(bins);
+    o.adaptive_directions = adaptive_directions;
     o.guide_floor = 0.2;
     let prepared = PreparedScene::new(&scene, &o).expect("valid options");
     let cfg = prepared.guide.unwrap();
@@ -103,14 +127,17 @@ fn glsl_learning_matches_rust(ctx: &Arc<Context>, bins: Bins) -> QTable {
     t
 }
 
-/// The sampling rows of `t` are those Rust builds from its Q values (to the
-/// rounding of the alias thresholds), and each bin's density is its probability.
+/// The sampling rows of `t` are those Rust builds from its Q values (pooled as
+/// `pooled_q` says with adaptive directions; to the rounding of the alias
+/// thresholds), and each bin's density is its probability.
 fn assert_rows_built_from_table(t: &QTable, cfg: &GuideConfig, what: &str) {
     let n = cfg.bins.count() as usize;
     let mut want = vec![AliasBin::default(); t.rows.len()];
     let cosines = class_cosines(&cfg.bins);
-    for (q, rows) in t.q.chunks(n).zip(want.chunks_mut(n * NORMAL_CLASSES as usize)) {
-        build_sampling_rows(&cosines, q, cfg.floor, rows);
+    let sizes = if cfg.adaptive_directions { pool_sizes(&cfg.bins) } else { vec![1] };
+    for ((q, v), rows) in t.q.chunks(n).zip(t.visits.chunks(n)).zip(want.chunks_mut(n * NORMAL_CLASSES as usize)) {
+        let q: Vec<f32> = (0..n as u32).map(|b| pooled_q(&cfg.bins, &sizes, q, v, b)).collect();
+        build_sampling_rows(&cosines, &q, cfg.floor, rows);
     }
     let (mut worst, mut learned_rows) = (0.0f64, 0);
     assert_eq!(t.rows_read.len(), t.rows.len() / n, "a mark per sampling row");

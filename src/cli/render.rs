@@ -222,7 +222,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
     let device_name = renderer.device_name();
     let mut stats = RenderStats {
         label: format!(
-            "{} guiding={}{}{}{}{}{} nee={}{}",
+            "{} guiding={}{}{}{}{}{}{} nee={}{}",
             file_name(&args.scene),
             opts.guiding.name(),
             opts.guided_fraction_name().filter(|f| f != "learned").map_or(String::new(), |f| format!(" fraction={f}")),
@@ -236,6 +236,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<Outcome> {
             opts.glossy_product_if_guided()
                 .filter(|&g| g != rlpt::guide::DEFAULT_GLOSSY_PRODUCT)
                 .map_or(String::new(), |g| format!(" glossy-product={}", if g { "on" } else { "off" })),
+            if opts.guiding != GuidingMode::Off && opts.adaptive_directions { " adaptive-directions=on" } else { "" },
             opts.nee,
             if opts.sampler == SamplerKind::Sobol { " sampler=sobol" } else { "" }
         ),

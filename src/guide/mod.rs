@@ -190,6 +190,9 @@ pub struct GuideConfig {
     /// Frames per learning pass at least (a power of two), past the first frames;
     /// None: from the image's size ([`RecordSchedule::min_learning_period`]).
     pub learning_period: Option<u32>,
+    /// Adaptive directions: each bin's sampling weight from the Q of the
+    /// smallest block of bins around it that has taken enough targets ([`pooled_q`]).
+    pub adaptive_directions: bool,
 }
 
 impl GuideConfig {

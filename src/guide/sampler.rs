@@ -219,6 +219,52 @@ pub fn build_sampling_rows(cosines: &[f32], q: &[f32], floor: f32, rows: &mut [A
     }
 }
 
+/// The block sizes (in bins along each side) that adaptive directions pool a
+/// row's bins over, finest first: 1, then 2 and 4 where they divide both the
+/// rows and the columns of `bins` (none beyond 1 where 2 does not).
+pub fn pool_sizes(bins: &Bins) -> Vec<u32> {
+    [1, 2, 4].into_iter().filter(|s| bins.rows.is_multiple_of(*s) && bins.cols.is_multiple_of(*s)).collect()
+}
+
+/// Adaptive directions: the Q that bin `b` of a cell's row weighs its sampling
+/// density by. The bins' Q are estimated bin by bin, and a bin that has taken
+/// few targets holds a noisy one; so each bin takes the visit-weighted mean Q of
+/// the smallest block of [`pool_sizes`] around it whose entries have taken
+/// `BIN_POOL_TARGETS` targets a bin, or of the largest block where none has. The
+/// row refines where paths record many targets (where guided directions go: the
+/// peaks of the distribution) and stays coarse where few go. The bins have equal
+/// solid angles, so a block's mean Q is its mean radiance. Any weights make the
+/// same unbiased estimate: only the density changes. `glsl/learn.comp` `pooled_q`
+/// is the same, sum for sum.
+pub fn pooled_q(bins: &Bins, sizes: &[u32], q: &[f32], visits: &[u32], b: u32) -> f32 {
+    let (row, col) = (b / bins.cols, b % bins.cols);
+    let largest = *sizes.last().expect("pool sizes start with 1");
+    for &s in sizes {
+        let (r0, c0) = (row / s * s, col / s * s);
+        let mut n = 0u32;
+        for r in r0..r0 + s {
+            for c in c0..c0 + s {
+                n += visits[(r * bins.cols + c) as usize];
+            }
+        }
+        if n < shared::BIN_POOL_TARGETS * s * s && s != largest {
+            continue;
+        }
+        if s == 1 {
+            return q[b as usize];
+        }
+        let mut nq = 0.0f32;
+        for r in r0..r0 + s {
+            for c in c0..c0 + s {
+                let i = (r * bins.cols + c) as usize;
+                nq += visits[i] as f32 * q[i];
+            }
+        }
+        return if n > 0 { nq / n as f32 } else { 0.0 };
+    }
+    unreachable!("the largest size returns")
+}
+
 /// One class's row of [`build_sampling_rows`], from that class's bin cosines `cos`.
 pub fn build_sampling_row(cos: &[f32], q: &[f32], floor: f32, row: &mut [AliasBin]) {
     let qc: f32 = q.iter().zip(cos).map(|(v, w)| v * w).sum();
@@ -236,4 +282,48 @@ pub fn build_sampling_row(cos: &[f32], q: &[f32], floor: f32, row: &mut [AliasBi
 /// `mixture_pdf` is the same arithmetic.
 pub fn mixture_pdf(g_frac: f32, p_bsdf: f32, p_guided: f32) -> f32 {
     (1.0 - g_frac) * p_bsdf + g_frac * p_guided
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bin keeps its own Q where it has taken `BIN_POOL_TARGETS` targets; else
+    /// it takes the visit-weighted mean of its 2x2 block where that block has
+    /// taken as many a bin, else of its 4x4 block, whatever that has taken.
+    #[test]
+    fn a_bin_takes_the_q_of_the_smallest_block_that_has_learned_enough() {
+        let bins = Bins { rows: 4, cols: 8 };
+        assert_eq!(pool_sizes(&bins), [1, 2, 4]);
+        assert_eq!(pool_sizes(&Bins { rows: 6, cols: 10 }), [1, 2]);
+        assert_eq!(pool_sizes(&Bins { rows: 9, cols: 13 }), [1]);
+        let k = shared::BIN_POOL_TARGETS;
+        let n = bins.count() as usize;
+        let (mut q, mut v) = (vec![0.0f32; n], vec![0u32; n]);
+        let at = |r: u32, c: u32| (r * bins.cols + c) as usize;
+        // Bin (0, 0) has learned enough; its 2x2 block as a whole too.
+        (q[at(0, 0)], v[at(0, 0)]) = (8.0, k);
+        (q[at(0, 1)], v[at(0, 1)]) = (2.0, 3 * k);
+        (q[at(1, 0)], v[at(1, 0)]) = (4.0, 0);
+        (q[at(1, 1)], v[at(1, 1)]) = (1.0, 1);
+        let sizes = pool_sizes(&bins);
+        let pooled = |q: &[f32], v: &[u32], b: usize| pooled_q(&bins, &sizes, q, v, b as u32);
+        assert_eq!(pooled(&q, &v, at(0, 0)), 8.0);
+        assert_eq!(pooled(&q, &v, at(0, 1)), 2.0);
+        let block = (8.0 * k as f32 + 2.0 * 3.0 * k as f32 + 1.0) / (4 * k + 1) as f32;
+        assert_eq!(pooled(&q, &v, at(1, 0)), block);
+        assert_eq!(pooled(&q, &v, at(1, 1)), block);
+        // The next 2x2 block has taken too few, all in one bin: that bin keeps its
+        // Q, the others take the 4x4 block's mean.
+        (q[at(0, 2)], v[at(0, 2)]) = (100.0, 4 * k - 1);
+        assert_eq!(pooled(&q, &v, at(0, 2)), 100.0);
+        let wide = (8.0 * k as f32 + 2.0 * 3.0 * k as f32 + 1.0 + 100.0 * (4 * k - 1) as f32) / (8 * k) as f32;
+        for (r, c) in [(0, 3), (1, 3), (3, 3)] {
+            assert_eq!(pooled(&q, &v, at(r, c)), wide, "({r}, {c})");
+        }
+        // A 4x4 block that has taken nothing stays at zero.
+        assert_eq!(pooled(&q, &v, at(2, 5)), 0.0);
+        // Without blocks each bin keeps its Q.
+        assert_eq!(pooled_q(&bins, &[1], &q, &v, at(1, 0) as u32), 4.0);
+    }
 }

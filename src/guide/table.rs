@@ -118,6 +118,7 @@ impl QTable {
         let cosines = class_cosines(&cfg.bins);
         let classes = NORMAL_CLASSES as usize;
         let (q, visits, rows_read, states) = (&self.q, &self.visits, &self.rows_read, &self.fraction_states);
+        let pool = if cfg.adaptive_directions { pool_sizes(&cfg.bins) } else { vec![1] };
         // Each cell's rows on their own: in parallel, the same rows as one by one.
         // The zip below pairs a cell's rows, fractions and node: one each per cell.
         debug_assert_eq!(self.nodes.len() * n * classes, self.rows.len());
@@ -138,6 +139,14 @@ impl QTable {
                 }
                 let g = g * evidence_weight(targets, n as u32);
                 let q = &q[cell * n..(cell + 1) * n];
+                let pooled: Vec<f32>;
+                let q = if pool.len() > 1 {
+                    let v = &visits[cell * n..(cell + 1) * n];
+                    pooled = (0..n as u32).map(|b| pooled_q(&cfg.bins, &pool, q, v, b)).collect();
+                    &pooled[..]
+                } else {
+                    q
+                };
                 for (class, (row, cos)) in rows.chunks_mut(n).zip(cosines.chunks(n)).enumerate() {
                     if read[class] {
                         build_sampling_row(cos, q, cfg.floor, row);

@@ -147,6 +147,7 @@ mod tests {
             learning_frames: 0,
             unguided_frames: false,
             learning_period: None,
+            adaptive_directions: false,
         };
         let mut t = QTable::new(&cfg);
         assert_eq!(t.used_cells, 4);

@@ -419,6 +419,7 @@ impl PreparedScene {
                 ),
                 unguided_frames: opts.unguided_frames == guide::UnguidedFrames::Auto,
                 learning_period: opts.learning_period,
+                adaptive_directions: opts.adaptive_directions,
             };
             let p = &mut prepared.params;
             p.guide_bins = bins.count();

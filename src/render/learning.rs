@@ -76,7 +76,7 @@ impl Learning {
 }
 
 /// Words in learn.comp's push constants (`Learning::push`).
-pub(super) const LEARN_PUSH_WORDS: usize = 11;
+pub(super) const LEARN_PUSH_WORDS: usize = 12;
 
 /// Bytes of the cell tree's buffer: a `CellNode` per cell of the table, then one
 /// node's room whose first word is the cells in use.
@@ -232,6 +232,11 @@ impl Learning {
             self.cfg.learn_fraction as u32,
             self.cfg.rate_exponent.to_bits(),
             self.cfg.grid.adaptive() as u32,
+            if self.cfg.adaptive_directions {
+                *crate::guide::pool_sizes(&self.cfg.bins).last().unwrap_or(&1)
+            } else {
+                1
+            },
         ]
     }
 }
