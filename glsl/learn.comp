@@ -228,7 +228,11 @@ float pooled_q(uint qrow, uint b) {
         uint c0 = col / s * s;
         uint n = 0u;
         for (uint r = r0; r < r0 + s; ++r) {
-            for (uint c = c0; c < c0 + s; ++c) n += visits[qrow + r * push.cols + c];
+            for (uint c = c0; c < c0 + s; ++c) {
+                // Saturating, as the CPU's.
+                uint v = visits[qrow + r * push.cols + c];
+                n = n > 0xffffffffu - v ? 0xffffffffu : n + v;
+            }
         }
         if (n < uint(BIN_POOL_TARGETS) * s * s && s != push.pool_largest) continue;
         if (s == 1u) return q_table[qrow + b];

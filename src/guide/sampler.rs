@@ -244,7 +244,8 @@ pub fn pooled_q(bins: &Bins, sizes: &[u32], q: &[f32], visits: &[u32], b: u32) -
         let mut n = 0u32;
         for r in r0..r0 + s {
             for c in c0..c0 + s {
-                n += visits[(r * bins.cols + c) as usize];
+                // Saturating: a long render's visits may pass u32 in a block's sum.
+                n = n.saturating_add(visits[(r * bins.cols + c) as usize]);
             }
         }
         if n < shared::BIN_POOL_TARGETS * s * s && s != largest {
@@ -325,5 +326,11 @@ mod tests {
         assert_eq!(pooled(&q, &v, at(2, 5)), 0.0);
         // Without blocks each bin keeps its Q.
         assert_eq!(pooled_q(&bins, &[1], &q, &v, at(1, 0) as u32), 4.0);
+        // A block's visits past u32 saturate rather than wrap (or panic).
+        v[at(3, 0)] = u32::MAX - 1;
+        (q[at(3, 1)], v[at(3, 1)]) = (5.0, 2);
+        for (r, c) in [(2, 1), (3, 1)] {
+            assert_eq!(pooled(&q, &v, at(r, c)), 5.0 * 2.0 / u32::MAX as f32, "({r}, {c})");
+        }
     }
 }
