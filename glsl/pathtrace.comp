@@ -72,10 +72,13 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer FrameVarianceSlots { 
 // fold_learned: 1 where the first image frame takes the learning frames' mean in as
 // one frame of the image (src/film.rs `accumulate`), 0 where it writes over them;
 // samples: the frame's samples per pixel, SAMPLES_PER_FRAME but in a last frame
-// cut short at a time limit (its lanes from `samples` on trace nothing).
+// cut short at a time limit (its lanes from `samples` on trace nothing);
+// weight: a whole frame's weight, 1 but in a timed race (src/film.rs `FrameWeight`);
+// accum_weight: the accumulation's frames' total weight before this one, in whole
+// frames (float(accum_frames) where every frame weighed 1).
 layout(push_constant) uniform Push {
     uint frame; uint accum_frames; uint ablate; uint rows; uint learned_frames; uint table_frames; uint rng_frame;
-    uint fold_learned; uint samples;
+    uint fold_learned; uint samples; float weight; float accum_weight;
 } push;
 
 // src/render/dispatch.rs `pixel_row`: the pixel row of workgroup row `g`.
@@ -92,33 +95,35 @@ uint pixel_row(uint g) {
 // first frame of an accumulation writes over what the buffer holds; after the
 // learning frames, it either takes their mean in as the image's first frame
 // (fold_learned) or keeps their mean3 sum in sum.w (src/guide/roulette.rs
-// `roulette_estimate` reads it). A frame of k samples weighs k / 64 of a whole one.
+// `roulette_estimate` reads it). A frame of k samples weighs k / 64 of a whole
+// one, times push.weight; the sum holds each frame's sum times its push.weight.
 void accumulate(uint pixel, vec3 sum) {
     float per_frame = float(SAMPLES_PER_FRAME);
-    uint n = push.accum_frames;
-    if (n == 0u && push.learned_frames > 0u && push.fold_learned != 0u) {
+    float before = push.accum_weight;
+    vec3 weighted = sum * push.weight;
+    if (push.accum_frames == 0u && push.learned_frames > 0u && push.fold_learned != 0u) {
         accum[pixel].sum = vec4(accum[pixel].sum.xyz / float(push.learned_frames), 0.0);
         accum[pixel].m2_frame_mean = vec4(0.0);
         accum_carry[pixel] = vec4(0.0);
-        n = 1u;
-    } else if (n == 0u) {
+        before = 1.0;
+    } else if (push.accum_frames == 0u) {
         float learned = 0.0;
         if (push.learned_frames > 0u) learned = mean3(accum[pixel].sum.xyz);
-        accum[pixel].sum = vec4(sum, learned);
+        accum[pixel].sum = vec4(weighted, learned);
         accum[pixel].m2_frame_mean = vec4(0.0);
         accum_carry[pixel] = vec4(0.0);
         return;
     }
-    float w = float(push.samples) / per_frame;
+    float w = push.weight * float(push.samples) / per_frame;
     vec3 total = accum[pixel].sum.xyz;
-    vec3 mean_old = total / (per_frame * float(n));
+    vec3 mean_old = total / (per_frame * before);
     vec3 m = sum / float(push.samples);
     vec3 delta = m - mean_old;
-    vec3 mean_new = mean_old + delta * w / (float(n) + w);
+    vec3 mean_new = mean_old + delta * w / (before + w);
     // Compensated: after a million frames a frame's sum is a millionth of the
     // pixel's, and added plainly its low bits would be lost.
     vec3 carry = accum_carry[pixel].xyz;
-    kahan_add(total, carry, sum);
+    kahan_add(total, carry, weighted);
     accum[pixel].sum.xyz = total;
     accum_carry[pixel].xyz = carry;
     accum[pixel].m2_frame_mean.xyz += w * delta * (m - mean_new);
@@ -139,9 +144,9 @@ float frame_variance_term(float frame_mean, float mean_before) {
 // frames' where the image has none yet, and this frame's on the first frame
 // (as src/cpu/mod.rs `pixel_mean_before`).
 void add_frame_variance(uint pixel, float sum) {
-    uint n = push.accum_frames > 0u ? push.accum_frames : push.learned_frames;
+    float n = push.accum_frames > 0u ? push.accum_weight : float(push.learned_frames);
     float per_frame = float(SAMPLES_PER_FRAME);
-    float before = n > 0u ? mean3(accum[pixel].sum.xyz) / (per_frame * float(n)) : sum / per_frame;
+    float before = n > 0.0 ? mean3(accum[pixel].sum.xyz) / (per_frame * n) : sum / per_frame;
     uint slot = uint(COUNTER_FRAME_VARIANCE) + uint(FRAME_VARIANCE_STRIDE) * (pixel % uint(FRAME_VARIANCE_SLOTS));
     atomicAdd(frame_variance_slots[slot], frame_variance_term(sum / per_frame, before));
 }
@@ -653,7 +658,8 @@ void main() {
         if (push.accum_frames + push.learned_frames > 0u && push.frame + push.table_frames >= uint(LEARNED_RR_FRAMES)) {
             vec4 s = accum[pixel].sum;
             float learned = push.accum_frames > 0u ? s.w : 0.0;
-            estimate = (mean3(s.xyz) + learned) / (float(SAMPLES_PER_FRAME) * float(push.accum_frames + push.learned_frames));
+            float frames = (push.accum_frames > 0u ? push.accum_weight : 0.0) + float(push.learned_frames);
+            estimate = (mean3(s.xyz) + learned) / (float(SAMPLES_PER_FRAME) * frames);
         }
 #endif
         radiance = trace_path(o, d, estimate, rng, segments);

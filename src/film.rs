@@ -19,6 +19,10 @@ pub struct Film {
     /// and `crate::render::GpuRenderer::render_round`); 0 where every frame is
     /// whole. No frame is accumulated after a partial one.
     pub partial_spp: u32,
+    /// Where frames weighed other than their samples' share (a timed race's,
+    /// [`FrameWeight::weight`]), their total weight in whole frames, which the
+    /// image divides by; None where every frame weighs its samples' share.
+    pub weight: Option<f64>,
     pub pixels: Vec<AccumPixel>,
     /// Each pixel's Kahan compensation of its sum ([`kahan_add`]), where the film
     /// accumulates on the host (the CPU renderer); a GPU keeps its own on the
@@ -55,7 +59,32 @@ pub fn accumulate(
     learned: Learned,
     sum: [f32; 3],
 ) {
-    accumulate_samples(acc, carry, frames, learned_frames, learned, sum, shared::SAMPLES_PER_FRAME);
+    accumulate_samples(acc, carry, frames, learned_frames, learned, sum, FrameWeight::whole(frames));
+}
+
+/// What a frame weighs in the accumulation it joins ([`accumulate_samples`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameWeight {
+    /// Its samples per pixel, 1 to 64: a frame of k weighs k / 64 of a whole one.
+    pub samples: u32,
+    /// A whole frame's weight: 1, but in a timed race, where each kind's frames
+    /// weigh the inverse of their variance (`crate::guide::FrameRace::frame_weight`).
+    pub weight: f32,
+    /// The frames before it, their total weight in whole frames: their count
+    /// where every frame weighed 1 (0 where the frame is the first).
+    pub before: f32,
+}
+
+impl FrameWeight {
+    /// A whole frame of weight 1 after `frames` such frames.
+    pub fn whole(frames: u32) -> FrameWeight {
+        FrameWeight { samples: shared::SAMPLES_PER_FRAME, weight: 1.0, before: frames as f32 }
+    }
+
+    /// Its weight in whole frames: the weight times its samples' share.
+    pub fn frames(&self) -> f64 {
+        self.weight as f64 * self.samples as f64 / shared::SAMPLES_PER_FRAME as f64
+    }
 }
 
 /// What the image's first frame does with the learning frames the pixel holds
@@ -83,12 +112,14 @@ impl Learned {
     }
 }
 
-/// [`accumulate`] of a frame of `samples` samples per pixel (1 to 64) after
-/// `frames` whole ones: West's weighted Welford update, each frame's mean
-/// weighted by its share of a whole frame's samples, so that
-/// [`Film::variance_of_mean`] stays unbiased (docs/cli.md, `--time`). With 64
-/// samples every weight is 1 and the arithmetic is [`accumulate`]'s, bit for bit.
-/// The GLSL twin is `accumulate` in `glsl/pathtrace.comp`, `samples` its `push.samples`.
+/// [`accumulate`] of a frame weighing `weight` after `frames` frames: West's
+/// weighted Welford update, each frame's mean weighted by its share of a whole
+/// frame's samples times its kind's weight, so that [`Film::variance_of_mean`]
+/// stays unbiased (docs/cli.md, `--time`; docs/guiding.md, "Guided and unguided
+/// frames"). The sum holds each frame's sum times its weight. With whole frames
+/// of weight 1 the arithmetic is [`accumulate`]'s, bit for bit. The GLSL twin
+/// is `accumulate` in `glsl/pathtrace.comp` (`push.samples`, `push.weight`,
+/// `push.accum_weight`).
 pub fn accumulate_samples(
     acc: &mut AccumPixel,
     carry: &mut [f32; 3],
@@ -96,30 +127,31 @@ pub fn accumulate_samples(
     learned_frames: u32,
     learned: Learned,
     sum: [f32; 3],
-    samples: u32,
+    weight: FrameWeight,
 ) {
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
-    let mut frames = frames;
+    let mut before = weight.before;
+    let weighted = sum.map(|s| s * weight.weight);
     if frames == 0 && learned_frames > 0 && learned == Learned::Fold {
         let held = Vec3::from_slice(&acc.sum[..3]) / learned_frames as f32;
         *acc = AccumPixel { sum: [held.x, held.y, held.z, 0.0], m2_frame_mean: [0.0; 4] };
         *carry = [0.0; 3];
-        frames = 1;
+        before = 1.0;
     } else if frames == 0 {
         let learned = if learned_frames > 0 { mean3(Vec3::from_slice(&acc.sum[..3])) } else { 0.0 };
-        *acc = AccumPixel { sum: [sum[0], sum[1], sum[2], learned], m2_frame_mean: [0.0; 4] };
+        *acc = AccumPixel { sum: [weighted[0], weighted[1], weighted[2], learned], m2_frame_mean: [0.0; 4] };
         *carry = [0.0; 3];
         return;
     }
-    let w = samples as f32 / per_frame;
+    let w = weight.weight * weight.samples as f32 / per_frame;
     for c in 0..3 {
-        let mean_old = acc.sum[c] / (per_frame * frames as f32);
-        let m = sum[c] / samples as f32;
+        let mean_old = acc.sum[c] / (per_frame * before);
+        let m = sum[c] / weight.samples as f32;
         let delta = m - mean_old;
-        let mean_new = mean_old + delta * w / (frames as f32 + w);
+        let mean_new = mean_old + delta * w / (before + w);
         // Compensated: after a million frames a frame's sum is a millionth of the
         // pixel's, and added plainly its low bits would be lost.
-        kahan_add(&mut acc.sum[c], &mut carry[c], sum[c]);
+        kahan_add(&mut acc.sum[c], &mut carry[c], weighted[c]);
         acc.m2_frame_mean[c] += w * delta * (m - mean_new);
     }
 }
@@ -190,6 +222,7 @@ impl Film {
             height,
             frames: 0,
             partial_spp: 0,
+            weight: None,
             pixels: vec![AccumPixel::default(); (width * height) as usize],
             carry: vec![[0.0; 3]; (width * height) as usize],
         }
@@ -199,9 +232,17 @@ impl Film {
         samples_in(self.frames, self.partial_spp)
     }
 
-    /// The radiance estimate: mean of all samples.
+    /// The frames' total weight in whole frames: [`Film::weight`], or where
+    /// every frame weighed its samples' share, the samples per pixel over 64.
+    pub fn weight_frames(&self) -> f64 {
+        self.weight.unwrap_or(self.samples_per_pixel() as f64 / shared::SAMPLES_PER_FRAME as f64)
+    }
+
+    /// The radiance estimate: the samples' mean, each frame's weighted by its
+    /// [`FrameWeight`].
     pub fn mean(&self) -> Image {
-        let n = self.samples_per_pixel().max(1) as f32;
+        let w = self.weight_frames();
+        let n = if w > 0.0 { (w * shared::SAMPLES_PER_FRAME as f64) as f32 } else { 1.0 };
         Image {
             width: self.width,
             height: self.height,
@@ -211,14 +252,16 @@ impl Film {
 
     /// Estimated variance of each pixel's mean, from the spread of its per-frame
     /// means (needs at least two frames; `None` otherwise): the weighted squared
-    /// deviations over (frames - 1) and the samples in units of whole frames
-    /// ([`accumulate_samples`]), which with whole frames is their count.
+    /// deviations over (frames - 1) and the frames' total weight
+    /// ([`accumulate_samples`]), which with whole frames of weight 1 is their
+    /// count. Where the weights are the inverse of the frames' variances, as a
+    /// race's are, this is the weighted mean's variance too.
     pub fn variance_of_mean(&self) -> Option<Image> {
         if self.frames < 2 {
             return None;
         }
         let f = self.frames as f64;
-        let weight = self.samples_per_pixel() as f64 / shared::SAMPLES_PER_FRAME as f64;
+        let weight = self.weight_frames();
         Some(Image {
             width: self.width,
             height: self.height,
@@ -258,6 +301,64 @@ mod memory_tests {
 #[cfg(test)]
 mod accumulation_tests {
     use super::*;
+
+    /// Frames of two kinds, the second 16 times as noisy and weighing 1/16
+    /// (a timed race's [`FrameWeight`]s), over many pixels of uniform samples:
+    /// the image's mean is unbiased, [`Film::variance_of_mean`] is the weighted
+    /// mean's variance (sigma^2 / W) within 5 standard errors, and that is a
+    /// quarter of what weighing every frame alike would leave.
+    #[test]
+    fn frames_weighed_by_their_inverse_variance_stay_unbiased() {
+        use crate::math::rng::Rng;
+        let trials = 20_000u32;
+        let noisy = [false, true, true, false, true, false, true, true];
+        let per_frame = shared::SAMPLES_PER_FRAME;
+        let sigma2 = 1.0 / 12.0 / per_frame as f64;
+        let w_total: f64 = noisy.iter().map(|&n| if n { 1.0 / 16.0 } else { 1.0 }).sum();
+        let truth = sigma2 / w_total;
+        let (mut means, mut means_sq, mut variances, mut variances_sq) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for t in 0..trials {
+            let mut rng = Rng::new(7, t, 0, 0);
+            let (mut acc, mut carry, mut before) = (AccumPixel::default(), [0.0f32; 3], 0.0f32);
+            for (f, &n) in noisy.iter().enumerate() {
+                // Uniform samples about 0.5, four times as wide (16 times the variance) where noisy.
+                let scale = if n { 4.0 } else { 1.0 };
+                let s: f32 = (0..per_frame).map(|_| 0.5 + scale * (rng.next_f32() - 0.5)).sum();
+                let weight = FrameWeight { samples: per_frame, weight: if n { 1.0 / 16.0 } else { 1.0 }, before };
+                accumulate_samples(&mut acc, &mut carry, f as u32, 0, Learned::Fold, [s; 3], weight);
+                before += weight.frames() as f32;
+            }
+            let film = Film {
+                width: 1,
+                height: 1,
+                frames: noisy.len() as u32,
+                partial_spp: 0,
+                weight: Some(before as f64),
+                pixels: vec![acc],
+                carry: vec![carry],
+            };
+            let m = film.mean().pixels[0][0] as f64;
+            means += m;
+            means_sq += m * m;
+            let v = film.variance_of_mean().expect("8 frames").pixels[0][0] as f64;
+            variances += v;
+            variances_sq += v * v;
+        }
+        let n = trials as f64;
+        let mean = means / n;
+        let spread = means_sq / n - mean * mean;
+        assert!((mean - 0.5).abs() < 5.0 * (spread / n).sqrt(), "mean {mean}");
+        // The spread of the weighted mean over the trials, and its estimate, against sigma^2 / W.
+        assert!((spread / truth - 1.0).abs() < 5.0 * (2.0 / n).sqrt(), "spread {spread:e} against {truth:e}");
+        let estimate = variances / n;
+        let se = ((variances_sq / n - estimate * estimate) / n).sqrt();
+        assert!(
+            (estimate - truth).abs() < 5.0 * se,
+            "estimated {estimate:e} against {truth:e} (standard error {se:e})"
+        );
+        let alike = sigma2 * noisy.iter().map(|&n| if n { 16.0 } else { 1.0 }).sum::<f64>() / 64.0;
+        assert!(truth < 0.25 * alike, "weighted {truth:e}, alike {alike:e}");
+    }
 
     /// A million frames of one pixel, each summing nearly the same radiance (a
     /// furnace): its sum is the exact sum to float precision. Added plainly in

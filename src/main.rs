@@ -204,7 +204,8 @@ struct Settings {
     /// Whether a guided render's image frames may be traced unguided: `auto` traces each
     /// frame with the guided or the unguided kernel, whichever has lately given the image
     /// more for its time (a few frames go to the other, to keep measuring it and teaching
-    /// the table; docs/guiding.md, where its measured effects are); `never` guides every
+    /// the table; with `--time` each kind's frames weigh the inverse of its variance;
+    /// docs/guiding.md, where its measured effects are); `never` guides every
     /// frame [default: auto for `render --time` of a scene without Russian roulette on one
     /// GPU, else never].
     #[arg(long, value_enum)]

@@ -10,7 +10,7 @@ mod common;
 use common::{options, scene, K};
 use rlpt::camera::camera_ray;
 use rlpt::cpu::{pass_sample, trace_path, CpuRenderer};
-use rlpt::film::{accumulate, accumulate_samples, Film, Learned};
+use rlpt::film::{accumulate, accumulate_samples, Film, FrameWeight, Learned};
 use rlpt::layout::AccumPixel;
 use rlpt::math::rng::Rng;
 use rlpt::math::sampler::{rng_frame, PathSampler};
@@ -166,11 +166,26 @@ fn the_variance_with_a_frame_cut_short_is_unbiased() {
                 accumulate(&mut plain, &mut plain_carry, f, 0, Learned::Fold, s);
             }
             let s = frame(k);
-            accumulate_samples(&mut acc, &mut carry, whole, 0, Learned::Fold, s, k);
+            accumulate_samples(
+                &mut acc,
+                &mut carry,
+                whole,
+                0,
+                Learned::Fold,
+                s,
+                FrameWeight { samples: k, ..FrameWeight::whole(whole) },
+            );
             // The cut frame's mean scaled to a whole frame's sum, and weighted as one.
             accumulate(&mut plain, &mut plain_carry, whole, 0, Learned::Fold, s.map(|v| v * 64.0 / k as f32));
-            let film =
-                Film { width: 1, height: 1, frames: whole + 1, partial_spp: k, pixels: vec![acc], carry: vec![carry] };
+            let film = Film {
+                width: 1,
+                height: 1,
+                frames: whole + 1,
+                partial_spp: k,
+                weight: None,
+                pixels: vec![acc],
+                carry: vec![carry],
+            };
             let v = film.variance_of_mean().expect("2 frames or more").pixels[0][0] as f64;
             sum += v;
             sum_sq += v * v;

@@ -96,6 +96,67 @@ fn images_of_guided_and_unguided_frames_are_unbiased() {
     assert_no_validation_messages(&ctx);
 }
 
+/// A timed race weighs each kind's frames by the inverse of its variance
+/// (`FrameRace::frame_weight`): on either device the film holds its frames'
+/// total weight, and its image agrees with an unguided one. Budgets of 40 of
+/// the device's unguided frames or more, so that the head start and the
+/// race trace guided frames beside the unguided ones.
+#[test]
+fn a_timed_race_weighs_its_frames_and_stays_unbiased() {
+    let ctx = gpu();
+    let mut scene = scene("seed-exp1.toml");
+    let off = render_gpu(&ctx, &scene, &options(&scene, 24, 16, 4096));
+    // A small table: the head start's frames learn after each, and the default
+    // table's pass takes lavapipe ten times the frame.
+    scene.guiding.resolution = Some([4, 4, 4]);
+    let mut o = racing(&scene, 24, 16, 64, 13);
+    o.bins = Some(rlpt::guide::Bins { rows: 4, cols: 8 });
+    let prepared = PreparedScene::new(&scene, &o).expect("valid options");
+    // The budget: 40 unguided frames, and at least 25 guided ones (of the
+    // second, which records every row and learns: the first of a kernel runs
+    // cold), so that the head start holds two.
+    let unguided = GpuRenderer::new(&ctx, &prepared).expect("renderer").render_round(1, Some(1e9)).expect("round");
+    let mut probe = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    probe.render_frames(1).expect("frame");
+    let g_ms = probe.render_frames(1).expect("frame").total_ms();
+    let u_ms = unguided.gpu_ms.expect("lavapipe's timestamps time the frame");
+    let mut left = (40.0 * u_ms).max(25.0 * g_ms);
+    let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
+    loop {
+        let r = g.render_round(64, Some(left)).expect("round");
+        left -= r.gpu_ms.unwrap_or(0.0);
+        if r.frames == 0 || r.time_up == Some(true) {
+            break;
+        }
+    }
+    let film = g.film().expect("readback");
+    let race = *g.race().expect("a race");
+    assert!(race.guided.frames + race.unguided.frames > 0, "{race:?}");
+    let weight = film.weight.expect("guided frames weighed other than 1");
+    assert!(weight > 0.0 && weight != film.samples_per_pixel() as f64 / 64.0, "{weight}");
+    let z = assert_films_agree(&film, &off, 4, K, "GPU: a timed race's weighted frames vs off");
+    eprintln!("GPU: {} frames of total weight {weight:.2}, worst block {z:.2} sigma", film.frames);
+
+    let mut c = CpuRenderer::new(&prepared);
+    let start = std::time::Instant::now();
+    c.render_frame_within(1e9);
+    let budget = 40.0 * start.elapsed().as_secs_f64() * 1e3;
+    let mut c = CpuRenderer::new(&prepared);
+    let start = std::time::Instant::now();
+    loop {
+        let (samples, time_up) = c.render_frame_within(budget - start.elapsed().as_secs_f64() * 1e3);
+        if samples == 0 || time_up {
+            break;
+        }
+    }
+    let film = c.film().clone();
+    let weight = film.weight.expect("guided frames weighed other than 1");
+    assert!(weight > 0.0 && weight != film.samples_per_pixel() as f64 / 64.0, "{weight}");
+    let z = assert_films_agree(&film, &off, 4, K, "CPU: a timed race's weighted frames vs off");
+    eprintln!("CPU: {} frames of total weight {weight:.2}, worst block {z:.2} sigma", film.frames);
+    assert_no_validation_messages(&ctx);
+}
+
 /// The race starts after eight guided frames with two unguided, then two guided;
 /// on either device the first unguided frame traces the same paths (no table in
 /// them) from the same accumulation up to rounding, so its variance is the same.
@@ -166,10 +227,11 @@ fn a_timed_render_bounds_the_head_start_by_its_budget() {
     assert_no_validation_messages(&ctx);
 }
 
-/// A timed render opens with an unguided frame on either device; where its
-/// budget fits fewer than `RACE_MIN_FRAMES` frames of that time (here a quarter of it)
-/// the frames after it are unguided too, and where it fits many (about 1000)
-/// the guided head start follows. Budgets from the unguided first frame of a
+/// A timed render opens with two unguided frames on either device (the first
+/// timed, the second weighed too); where its budget fits fewer than
+/// `RACE_MIN_FRAMES` frames of that time (here a quarter of it) the frames after
+/// them are unguided too, and where it fits many (about 1000) the guided head
+/// start follows. Budgets from the unguided first frame of a
 /// render with a long one, far from the threshold on either side: lavapipe's
 /// frames vary under load.
 #[test]
@@ -191,13 +253,20 @@ fn a_timed_render_opens_unguided_and_guides_only_where_enough_frames_fit() {
         let budget = frames * gpu_ms;
         let first = g.render_round(1, Some(budget)).expect("round");
         assert_eq!(g.race().expect("a race").unguided.frames, 0, "the first frame is timed, not weighed");
-        let second = g.render_round(1, Some(budget - first.gpu_ms.expect("timestamps"))).expect("round");
-        assert_eq!((first.kind, second.kind), (Some(FrameKind::Unguided), Some(then)), "GPU, {frames} frames");
+        let left = budget - first.gpu_ms.expect("timestamps");
+        let second = g.render_round(1, Some(left)).expect("round");
+        assert_eq!(g.race().expect("a race").unguided.frames, 1, "the second frame is weighed");
+        let third = g.render_round(1, Some(left - second.gpu_ms.expect("timestamps"))).expect("round");
+        let kinds = [first.kind, second.kind, third.kind];
+        let want = [Some(FrameKind::Unguided), Some(FrameKind::Unguided), Some(then)];
+        assert_eq!(kinds, want, "GPU, {frames} frames");
 
         let mut c = CpuRenderer::new(&prepared);
         let budget = frames * cpu_ms;
         let (samples, _) = c.render_frame_within(budget);
         assert_eq!((samples, c.last_kind), (64, Some(FrameKind::Unguided)), "CPU, {frames} frames");
+        c.render_frame_within(budget / 2.0);
+        assert_eq!(c.last_kind, Some(FrameKind::Unguided), "CPU, {frames} frames: the second");
         c.render_frame_within(budget / 2.0);
         assert_eq!(c.last_kind, Some(then), "CPU, {frames} frames");
     }
@@ -276,8 +345,9 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/seed-exp1.toml"][..], &timed].concat());
     assert!(frames >= 12 && unguided >= 2, "seed-exp1 --time: {frames} frames, {unguided} unguided");
     // Door's fifth frame would be unguided where it raced (the learning frames' last);
-    // its first eight learn after each, which takes lavapipe 150 to 250 ms a frame.
-    let (frames, unguided) = unguided_frames(&[&["render", "scenes/door.toml"][..], &timed].concat());
+    // its first eight learn after each, which takes lavapipe 150 to 450 ms a frame.
+    let door_timed = [&size[..], &["--spp", "100000000", "--time", "3"]].concat();
+    let (frames, unguided) = unguided_frames(&[&["render", "scenes/door.toml"][..], &door_timed].concat());
     assert!(frames >= 5 && unguided == 0, "door --time: {frames} frames, {unguided} unguided");
     // Several GPUs refuse a race, so a render that succeeds there did not default to one.
     let o = common::cli::rlpt()

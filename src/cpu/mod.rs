@@ -3,7 +3,7 @@
 //! reference the GPU renderer is tested against.
 
 use crate::camera::camera_ray;
-use crate::film::{Film, Learned};
+use crate::film::{Film, FrameWeight, Learned};
 use crate::guide::{self, FrameSums, GuideConfig, QTable, Recorder};
 use crate::layout::SceneArrays;
 use crate::math::bsdf::Bsdf;
@@ -300,7 +300,16 @@ impl CpuRenderer {
         if folds {
             self.learned_frames = self.film.frames;
             self.film.frames = 0;
+            self.film.weight = None;
         }
+        // In a timed race each kind's frames weigh the inverse of their variance;
+        // the learning frames weigh 1 (`crate::film::FrameWeight`).
+        let image = self.frames_traced >= learning_frames;
+        let weight = match (self.learning.as_ref().and_then(|l| l.race.as_ref()), kind) {
+            (Some(race), Some(kind)) if image => race.frame_weight(kind),
+            _ => 1.0,
+        };
+        let weight_before = self.film.weight_frames();
         // A loaded field has learned: learned roulette need not wait for it.
         let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
         let scene = &self.scene;
@@ -313,6 +322,8 @@ impl CpuRenderer {
             frame,
             rng_frame: crate::math::sampler::rng_frame(self.frames_traced, learning_frames, self.frame_offset),
             accum_frames: self.film.frames,
+            accum_weight: weight_before as f32,
+            weight,
             learned_frames: self.learned_frames,
             learned: self.learned,
             roulette_frames: frame + table_frames,
@@ -368,14 +379,20 @@ impl CpuRenderer {
                 period,
             );
         }
+        let folded = folds && self.learned == Learned::Fold;
+        let this = FrameWeight { samples, weight, before: weight_before as f32 };
+        let weight_after = weight_before + if folded { 1.0 } else { 0.0 } + this.frames();
         self.film.frames += 1;
-        if folds && self.learned == Learned::Fold {
+        if folded {
             self.film.frames += 1;
             self.learned_frames = 0;
             self.learning_folded = true;
         }
         if !whole {
             self.film.partial_spp = samples;
+        }
+        if weight != 1.0 || self.film.weight.is_some() {
+            self.film.weight = Some(weight_after);
         }
         self.frames_traced += 1;
         self.last_counters = counters;
@@ -415,8 +432,12 @@ pub(super) struct FrameSetup<'a> {
     frame: u32,
     /// The random numbers' frame index (`crate::math::sampler::rng_frame`).
     rng_frame: u32,
-    /// The film's frames before this one, and the learning frames left out of it.
+    /// The film's frames before this one, their total weight in whole frames,
+    /// this frame's weight (`crate::film::FrameWeight`), and the learning
+    /// frames left out of the film.
     accum_frames: u32,
+    accum_weight: f32,
+    weight: f32,
     learned_frames: u32,
     learned: Learned,
     /// The table's frames, for learned roulette's wait (`guide::roulette_estimate`).
@@ -460,7 +481,12 @@ impl FrameSetup<'_> {
     /// The pixel estimate learned roulette compares with (0 without guiding).
     pub(super) fn estimate(&self, acc: &crate::layout::AccumPixel) -> f32 {
         match self.guide {
-            Some(_) => guide::roulette_estimate(acc, self.accum_frames, self.learned_frames, self.roulette_frames),
+            Some(_) => guide::roulette_estimate(
+                acc,
+                (self.accum_frames, self.accum_weight),
+                self.learned_frames,
+                self.roulette_frames,
+            ),
             None => 0.0,
         }
     }
@@ -547,7 +573,8 @@ impl FrameSetup<'_> {
         counters: &mut FrameCounters,
     ) {
         if weigh {
-            let before = pixel_mean_before(acc, self.accum_frames, self.learned_frames, mean3(px.sum));
+            let before =
+                pixel_mean_before(acc, (self.accum_frames, self.accum_weight), self.learned_frames, mean3(px.sum));
             let frame_mean = mean3(px.sum) / shared::SAMPLES_PER_FRAME as f32;
             counters.variance += crate::film::frame_variance_term(frame_mean, before) as f64;
         }
@@ -558,19 +585,25 @@ impl FrameSetup<'_> {
             self.learned_frames,
             self.learned,
             px.sum.to_array(),
-            samples,
+            FrameWeight { samples, weight: self.weight, before: self.accum_weight },
         );
     }
 }
 
 /// `pathtrace.comp` `add_frame_variance`'s mean of the pixel before the frame:
 /// the accumulation's, the learning frames' where the image has none yet, else
-/// this frame's (`frame_sum`, mean3 of its sum).
-fn pixel_mean_before(acc: &crate::layout::AccumPixel, accum_frames: u32, learned_frames: u32, frame_sum: f32) -> f32 {
-    let n = if accum_frames > 0 { accum_frames } else { learned_frames };
+/// this frame's (`frame_sum`, mean3 of its sum). The accumulation's frames
+/// count by their total weight (`crate::film::FrameWeight`).
+fn pixel_mean_before(
+    acc: &crate::layout::AccumPixel,
+    (accum_frames, accum_weight): (u32, f32),
+    learned_frames: u32,
+    frame_sum: f32,
+) -> f32 {
+    let n = if accum_frames > 0 { accum_weight } else { learned_frames as f32 };
     let per_frame = shared::SAMPLES_PER_FRAME as f32;
-    if n > 0 {
-        mean3(Vec3::from_slice(&acc.sum[..3])) / (per_frame * n as f32)
+    if n > 0.0 {
+        mean3(Vec3::from_slice(&acc.sum[..3])) / (per_frame * n)
     } else {
         frame_sum / per_frame
     }

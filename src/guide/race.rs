@@ -1,9 +1,11 @@
 //! Guided or unguided frames: a guided render's image frames are traced by the
 //! guided kernel or by the unguided one, whichever has lately given the image
 //! more for its time (docs/guiding.md, "Guided and unguided frames"). Both are
-//! unbiased estimates of the same image and every frame counts as its 64
-//! samples, so the choice, which reads only frames already traced, leaves the
-//! image unbiased. The GPU and CPU renderers both follow a [`FrameRace`].
+//! unbiased estimates of the same image. Without a time limit every frame
+//! counts as its 64 samples, so the choice, which reads only frames already
+//! traced, leaves the image unbiased; in a timed render each kind's frames
+//! weigh the inverse of its variance ([`FrameRace::frame_weight`]). The GPU and
+//! CPU renderers both follow a [`FrameRace`].
 
 use crate::shared;
 
@@ -60,14 +62,18 @@ pub fn default_unguided_frames(timed: bool, roulette: bool, several_gpus: bool) 
 /// frames after them; judged by them, guiding would lose the race before it had
 /// learned anything.
 ///
-/// A timed render's first image frame is unguided where no learning frame was
-/// (`FrameRace::opens_unguided`): it times the unguided kind before any guided
-/// frame is spent, and where the budget fits fewer than [`RACE_MIN_FRAMES`] of
-/// them no frame is guided ([`FrameRace::explores`]).
+/// A timed render's first [`RACE_OPENING`] image frames are unguided where no
+/// learning frame was (`FrameRace::opens_unguided`): they time the unguided
+/// kind and measure its variance before any guided frame is spent, and where
+/// the budget fits fewer than [`RACE_MIN_FRAMES`] of them no frame is guided
+/// ([`FrameRace::explores`]).
 pub fn frame_kind(race: Option<&FrameRace>, traced: u32, guided_traced: u32, learning_frames: u32) -> FrameKind {
     match race {
         Some(_) if learning_frames >= 2 && traced + 1 == learning_frames => FrameKind::Unguided,
-        Some(r) if traced >= learning_frames && (r.opens_unguided(traced, learning_frames) || !r.explores()) => {
+        Some(r)
+            if traced >= learning_frames
+                && (r.opens_unguided(traced, guided_traced, learning_frames) || !r.explores()) =>
+        {
             FrameKind::Unguided
         }
         Some(r) if traced >= learning_frames && r.head_start_over(guided_traced) => r.next(),
@@ -89,15 +95,22 @@ pub fn frames_before_image(n: u32, unguided_frames: bool) -> u32 {
 
 /// Frames of each kind measured before the race chooses by efficiency.
 pub const RACE_START_FRAMES: u32 = 1;
+/// A timed render's image opens with this many unguided frames: the second
+/// measures the unguided kind's variance (the first has no mean before it to
+/// measure against), which the guided head start's weights read.
+pub const RACE_OPENING: u32 = 2;
+/// A kind's frame weighs at most this many times the other's, and at least its
+/// inverse ([`FrameRace::frame_weight`]).
+pub const RACE_WEIGHT_RANGE: f64 = 256.0;
 /// A timed render whose budget fits fewer than this many unguided frames (timed
-/// by its first) traces none guided: after the head start's share, the first
-/// frame and the unguided opening burst, a guided burst, each frame taken to
+/// by its first) traces none guided: after the head start's share, the
+/// [`RACE_OPENING`] frames and the unguided burst, a guided burst, each frame taken to
 /// last at least an unguided one, would not fit [`RACE_EXPLORE_SHARE`] of the
 /// time left, so the head start's frames would be all the guided frames there
-/// are, spent on a table that could never repay them (about 25.6 frames;
+/// are, spent on a table that could never repay them (about 26.7 frames;
 /// docs/guiding.md, "Short renders").
 pub const RACE_MIN_FRAMES: f64 =
-    (RACE_BURST as f64 / RACE_EXPLORE_SHARE + 1.0 + RACE_BURST as f64) / (1.0 - RACE_HEAD_START_SHARE);
+    (RACE_BURST as f64 / RACE_EXPLORE_SHARE + RACE_OPENING as f64 + RACE_BURST as f64) / (1.0 - RACE_HEAD_START_SHARE);
 /// The head start's guided frames, which the race does not weigh, take at most
 /// this share of a timed render's budget (but its first frame): a short render's
 /// first frames are most of its image, and where guiding does not pay they spoil it.
@@ -203,6 +216,11 @@ pub struct FrameRace {
     head_ms: f64,
     /// The first unguided frame's time (ms): [`FrameRace::explores`] reads it.
     first_unguided_ms: Option<f64>,
+    /// Each kind's image frames' mean relative variance, the head start's
+    /// guided frames included, over about their last [`RACE_GUIDED_WINDOW`] and
+    /// [`RACE_WINDOW`] frames, and the frames measured: what
+    /// [`FrameRace::frame_weight`] reads (guided, unguided).
+    weigh_variance: [(f64, u32); 2],
 }
 
 impl Default for FrameRace {
@@ -222,6 +240,7 @@ impl Default for FrameRace {
             head_frames: 0,
             head_ms: 0.0,
             first_unguided_ms: None,
+            weigh_variance: [(0.0, 0); 2],
         }
     }
 }
@@ -235,11 +254,36 @@ impl FrameRace {
     }
 
     /// Whether the frame after `traced` frames opens a timed render's image
-    /// unguided: its first image frame, where no unguided learning frame came
-    /// before ([`frame_kind`]). Without a time limit the render opens guided, so
-    /// that a seed's `--spp` image does not change with its race.
-    pub fn opens_unguided(&self, traced: u32, learning_frames: u32) -> bool {
-        self.budget_ms.is_some() && learning_frames < 2 && traced == learning_frames
+    /// unguided: its first [`RACE_OPENING`] image frames, where no unguided
+    /// learning frame came before and no image frame was guided
+    /// (`guided_traced` counts the learning frames'; [`frame_kind`]). Without a
+    /// time limit the render opens guided, so that a seed's `--spp` image does
+    /// not change with its race.
+    pub fn opens_unguided(&self, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
+        self.budget_ms.is_some()
+            && learning_frames < 2
+            && guided_traced == learning_frames
+            && traced >= learning_frames
+            && traced < learning_frames + RACE_OPENING
+    }
+
+    /// What a whole frame of `kind` weighs in a timed render's image
+    /// (`crate::film::FrameWeight`): the unguided kind's mean relative variance
+    /// over this kind's, within [`RACE_WEIGHT_RANGE`], so that each frame weighs
+    /// the inverse of its kind's variance and a kind far noisier than the other
+    /// costs the image little more than its time. 1 for an unguided frame, before
+    /// both kinds are measured, and without a time limit, whose `--spp` image
+    /// weighs every frame alike. The weights read only frames already traced;
+    /// docs/guiding.md, "Frame weights", says what that leaves of the bias.
+    pub fn frame_weight(&self, kind: FrameKind) -> f32 {
+        let [(guided, g), (unguided, u)] = self.weigh_variance;
+        if kind == FrameKind::Unguided || self.budget_ms.is_none() || g == 0 || u == 0 {
+            return 1.0;
+        }
+        if guided <= 0.0 {
+            return RACE_WEIGHT_RANGE as f32;
+        }
+        (unguided / guided).clamp(1.0 / RACE_WEIGHT_RANGE, RACE_WEIGHT_RANGE) as f32
     }
 
     /// Whether the race may trace guided frames: not where a timed render's
@@ -330,11 +374,25 @@ impl FrameRace {
         if kind == FrameKind::Unguided {
             self.first_unguided_ms.get_or_insert(trace_ms);
         }
+        // The weights read every image frame's variance, the head start's too; a
+        // render's first frame is measured against its own mean, which understates it.
+        let (image, slot, window) = match kind {
+            FrameKind::Guided => (traced >= learning_frames, 0, RACE_GUIDED_WINDOW),
+            FrameKind::Unguided => (traced > 0, 1, RACE_WINDOW),
+        };
+        if image {
+            let (mean, n) = &mut self.weigh_variance[slot];
+            *n += 1;
+            *mean += (variance - *mean) / (*n).min(window) as f64;
+        }
         if self.weighs(kind, traced, guided_traced, learning_frames) {
             self.report_frame(kind, variance, trace_ms, learn_ms, period);
         } else if kind == FrameKind::Guided {
             self.head_frames += 1;
             self.head_ms += trace_ms + learn_ms.unwrap_or(0.0);
+            // The race's first frame after them is cold, of either kind.
+            self.last = None;
+            self.run = 0;
         }
     }
 
@@ -550,22 +608,29 @@ mod tests {
 
         // A budget of 100 ms: at most 10 ms of head start, here two frames of 3 ms
         // and a pass of 0.5 ms each (a third would take it to 10.5 ms).
-        // (The timed render's first frame is unguided, of 1 ms: the budget fits 100.)
+        // (The timed render's first two frames are unguided, of 1 ms: the budget fits 100.)
         let mut timed = FrameRace::default();
         timed.set_time_left(100.0);
-        assert_eq!(frame_kind(Some(&timed), 0, 0, 0), FrameKind::Unguided);
-        timed.report_traced((FrameKind::Unguided, 0, 0, 0), 1.0, 1.0, None, 1);
+        for t in 0..RACE_OPENING {
+            assert_eq!(frame_kind(Some(&timed), t, 0, 0), FrameKind::Unguided, "frame {t}");
+            timed.report_traced((FrameKind::Unguided, t, 0, 0), 1.0, 1.0, None, 1);
+        }
         timed.set_time_left(95.0);
+        let o = RACE_OPENING;
         for g in 0..2 {
             assert!(!timed.head_start_over(g), "after {g} frames");
             assert_eq!(timed.head_start_left(g), if g == 0 { head } else { 1 }, "after {g} frames");
-            assert_eq!(frame_kind(Some(&timed), g + 1, g, 0), FrameKind::Guided);
-            timed.report_traced((FrameKind::Guided, g + 1, g, 0), 1.0, 3.0, Some(0.5), 1);
+            assert_eq!(frame_kind(Some(&timed), g + o, g, 0), FrameKind::Guided);
+            timed.report_traced((FrameKind::Guided, g + o, g, 0), 1.0, 3.0, Some(0.5), 1);
         }
         assert!(timed.head_start_over(2), "7 ms of a 100 ms budget, and 3.5 more");
         assert_eq!(timed.head_start_left(2), 0);
-        assert!(timed.weighs(FrameKind::Guided, 3, 2, 0) && timed.guided.frames == 0);
-        assert_eq!(frame_kind(Some(&timed), 3, 2, 0), FrameKind::Unguided);
+        assert!(timed.weighs(FrameKind::Guided, 2 + o, 2, 0) && timed.guided.frames == 0);
+        assert_eq!(
+            frame_kind(Some(&timed), 2 + o, 2, 0),
+            FrameKind::Guided,
+            "the race opens guided: unguided is measured"
+        );
         // Learning frames are guided, head start or not; the image's then race.
         assert_eq!(frame_kind(Some(&timed), 2, 2, 5), FrameKind::Guided);
         // The first frame is traced whatever its budget.
@@ -576,34 +641,88 @@ mod tests {
         assert!(short.head_start_over(1));
     }
 
-    /// A timed render opens with an unguided frame, which the race times but does
-    /// not weigh (no frame before it); where its budget fits fewer than
-    /// `RACE_MIN_FRAMES` of them every frame is unguided, else the head start
-    /// follows. Without a time limit, or after learning frames whose last is
-    /// unguided, the render opens as before.
+    /// A timed render's frames weigh the inverse of their kind's variance, as
+    /// the frames already traced measured it: the head start's guided frames
+    /// too, the render's first frame not (no mean before it). Untimed, and
+    /// before both kinds are measured, every frame weighs 1.
+    #[test]
+    fn timed_frames_weigh_the_inverse_of_their_kinds_variance() {
+        use FrameKind::*;
+        let mut untimed = FrameRace::default();
+        for t in 0..4 {
+            untimed.report_traced((Unguided, t, 0, 0), 1.0, 1.0, None, 1);
+            untimed.report_traced((Guided, t, 0, 0), 28.0, 1.0, None, 1);
+        }
+        assert_eq!(untimed.frame_weight(Guided), 1.0, "an --spp image weighs every frame alike");
+
+        let mut race = FrameRace::default();
+        race.set_time_left(1000.0);
+        race.report_traced((Unguided, 0, 0, 0), 0.001, 1.0, None, 1);
+        assert_eq!(race.frame_weight(Guided), 1.0, "the first frame measures nothing");
+        race.report_traced((Unguided, 1, 0, 0), 1.0, 1.0, None, 1);
+        assert_eq!(race.frame_weight(Guided), 1.0, "no guided frame measured yet");
+        // A head-start frame, which the race itself does not weigh, 28 times as noisy.
+        race.report_traced((Guided, 2, 0, 0), 28.0, 1.0, None, 1);
+        assert!(race.guided.frames == 0 && !race.head_start_over(1));
+        assert_eq!((race.frame_weight(Guided), race.frame_weight(Unguided)), (1.0 / 28.0, 1.0));
+        // Means over the kind's frames: (28 + 14) / 2.
+        race.report_traced((Guided, 3, 1, 0), 14.0, 1.0, None, 1);
+        assert_eq!(race.frame_weight(Guided), 1.0 / 21.0);
+        // Guided frames less noisy weigh more, up to the range.
+        let mut better = race;
+        for g in 0..RACE_WINDOW {
+            better.report_traced((Guided, 4 + g, 2 + g, 0), 0.25, 1.0, None, 1);
+        }
+        assert!((better.frame_weight(Guided) - 4.0).abs() < 0.05, "{}", better.frame_weight(Guided));
+        for g in 0..RACE_WINDOW {
+            better.report_traced((Guided, 4 + RACE_WINDOW + g, 2 + RACE_WINDOW + g, 0), 0.0, 1.0, None, 1);
+        }
+        assert_eq!(better.frame_weight(Guided), RACE_WEIGHT_RANGE as f32, "a guided kind without variance");
+        let mut worse = race;
+        for g in 0..RACE_WINDOW {
+            worse.report_traced((Guided, 4 + g, 2 + g, 0), 1e6, 1.0, None, 1);
+        }
+        assert_eq!(worse.frame_weight(Guided), 1.0 / RACE_WEIGHT_RANGE as f32);
+        // Learning frames are not the image's: guided ones are not measured.
+        let mut learning = FrameRace::default();
+        learning.set_time_left(1000.0);
+        learning.report_traced((Guided, 0, 0, 4), 5.0, 1.0, Some(1.0), 1);
+        learning.report_traced((Unguided, 3, 3, 4), 1.0, 1.0, None, 1);
+        assert_eq!(learning.frame_weight(Guided), 1.0);
+    }
+
+    /// A timed render opens with two unguided frames; the race times the first
+    /// but does not weigh it (no frame before it), and weighs the second. Where
+    /// its budget fits fewer than `RACE_MIN_FRAMES` of them every frame is
+    /// unguided, else the head start follows. Without a time limit, or after
+    /// learning frames whose last is unguided, the render opens as before.
     #[test]
     fn a_timed_render_opens_unguided_and_guides_only_where_enough_frames_fit() {
         use FrameKind::*;
         for (frame_ms, explores) in [(10.0, false), (100.0 / RACE_MIN_FRAMES, true)] {
             let mut race = FrameRace::default();
             race.set_time_left(100.0);
-            assert!(race.explores() && race.opens_unguided(0, 0));
+            assert!(race.explores() && race.opens_unguided(0, 0, 0));
             assert_eq!(frame_kind(Some(&race), 0, 0, 0), Unguided);
             race.report_traced((Unguided, 0, 0, 0), 1.0, frame_ms, None, 1);
             assert_eq!(race.unguided.frames, 0, "the first frame's variance is not weighed");
             assert_eq!(race.explores(), explores, "frames of {frame_ms} ms in 100");
             race.set_time_left(100.0 - frame_ms);
+            assert_eq!(frame_kind(Some(&race), 1, 0, 0), Unguided, "the second frame opens the image too");
+            race.report_traced((Unguided, 1, 0, 0), 1.0, frame_ms, None, 1);
+            assert_eq!(race.unguided.frames, 1, "the second frame is weighed");
+            race.set_time_left(100.0 - 2.0 * frame_ms);
             let want = if explores { Guided } else { Unguided };
-            assert_eq!(frame_kind(Some(&race), 1, 0, 0), want, "frames of {frame_ms} ms");
+            assert_eq!(frame_kind(Some(&race), 2, 0, 0), want, "frames of {frame_ms} ms");
             if !explores {
                 assert_eq!(race.round_left(0), u32::MAX, "one kind to the end: rounds are not cut");
-                race.report_traced((Unguided, 1, 0, 0), 1.0, frame_ms, None, 1);
-                assert_eq!((race.unguided.frames, frame_kind(Some(&race), 2, 0, 0)), (1, Unguided));
+                race.report_traced((Unguided, 2, 0, 0), 1.0, frame_ms, None, 1);
+                assert_eq!((race.unguided.frames, frame_kind(Some(&race), 3, 0, 0)), (2, Unguided));
             }
         }
         // Untimed: the head start first.
         let untimed = FrameRace::default();
-        assert!(!untimed.opens_unguided(0, 0));
+        assert!(!untimed.opens_unguided(0, 0, 0));
         assert_eq!(frame_kind(Some(&untimed), 0, 0, 0), Guided);
         // One learning frame: the image's first frame is the unguided one. Four:
         // their last is unguided, and its time is the unguided kind's.
@@ -627,9 +746,9 @@ mod tests {
         let guided_after_head_start = |budget: f64| {
             let mut race = FrameRace::default();
             race.set_time_left(budget);
-            // The first frame, unguided: its time only (reported apart, so that
-            // the race still explores).
-            let (mut spent, mut g) = (1.0, 0);
+            // The opening's unguided frames: their time only (reported apart, so
+            // that the race still explores).
+            let (mut spent, mut g) = (RACE_OPENING as f64, 0);
             while !race.head_start_over(g) {
                 race.set_time_left(budget - spent);
                 race.report_traced((FrameKind::Guided, g + 1, g, 0), 1.0, 1.0, None, 1);

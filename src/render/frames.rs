@@ -4,6 +4,7 @@
 //! `render_frame_profiled`).
 
 use super::*;
+use crate::film::FrameWeight;
 use crate::math::sampler::rng_frame;
 use crate::renderer::RoundReport;
 
@@ -27,7 +28,10 @@ impl GpuRenderer {
     /// frames become the learned frames, and the kernel takes their mean in as
     /// the image's first frame or writes over them (`accumulate`,
     /// `crate::film::accumulate`).
-    pub(super) fn next_frame(&mut self, kind: FrameKind) -> PathPush {
+    ///
+    /// The frame has `samples` samples per pixel, and in a timed race its kind's
+    /// weight (`FrameRace::frame_weight`); the learning frames weigh 1.
+    pub(super) fn next_frame(&mut self, kind: FrameKind, samples: u32) -> PathPush {
         let learning_frames = self.learning_frames();
         // The first image frame (frames traced in order, or handed out by
         // `MultiGpuRenderer`, which may skip frames) moves the learning frames out.
@@ -35,6 +39,7 @@ impl GpuRenderer {
         if self.counts.accum_holds_learning && self.counts.frames_traced >= learning_frames {
             self.counts.learned_frames = self.counts.accum_frames;
             self.counts.accum_frames = 0;
+            self.counts.accum_weight = 0.0;
             self.counts.accum_holds_learning = false;
             folds = self.learned == crate::film::Learned::Fold;
         } else if self.counts.frames_traced < learning_frames {
@@ -49,13 +54,25 @@ impl GpuRenderer {
             learned_frames: self.counts.learned_frames,
             table_frames: self.table_frames,
             fold_learned: folds as u32,
-            samples: shared::SAMPLES_PER_FRAME,
+            samples,
+            weight: 1.0,
+            accum_weight: self.counts.accum_weight as f32,
         };
+        let image = self.counts.frames_traced >= learning_frames;
+        let weight = FrameWeight {
+            samples,
+            weight: self.race.as_ref().filter(|_| image).map_or(1.0, |r| r.frame_weight(kind)),
+            before: push.accum_weight,
+        };
+        let push = PathPush { weight: weight.weight, ..push };
+        self.counts.weighted |= weight.weight != 1.0;
         self.counts.frames_traced += 1;
         self.counts.accum_frames += 1;
+        self.counts.accum_weight += weight.frames();
         if folds {
             // The learning frames' mean is now the image's first frame.
             self.counts.accum_frames += 1;
+            self.counts.accum_weight += 1.0;
             self.counts.learned_frames = 0;
             self.counts.learning_folded = true;
         }
@@ -256,7 +273,7 @@ impl GpuRenderer {
             .map(|_| {
                 let learning = self.counts.frames_traced < learning_frames;
                 let kind = if learning { self.next_kind() } else { image_kind };
-                (PathPush { ablate: 0, samples, ..self.next_frame(kind) }, kind, learning)
+                (PathPush { ablate: 0, ..self.next_frame(kind, samples) }, kind, learning)
             })
             .collect();
         if cut {
@@ -392,7 +409,7 @@ impl GpuRenderer {
         let kind = if self.learning.is_some() { FrameKind::Guided } else { FrameKind::Unguided };
         let learns = self.learning.as_ref().is_some_and(|l| l.schedule.learns_after(self.counts.guided_traced));
         let learning = self.counts.frames_traced < self.learning_frames();
-        let push = self.next_frame(kind);
+        let push = self.next_frame(kind, shared::SAMPLES_PER_FRAME);
         self.ctx.run_commands("profiled frame", |cmd| {
             self.counters.cmd_clear(cmd);
             self.timer.cmd_reset(cmd);

@@ -176,6 +176,11 @@ struct FrameCounts {
     /// The samples per pixel of a last frame cut short at a time limit, 0 where
     /// every frame is whole (`crate::film::Film::partial_spp`).
     partial_spp: u32,
+    /// The accumulation's frames' total weight in whole frames
+    /// (`crate::film::FrameWeight`; the learning frames' mean folded in counts 1).
+    accum_weight: f64,
+    /// Whether any frame weighed other than its samples' share (a timed race's).
+    weighted: bool,
 }
 
 /// pathtrace.comp's push constants (`Push`).
@@ -202,6 +207,10 @@ struct PathPush {
     /// The frame's samples per pixel: 64, fewer in a last frame cut short at a
     /// time limit (`GpuRenderer::render_round`).
     samples: u32,
+    /// A whole frame's weight (`crate::film::FrameWeight::weight`): 1 but in a timed race.
+    weight: f32,
+    /// The accumulation's frames' total weight before this one (`FrameCounts::accum_weight`).
+    accum_weight: f32,
 }
 
 fn bytes<T: bytemuck::Pod>(v: &[T]) -> &[u8] {
@@ -584,6 +593,8 @@ impl GpuRenderer {
         self.counts.learned_frames = 0;
         self.counts.learning_folded = false;
         self.counts.partial_spp = 0;
+        self.counts.accum_weight = 0.0;
+        self.counts.weighted = false;
         Ok(())
     }
 
@@ -611,7 +622,8 @@ impl GpuRenderer {
         let n = (self.width * self.height) as usize * std::mem::size_of::<AccumPixel>();
         let pixels: Vec<AccumPixel> = bytemuck::pod_collect_to_vec(&self.readback.read()[..n]);
         let (frames, partial_spp) = (self.counts.accum_frames, self.counts.partial_spp);
-        Ok(Film { width: self.width, height: self.height, frames, partial_spp, pixels, carry: Vec::new() })
+        let weight = self.counts.weighted.then_some(self.counts.accum_weight);
+        Ok(Film { width: self.width, height: self.height, frames, partial_spp, weight, pixels, carry: Vec::new() })
     }
 
     /// Folds the targets recorded since the table last learned into it and

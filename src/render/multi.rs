@@ -396,7 +396,9 @@ pub fn add_film(a: &mut Film, b: &Film) {
         return;
     }
     let per_frame = shared::SAMPLES_PER_FRAME as f64;
-    let (na, nb) = (a.frames as f64, b.frames as f64);
+    // Frames weighed by a race (one GPU's alone today) add their weights.
+    let weight = (a.weight.is_some() || b.weight.is_some()).then(|| a.weight_frames() + b.weight_frames());
+    let (na, nb) = (a.weight_frames(), b.weight_frames());
     for (p, q) in a.pixels.iter_mut().zip(&b.pixels) {
         for c in 0..3 {
             let delta = q.sum[c] as f64 / (per_frame * nb) - p.sum[c] as f64 / (per_frame * na);
@@ -407,6 +409,7 @@ pub fn add_film(a: &mut Film, b: &Film) {
         p.sum[3] += q.sum[3];
     }
     a.frames += b.frames;
+    a.weight = weight;
 }
 
 impl Renderer for MultiGpuRenderer {
