@@ -344,9 +344,10 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     let timed = [&size[..], &["--spp", "100000000", "--time", "1.5"]].concat();
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/seed-exp1.toml"][..], &timed].concat());
     assert!(frames >= 12 && unguided >= 2, "seed-exp1 --time: {frames} frames, {unguided} unguided");
-    // Door's fifth frame would be unguided where it raced (the learning frames' last);
-    // its first eight learn after each, which takes lavapipe 150 to 450 ms a frame.
-    let door_timed = [&size[..], &["--spp", "100000000", "--time", "3"]].concat();
+    // Door's fifth frame would be unguided where it raced (the learning frames' last):
+    // its four learning frames and two of the image's, the time limit far (its first
+    // eight frames learn after each, up to a second a frame on a loaded lavapipe).
+    let door_timed = [&size[..], &["--spp", "128", "--time", "120"]].concat();
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/door.toml"][..], &door_timed].concat());
     assert!(frames >= 5 && unguided == 0, "door --time: {frames} frames, {unguided} unguided");
     // Several GPUs refuse a race, so a render that succeeds there did not default to one.
