@@ -350,11 +350,12 @@ impl FrameRace {
     /// Whether the race weighs a frame of `kind` traced after `traced` frames,
     /// `guided_traced` of them guided ([`frame_kind`]): every unguided frame (the
     /// learning frames' one among them) but a render's first, whose variance is
-    /// measured against its own mean (no frame before it), which understates it;
-    /// and the image's guided frames once the head start is over.
+    /// measured against its own mean (no frame before it), which understates it,
+    /// and a timed render's opening, measured against a mean of a frame or two,
+    /// which overstates it; and the image's guided frames once the head start is over.
     pub fn weighs(&self, kind: FrameKind, traced: u32, guided_traced: u32, learning_frames: u32) -> bool {
         match kind {
-            FrameKind::Unguided => traced > 0,
+            FrameKind::Unguided => traced > 0 && !self.opens_unguided(traced, guided_traced, learning_frames),
             FrameKind::Guided => traced >= learning_frames && self.head_start_over(guided_traced),
         }
     }
@@ -375,15 +376,19 @@ impl FrameRace {
             self.first_unguided_ms.get_or_insert(trace_ms);
         }
         // The weights read every image frame's variance, the head start's too; a
-        // render's first frame is measured against its own mean, which understates it.
+        // render's first frame is measured against its own mean, which understates
+        // it. The opening's second is measured against the one frame before it,
+        // which doubles its expected deviation.
+        let opening = kind == FrameKind::Unguided && self.opens_unguided(traced, guided_traced, learning_frames);
         let (image, slot, window) = match kind {
             FrameKind::Guided => (traced >= learning_frames, 0, RACE_GUIDED_WINDOW),
             FrameKind::Unguided => (traced > 0, 1, RACE_WINDOW),
         };
         if image {
+            let v = if opening { variance / 2.0 } else { variance };
             let (mean, n) = &mut self.weigh_variance[slot];
             *n += 1;
-            *mean += (variance - *mean) / (*n).min(window) as f64;
+            *mean += (v - *mean) / (*n).min(window) as f64;
         }
         if self.weighs(kind, traced, guided_traced, learning_frames) {
             self.report_frame(kind, variance, trace_ms, learn_ms, period);
@@ -626,11 +631,7 @@ mod tests {
         assert!(timed.head_start_over(2), "7 ms of a 100 ms budget, and 3.5 more");
         assert_eq!(timed.head_start_left(2), 0);
         assert!(timed.weighs(FrameKind::Guided, 2 + o, 2, 0) && timed.guided.frames == 0);
-        assert_eq!(
-            frame_kind(Some(&timed), 2 + o, 2, 0),
-            FrameKind::Guided,
-            "the race opens guided: unguided is measured"
-        );
+        assert_eq!(frame_kind(Some(&timed), 2 + o, 2, 0), FrameKind::Unguided, "the race opens unguided");
         // Learning frames are guided, head start or not; the image's then race.
         assert_eq!(frame_kind(Some(&timed), 2, 2, 5), FrameKind::Guided);
         // The first frame is traced whatever its budget.
@@ -659,7 +660,9 @@ mod tests {
         race.set_time_left(1000.0);
         race.report_traced((Unguided, 0, 0, 0), 0.001, 1.0, None, 1);
         assert_eq!(race.frame_weight(Guided), 1.0, "the first frame measures nothing");
-        race.report_traced((Unguided, 1, 0, 0), 1.0, 1.0, None, 1);
+        // The second, against the first's mean: twice the variance it measures.
+        race.report_traced((Unguided, 1, 0, 0), 2.0, 1.0, None, 1);
+        assert_eq!(race.unguided.frames, 0, "the race itself does not weigh the opening");
         assert_eq!(race.frame_weight(Guided), 1.0, "no guided frame measured yet");
         // A head-start frame, which the race itself does not weigh, 28 times as noisy.
         race.report_traced((Guided, 2, 0, 0), 28.0, 1.0, None, 1);
@@ -692,7 +695,7 @@ mod tests {
     }
 
     /// A timed render opens with two unguided frames; the race times the first
-    /// but does not weigh it (no frame before it), and weighs the second. Where
+    /// and weighs neither (measured against no frame or one). Where
     /// its budget fits fewer than `RACE_MIN_FRAMES` of them every frame is
     /// unguided, else the head start follows. Without a time limit, or after
     /// learning frames whose last is unguided, the render opens as before.
@@ -710,14 +713,14 @@ mod tests {
             race.set_time_left(100.0 - frame_ms);
             assert_eq!(frame_kind(Some(&race), 1, 0, 0), Unguided, "the second frame opens the image too");
             race.report_traced((Unguided, 1, 0, 0), 1.0, frame_ms, None, 1);
-            assert_eq!(race.unguided.frames, 1, "the second frame is weighed");
+            assert_eq!(race.unguided.frames, 0, "the opening is not the race's");
             race.set_time_left(100.0 - 2.0 * frame_ms);
             let want = if explores { Guided } else { Unguided };
             assert_eq!(frame_kind(Some(&race), 2, 0, 0), want, "frames of {frame_ms} ms");
             if !explores {
                 assert_eq!(race.round_left(0), u32::MAX, "one kind to the end: rounds are not cut");
                 race.report_traced((Unguided, 2, 0, 0), 1.0, frame_ms, None, 1);
-                assert_eq!((race.unguided.frames, frame_kind(Some(&race), 3, 0, 0)), (2, Unguided));
+                assert_eq!((race.unguided.frames, frame_kind(Some(&race), 3, 0, 0)), (1, Unguided));
             }
         }
         // Untimed: the head start first.

@@ -140,7 +140,8 @@ impl GpuRenderer {
     /// was longer: [`lone_frame_ms`](Self::lone_frame_ms)). Where not one whole frame fits, a last frame cut short to
     /// the samples that do ([`samples_that_fit`](Self::samples_that_fit); none
     /// where none fit), which ends the film. Where a race chooses the image
-    /// frames' kernel, no more than its run of one kind or the guided head
+    /// frames' kernel, no more than a timed render's unguided opening left
+    /// (`FrameRace::opens_unguided`), its run of one kind or the guided head
     /// start's frames left (`FrameRace::round_left`), and one frame until the
     /// image starts. One frame where there are no timestamps (the session judges
     /// the time by the wall clock) and before the first submission.
@@ -152,7 +153,14 @@ impl GpuRenderer {
         let mut count = per_frame.map_or(1, |ms| ((ROUND_MS / ms) as u32).clamp(1, ROUND_MAX_FRAMES)).min(max.max(1));
         if let (Some(race), Some(l)) = (&self.race, &self.learning) {
             let image = self.counts.frames_traced >= l.cfg.learning_frames;
-            count = count.min(if image { race.round_left(self.counts.guided_traced) } else { 1 });
+            let (traced, guided) = (self.counts.frames_traced, self.counts.guided_traced);
+            // The opening's frames are a round of their own: the race's frames after
+            // it measure against a mean of several.
+            let left = match race.opens_unguided(traced, guided, l.cfg.learning_frames) {
+                true => l.cfg.learning_frames + crate::guide::RACE_OPENING - traced,
+                false => race.round_left(guided),
+            };
+            count = count.min(if image { left } else { 1 });
         }
         let mut samples = shared::SAMPLES_PER_FRAME;
         if let (Some(ms), Some(first), Some(left)) = (per_frame, self.lone_frame_ms(), time_left_ms) {
