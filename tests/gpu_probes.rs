@@ -4,7 +4,7 @@
 mod common;
 
 use common::readback;
-use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline};
+use rlpt::gpu::{shader, Binding, Buffer, BufferUsage, Pipeline, PIPELINE_CACHE_SIZE};
 use rlpt::layout::{
     GpuBvhNode, GpuLight, GpuMaterial, GpuQuad, GpuSphere, GpuTriangle, GpuTriangleNormals, RenderParams,
 };
@@ -581,6 +581,47 @@ fn the_compensated_sum_matches_its_twin_and_keeps_a_million_terms() {
             let plain_err = (plain[c] as f64 - exact[c]).abs() / exact[c];
             assert!(plain_err > 1e-4, "invocation {i}, channel {c}: a plain sum lost only {plain_err:e}");
         }
+    }
+    common::assert_no_validation_messages(&ctx);
+}
+
+/// A context compiles a pipeline of one shader, bindings and specialization
+/// once: the next of the same key shares it, another specialization compiles
+/// its own. It keeps the `PIPELINE_CACHE_SIZE` most recently used; one pushed
+/// out still works for those that hold it, and the next of its key compiles
+/// again. (probe_rng has no specialization constants: the values only tell
+/// the keys apart.)
+#[test]
+fn a_context_compiles_each_pipeline_once_and_keeps_the_latest() {
+    let ctx = common::gpu();
+    let rng = |c: u32| {
+        Pipeline::new_specialized(&ctx, "probe_rng", shader("probe_rng"), &[(0, Binding::Storage)], 12, &[c]).unwrap()
+    };
+    let start = ctx.pipelines_compiled();
+    let first = rng(1);
+    assert_eq!(ctx.pipelines_compiled(), start + 1);
+    let again = rng(1);
+    assert_eq!(ctx.pipelines_compiled(), start + 1, "the same key compiles nothing");
+    assert_eq!(again.raw, first.raw);
+    assert_ne!(again.set, first.set, "each pipeline binds its own buffers");
+    assert_ne!(rng(2).raw, first.raw);
+    assert_eq!(ctx.pipelines_compiled(), start + 2, "another specialization compiles its own");
+    for c in 0..PIPELINE_CACHE_SIZE as u32 {
+        rng(100 + c);
+    }
+    assert_eq!(ctx.pipelines_compiled(), start + 2 + PIPELINE_CACHE_SIZE as u64);
+    drop(again);
+    let later = rng(1);
+    assert_eq!(ctx.pipelines_compiled(), start + 3 + PIPELINE_CACHE_SIZE as u64, "pushed out, compiled again");
+    // The pipeline pushed out still runs: the random numbers of one invocation.
+    let n = 64u32;
+    let output = Buffer::new(&ctx, "rng outputs", n as u64 * 32, BufferUsage::Storage).unwrap();
+    for (p, seed) in [(&first, 3u32), (&later, 4)] {
+        p.bind(&[&output]);
+        ctx.run_commands("probe rng", |cmd| p.cmd_dispatch(cmd, [1, 1, 1], bytemuck::cast_slice(&[n, seed, 0])))
+            .unwrap();
+        let got: Vec<[u32; 8]> = bytemuck::pod_collect_to_vec(&readback(&ctx, &output));
+        assert_eq!(got[5][0], Rng::new(seed, 5, 0, 5).next_u32(), "seed {seed}");
     }
     common::assert_no_validation_messages(&ctx);
 }

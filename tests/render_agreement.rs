@@ -184,7 +184,9 @@ fn same_seed_same_image_on_one_device() {
     let scene = scene("seed-exp2.toml");
     let opts = options(&scene, 24, 16, 128);
     let a = render_gpu(&ctx, &scene, &opts);
+    let compiled = ctx.pipelines_compiled();
     let b = render_gpu(&ctx, &scene, &opts);
+    assert_eq!(ctx.pipelines_compiled(), compiled, "the second renderer takes the first's pipelines");
     assert_eq!(a.pixels, b.pixels, "GPU renders with one seed are identical");
     let c = render_cpu(&scene, &opts);
     let d = render_cpu(&scene, &opts);

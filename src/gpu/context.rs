@@ -149,6 +149,9 @@ pub struct Context {
     allocated: AtomicU64,
     /// The device memory [`DEVICE_MEMORY_HOOK`] pretends, in bytes: allocations past it fail.
     memory_cap: Option<u64>,
+    /// Pipelines compiled on this device, for the next renderer that asks for
+    /// the same one (`super::pipeline::PipelineCache`).
+    pub(super) pipelines: super::pipeline::PipelineCache,
 }
 
 /// Test hook, for tests only: `RLPT_TEST_DEVICE_MEMORY_MB=N` makes a [`Context`]
@@ -339,9 +342,16 @@ impl Context {
             lost: AtomicBool::new(false),
             allocated: AtomicU64::new(0),
             memory_cap,
+            pipelines: Default::default(),
         };
         ctx.set_name(ctx.queue, "rlpt queue");
         Ok(Arc::new(ctx))
+    }
+
+    /// How many pipelines this context has compiled: a [`super::Pipeline`] of a
+    /// shader, bindings and specialization it compiled before takes that one.
+    pub fn pipelines_compiled(&self) -> u64 {
+        self.pipelines.compiled.load(Ordering::Relaxed)
     }
 
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
@@ -393,6 +403,7 @@ impl Drop for Context {
         // objects are destroyed in reverse order of creation, the allocator before the device.
         unsafe {
             let _ = self.device.device_wait_idle();
+            self.pipelines.clear();
             self.device.destroy_command_pool(*self.command_pool.get_mut().unwrap_or_else(|e| e.into_inner()), None);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);

@@ -16,7 +16,7 @@ mod validation;
 pub use buffer::{Buffer, BufferUsage};
 pub use context::{Context, ContextOptions, GpuError, Surface, WindowTarget, DEVICE_MEMORY_HOOK};
 pub use device::{list_devices, DeviceInfo};
-pub use pipeline::{Binding, Pipeline, PipelineStatistic};
+pub use pipeline::{Binding, Pipeline, PipelineStatistic, PIPELINE_CACHE_SIZE};
 pub use swapchain::{Acquired, Image, Swapchain};
 pub use timer::Timer;
 pub use validation::{validation_messages_total, ValidationCounter};

@@ -23,22 +23,107 @@ pub struct PipelineStatistic {
 }
 
 /// A compute pipeline with one descriptor set (set 0, bindings 0..n in the
-/// order given) and an optional push-constant block.
+/// order given) and an optional push-constant block. The compiled pipeline and
+/// its layouts are shared with the other `Pipeline`s of the same shader,
+/// bindings, push-constant size and specialization on the context
+/// ([`PipelineCache`]); the descriptor set is its own.
 pub struct Pipeline {
     ctx: Arc<Context>,
     pub name: String,
     pub layout: vk::PipelineLayout,
     pub raw: vk::Pipeline,
-    set_layout: vk::DescriptorSetLayout,
+    /// Keeps `layout` and `raw` alive.
+    _compiled: Arc<Compiled>,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     bindings: Vec<(u32, Binding)>,
     push_size: u32,
 }
 
+/// A compiled pipeline with its set and pipeline layouts; destroyed when the
+/// last [`Pipeline`] using it and the context's cache have let it go.
+struct Compiled {
+    device: ash::Device,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    raw: vk::Pipeline,
+}
+
+impl Drop for Compiled {
+    fn drop(&mut self) {
+        // SAFETY: no Pipeline uses it any more, and the GPU has finished with
+        // those that did (work is waited for before drops); the device is alive
+        // (the context clears its cache before destroying it).
+        unsafe {
+            self.device.destroy_pipeline(self.raw, None);
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// What makes two pipelines the same: the shader (its compiled SPIR-V, a
+/// static of the binary, by address), bindings, push-constant size and
+/// specialization constants.
+#[derive(PartialEq, Eq)]
+struct PipelineKey {
+    spirv: (usize, usize),
+    bindings: Vec<(u32, Binding)>,
+    push_size: u32,
+    constants: Vec<u32>,
+}
+
+/// How many compiled pipelines a context keeps beyond those in use: a
+/// restart of the viewer or another render in the same process with options
+/// seen before compiles nothing (a large kernel takes the driver seconds on a
+/// CPU device, milliseconds to a second on a GPU).
+pub const PIPELINE_CACHE_SIZE: usize = 32;
+
+/// A context's compiled pipelines, the most recently used last, and how many
+/// it has compiled.
+#[derive(Default)]
+pub(super) struct PipelineCache {
+    entries: std::sync::Mutex<Vec<(PipelineKey, Arc<Compiled>)>>,
+    pub(super) compiled: std::sync::atomic::AtomicU64,
+}
+
+impl PipelineCache {
+    fn entries(&self) -> std::sync::MutexGuard<'_, Vec<(PipelineKey, Arc<Compiled>)>> {
+        self.entries.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn get(&self, key: &PipelineKey) -> Option<Arc<Compiled>> {
+        let mut entries = self.entries();
+        let i = entries.iter().position(|(k, _)| k == key)?;
+        let entry = entries.remove(i);
+        let compiled = entry.1.clone();
+        entries.push(entry);
+        Some(compiled)
+    }
+
+    fn insert(&self, key: PipelineKey, compiled: Arc<Compiled>) {
+        let mut entries = self.entries();
+        entries.push((key, compiled));
+        if entries.len() > PIPELINE_CACHE_SIZE {
+            entries.remove(0);
+        }
+    }
+
+    /// Lets every pipeline go: the context's drop, before the device's.
+    pub(super) fn clear(&self) {
+        self.entries().clear();
+    }
+}
+
 impl Pipeline {
     /// Bindings numbered 0..n in the order given.
-    pub fn new(ctx: &Arc<Context>, name: &str, spirv: &[u8], bindings: &[Binding], push_size: u32) -> Result<Pipeline> {
+    pub fn new(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &'static [u8],
+        bindings: &[Binding],
+        push_size: u32,
+    ) -> Result<Pipeline> {
         let numbered: Vec<(u32, Binding)> = bindings.iter().enumerate().map(|(i, b)| (i as u32, *b)).collect();
         Pipeline::new_with_numbers(ctx, name, spirv, &numbered, push_size)
     }
@@ -47,7 +132,7 @@ impl Pipeline {
     pub fn new_with_numbers(
         ctx: &Arc<Context>,
         name: &str,
-        spirv: &[u8],
+        spirv: &'static [u8],
         bindings: &[(u32, Binding)],
         push_size: u32,
     ) -> Result<Pipeline> {
@@ -55,128 +140,62 @@ impl Pipeline {
     }
 
     /// Bindings with explicit numbers, and `constants[i]` as the value of the
-    /// shader's 32-bit specialization constant `constant_id = i`.
+    /// shader's 32-bit specialization constant `constant_id = i`. Compiles the
+    /// pipeline unless the context holds one of the same key ([`PipelineCache`]).
     pub fn new_specialized(
         ctx: &Arc<Context>,
         name: &str,
-        spirv: &[u8],
+        spirv: &'static [u8],
         bindings: &[(u32, Binding)],
         push_size: u32,
         constants: &[u32],
     ) -> Result<Pipeline> {
-        let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).expect("build.rs wrote valid SPIR-V");
-        let dev = &ctx.device;
-        let ty = |b: &Binding| match b {
-            Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
-            Binding::Storage => vk::DescriptorType::STORAGE_BUFFER,
+        let key = PipelineKey {
+            spirv: (spirv.as_ptr() as usize, spirv.len()),
+            bindings: bindings.to_vec(),
+            push_size,
+            constants: constants.to_vec(),
         };
-        let layout_bindings: Vec<_> = bindings
-            .iter()
-            .map(|(i, b)| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(*i)
-                    .descriptor_type(ty(b))
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
-        // SAFETY (this block): plain object creation on a live device; every object made
-        // here is destroyed in Drop, or below if a later step fails.
+        let compiled = match ctx.pipelines.get(&key) {
+            Some(c) => c,
+            None => {
+                let c = Arc::new(compile(ctx, name, spirv, bindings, push_size, constants)?);
+                ctx.pipelines.compiled.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                ctx.pipelines.insert(key, c.clone());
+                c
+            }
+        };
+        let dev = &ctx.device;
+        let mut sizes = Vec::new();
+        for kind in [Binding::Uniform, Binding::Storage] {
+            let n = bindings.iter().filter(|(_, b)| *b == kind).count() as u32;
+            if n > 0 {
+                sizes.push(vk::DescriptorPoolSize { ty: descriptor_type(kind), descriptor_count: n });
+            }
+        }
+        let set_layouts = [compiled.set_layout];
+        // SAFETY (this block): plain object creation on a live device; the pool is
+        // destroyed in Drop, or below if the set's allocation fails.
         unsafe {
-            let set_layout = dev
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
-                    None,
-                )
-                .map_err(|e| GpuError::vk("vkCreateDescriptorSetLayout", e))?;
-            let set_layouts = [set_layout];
-            let ranges =
-                [vk::PushConstantRange { stage_flags: vk::ShaderStageFlags::COMPUTE, offset: 0, size: push_size }];
-            let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-            if push_size > 0 {
-                layout_info = layout_info.push_constant_ranges(&ranges);
-            }
-            let layout = match dev.create_pipeline_layout(&layout_info, None) {
-                Ok(l) => l,
-                Err(e) => {
-                    dev.destroy_descriptor_set_layout(set_layout, None);
-                    return Err(GpuError::vk("vkCreatePipelineLayout", e));
-                }
-            };
-            let module = match dev.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) {
-                Ok(m) => m,
-                Err(e) => {
-                    dev.destroy_pipeline_layout(layout, None);
-                    dev.destroy_descriptor_set_layout(set_layout, None);
-                    return Err(GpuError::vk("vkCreateShaderModule", e));
-                }
-            };
-            let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
-                .map(|i| vk::SpecializationMapEntry { constant_id: i, offset: 4 * i, size: 4 })
-                .collect();
-            let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
-            let mut stage = vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::COMPUTE)
-                .module(module)
-                .name(c"main");
-            if !constants.is_empty() {
-                stage = stage.specialization_info(&spec);
-            }
-            let flags = if ctx.info.pipeline_statistics {
-                vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
-            } else {
-                vk::PipelineCreateFlags::empty()
-            };
-            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
-            let pipeline = dev.create_compute_pipelines(vk::PipelineCache::null(), &info, None);
-            dev.destroy_shader_module(module, None);
-            let raw = match pipeline {
-                Ok(p) => p[0],
-                Err((_, e)) => {
-                    dev.destroy_pipeline_layout(layout, None);
-                    dev.destroy_descriptor_set_layout(set_layout, None);
-                    return Err(GpuError::vk("vkCreateComputePipelines", e));
-                }
-            };
-            let mut sizes = Vec::new();
-            for kind in [Binding::Uniform, Binding::Storage] {
-                let n = bindings.iter().filter(|(_, b)| *b == kind).count() as u32;
-                if n > 0 {
-                    sizes.push(vk::DescriptorPoolSize { ty: ty(&kind), descriptor_count: n });
-                }
-            }
-            let pool = match dev
+            let pool = dev
                 .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
-            {
-                Ok(p) => p,
-                Err(e) => {
-                    dev.destroy_pipeline(raw, None);
-                    dev.destroy_pipeline_layout(layout, None);
-                    dev.destroy_descriptor_set_layout(set_layout, None);
-                    return Err(GpuError::vk("vkCreateDescriptorPool", e));
-                }
-            };
+                .map_err(|e| GpuError::vk("vkCreateDescriptorPool", e))?;
             let set = match dev.allocate_descriptor_sets(
                 &vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts),
             ) {
                 Ok(s) => s[0],
                 Err(e) => {
                     dev.destroy_descriptor_pool(pool, None);
-                    dev.destroy_pipeline(raw, None);
-                    dev.destroy_pipeline_layout(layout, None);
-                    dev.destroy_descriptor_set_layout(set_layout, None);
                     return Err(GpuError::vk("vkAllocateDescriptorSets", e));
                 }
             };
-            ctx.set_name(raw, name);
-            ctx.set_name(layout, &format!("{name} layout"));
             ctx.set_name(set, &format!("{name} descriptors"));
             Ok(Pipeline {
                 ctx: ctx.clone(),
                 name: name.to_string(),
-                layout,
-                raw,
-                set_layout,
+                layout: compiled.layout,
+                raw: compiled.raw,
+                _compiled: compiled,
                 pool,
                 set,
                 bindings: bindings.to_vec(),
@@ -201,10 +220,7 @@ impl Pipeline {
                 vk::WriteDescriptorSet::default()
                     .dst_set(self.set)
                     .dst_binding(*i)
-                    .descriptor_type(match kind {
-                        Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
-                        Binding::Storage => vk::DescriptorType::STORAGE_BUFFER,
-                    })
+                    .descriptor_type(descriptor_type(*kind))
                     .buffer_info(info)
             })
             .collect();
@@ -272,15 +288,104 @@ impl Pipeline {
     }
 }
 
+fn descriptor_type(b: Binding) -> vk::DescriptorType {
+    match b {
+        Binding::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+        Binding::Storage => vk::DescriptorType::STORAGE_BUFFER,
+    }
+}
+
+/// Compiles a pipeline of set 0 with `bindings`, a push-constant block of
+/// `push_size` bytes and the specialization `constants`, named `name`.
+fn compile(
+    ctx: &Arc<Context>,
+    name: &str,
+    spirv: &[u8],
+    bindings: &[(u32, Binding)],
+    push_size: u32,
+    constants: &[u32],
+) -> Result<Compiled> {
+    let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).expect("build.rs wrote valid SPIR-V");
+    let dev = &ctx.device;
+    let layout_bindings: Vec<_> = bindings
+        .iter()
+        .map(|(i, b)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(*i)
+                .descriptor_type(descriptor_type(*b))
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        })
+        .collect();
+    // SAFETY (this block): plain object creation on a live device; every object made
+    // here is destroyed by Compiled's drop, or below if a later step fails.
+    unsafe {
+        let set_layout = dev
+            .create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                None,
+            )
+            .map_err(|e| GpuError::vk("vkCreateDescriptorSetLayout", e))?;
+        let set_layouts = [set_layout];
+        let ranges = [vk::PushConstantRange { stage_flags: vk::ShaderStageFlags::COMPUTE, offset: 0, size: push_size }];
+        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        if push_size > 0 {
+            layout_info = layout_info.push_constant_ranges(&ranges);
+        }
+        let layout = match dev.create_pipeline_layout(&layout_info, None) {
+            Ok(l) => l,
+            Err(e) => {
+                dev.destroy_descriptor_set_layout(set_layout, None);
+                return Err(GpuError::vk("vkCreatePipelineLayout", e));
+            }
+        };
+        let module = match dev.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) {
+            Ok(m) => m,
+            Err(e) => {
+                dev.destroy_pipeline_layout(layout, None);
+                dev.destroy_descriptor_set_layout(set_layout, None);
+                return Err(GpuError::vk("vkCreateShaderModule", e));
+            }
+        };
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry { constant_id: i, offset: 4 * i, size: 4 })
+            .collect();
+        let spec = vk::SpecializationInfo::default().map_entries(&entries).data(bytemuck::cast_slice(constants));
+        let mut stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        if !constants.is_empty() {
+            stage = stage.specialization_info(&spec);
+        }
+        let flags = if ctx.info.pipeline_statistics {
+            vk::PipelineCreateFlags::CAPTURE_STATISTICS_KHR
+        } else {
+            vk::PipelineCreateFlags::empty()
+        };
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout).flags(flags)];
+        let pipeline = dev.create_compute_pipelines(vk::PipelineCache::null(), &info, None);
+        dev.destroy_shader_module(module, None);
+        let raw = match pipeline {
+            Ok(p) => p[0],
+            Err((_, e)) => {
+                dev.destroy_pipeline_layout(layout, None);
+                dev.destroy_descriptor_set_layout(set_layout, None);
+                return Err(GpuError::vk("vkCreateComputePipelines", e));
+            }
+        };
+        ctx.set_name(raw, name);
+        ctx.set_name(layout, &format!("{name} layout"));
+        Ok(Compiled { device: dev.clone(), set_layout, layout, raw })
+    }
+}
+
 impl Drop for Pipeline {
     fn drop(&mut self) {
         let dev = &self.ctx.device;
         // SAFETY: the GPU has finished with the pipeline (work is waited for before drops).
         unsafe {
             dev.destroy_descriptor_pool(self.pool, None);
-            dev.destroy_pipeline(self.raw, None);
-            dev.destroy_pipeline_layout(self.layout, None);
-            dev.destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }
