@@ -64,6 +64,7 @@ impl Renderer for Profiled {
             zero_paths: t.zero_paths,
             kind: None,
             variance: None,
+            weight: None,
         })
     }
     forward_renderer_queries!(self => self.renderer());

@@ -19,6 +19,9 @@ pub struct FrameReport {
     pub kind: Option<crate::guide::FrameKind>,
     /// The frame's mean relative variance, where the renderer weighs it.
     pub variance: Option<f64>,
+    /// What the frame weighs in the image (`crate::film::FrameWeight`), where a
+    /// timed race weighs frames by their kind; None where every frame weighs 1.
+    pub weight: Option<f32>,
 }
 
 /// What one round of frames reports to the session ([`Renderer::render_round`]).
@@ -40,6 +43,9 @@ pub struct RoundReport {
     pub kind: Option<crate::guide::FrameKind>,
     /// The one frame's mean relative variance, where the renderer weighs it.
     pub variance: Option<f64>,
+    /// What each of the round's image frames weighs, where a timed race weighs
+    /// frames by their kind ([`FrameReport::weight`]).
+    pub weight: Option<f32>,
     /// The samples per pixel of a last frame cut short at the time limit (the
     /// CPU's, or one GPU's), None where every frame was whole.
     pub cut_spp: Option<u32>,
@@ -66,6 +72,7 @@ pub trait Renderer {
             time_up: None,
             kind: r.kind,
             variance: r.variance,
+            weight: r.weight,
             cut_spp: None,
         })
     }

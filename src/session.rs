@@ -27,6 +27,7 @@ impl Renderer for CpuRenderer {
             zero_paths: Some(self.last_counters.zero_paths),
             kind: self.last_kind,
             variance: self.last_variance,
+            weight: self.last_weight,
         })
     }
     /// With a time limit, the frame that would end past it is cut short at it
@@ -51,6 +52,7 @@ impl Renderer for CpuRenderer {
             time_up,
             kind: self.last_kind,
             variance: self.last_variance,
+            weight: self.last_weight,
             cut_spp: (samples < crate::shared::SAMPLES_PER_FRAME).then_some(samples),
         })
     }
@@ -88,6 +90,7 @@ impl Renderer for GpuRenderer {
             zero_paths: t.zero_paths,
             kind: t.kind,
             variance: t.variance,
+            weight: t.weight,
         })
     }
     fn render_round(&mut self, max: u32, time_left_ms: Option<f64>) -> Result<RoundReport, GpuError> {
@@ -243,6 +246,7 @@ impl<'a> Session<'a> {
                 zero_fraction: report.zero_paths.map(|z| z as f64 / paths),
                 unguided: report.kind == Some(crate::guide::FrameKind::Unguided),
                 frame_variance: report.variance,
+                weight: report.weight.map(f64::from),
             });
             if !shown && start.elapsed() > Duration::from_secs(1) {
                 bar.set_draw_target(ProgressDrawTarget::stderr());

@@ -83,6 +83,11 @@ pub struct FrameStats {
     /// (`crate::film::frame_variance_term`), where it was weighed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_variance: Option<f64>,
+    /// What each of the frame's (a round's) image frames weighs in the image,
+    /// where a timed race weighs frames by their kind (`FrameRace::frame_weight`:
+    /// the unguided kind's variance over theirs); absent where every frame weighs 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weight: Option<f64>,
 }
 
 impl RenderStats {

@@ -112,15 +112,16 @@ fn a_timed_race_weighs_its_frames_and_stays_unbiased() {
     let mut o = racing(&scene, 24, 16, 64, 13);
     o.bins = Some(rlpt::guide::Bins { rows: 4, cols: 8 });
     let prepared = PreparedScene::new(&scene, &o).expect("valid options");
-    // The budget: 40 unguided frames, and at least 25 guided ones (of the
+    // The budget: 64 unguided frames, and at least 25 guided ones (of the
     // second, which records every row and learns: the first of a kernel runs
-    // cold), so that the head start holds two.
+    // cold), so that the head start holds two, and the race explores though
+    // its first frame, on a loaded machine, runs slower than the probe's.
     let unguided = GpuRenderer::new(&ctx, &prepared).expect("renderer").render_round(1, Some(1e9)).expect("round");
     let mut probe = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     probe.render_frames(1).expect("frame");
     let g_ms = probe.render_frames(1).expect("frame").total_ms();
     let u_ms = unguided.gpu_ms.expect("lavapipe's timestamps time the frame");
-    let mut left = (40.0 * u_ms).max(25.0 * g_ms);
+    let mut left = (64.0 * u_ms).max(25.0 * g_ms);
     let mut g = GpuRenderer::new(&ctx, &prepared).expect("renderer");
     loop {
         let r = g.render_round(64, Some(left)).expect("round");
@@ -320,13 +321,16 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     let (out, stats) = (out.to_str().unwrap(), stats.to_str().unwrap());
     let size = ["--width", "16", "--height", "12"];
     let base = [&["render", "scenes/seed-exp1.toml"][..], &size, &["--spp", "1024"]].concat();
-    // The kinds of the frames a guided render traces, 'g' or 'u', in order.
-    let kinds = |args: &[&str]| {
+    // The frames of a guided render's --stats.
+    let frames_of = |args: &[&str]| {
         let (ok, err) = run(&[args, &["--guiding", "sphere", "--stats", stats, "-o", out]].concat());
         assert!(ok, "{err}");
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(stats).unwrap()).unwrap();
-        let frames = json["frames"].as_array().unwrap();
-        frames.iter().map(|f| if f["unguided"] == true { 'u' } else { 'g' }).collect::<String>()
+        json["frames"].as_array().unwrap().clone()
+    };
+    // The kinds of the frames a guided render traces, 'g' or 'u', in order.
+    let kinds = |args: &[&str]| {
+        frames_of(args).iter().map(|f| if f["unguided"] == true { 'u' } else { 'g' }).collect::<String>()
     };
     // How many frames, and how many of them unguided.
     let unguided_frames = |args: &[&str]| {
@@ -335,8 +339,10 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     };
     // Eight guided frames, then two of each kind, unguided first: the race's start,
     // whole though the session traces a small image's frames in rounds.
-    let k = kinds(&[&base[..], &["--unguided-frames", "auto"]].concat());
+    let untimed = frames_of(&[&base[..], &["--unguided-frames", "auto"]].concat());
+    let k = untimed.iter().map(|f| if f["unguided"] == true { 'u' } else { 'g' }).collect::<String>();
     assert!(k.len() == 16 && k.starts_with("gggggggguugg"), "{k}");
+    assert!(untimed.iter().all(|f| f.get("weight").is_none()), "an --spp race weighs every frame 1: no weights");
     assert_eq!(unguided_frames(&[&base[..], &["--unguided-frames", "never"]].concat()), (16, 0));
     // The default: every frame guided with --spp; the race with --time, but not in
     // a scene with roulette, nor on several GPUs.
@@ -344,6 +350,15 @@ fn the_command_line_takes_unguided_frames_and_says_where_they_do_not_apply() {
     let timed = [&size[..], &["--spp", "100000000", "--time", "1.5"]].concat();
     let (frames, unguided) = unguided_frames(&[&["render", "scenes/seed-exp1.toml"][..], &timed].concat());
     assert!(frames >= 12 && unguided >= 2, "seed-exp1 --time: {frames} frames, {unguided} unguided");
+    // --stats says each timed frame's weight: 1 for unguided frames, the unguided
+    // kind's variance over the guided kind's for guided ones once both are measured
+    // (a far time limit: the head start's eight guided frames follow the opening).
+    let far = [&size[..], &["--spp", "1024", "--time", "1000"]].concat();
+    let race = frames_of(&[&["render", "scenes/seed-exp1.toml"][..], &far].concat());
+    let weights: Vec<(bool, f64)> =
+        race.iter().map(|f| (f["unguided"] == true, f["weight"].as_f64().unwrap())).collect();
+    assert!(weights.iter().all(|&(u, w)| !u || w == 1.0), "{weights:?}");
+    assert!(weights.iter().filter(|&&(u, w)| !u && w != 1.0 && w > 0.0).count() >= 7, "{weights:?}");
     // Door's fifth frame would be unguided where it raced (the learning frames' last):
     // its four learning frames and two of the image's, the time limit far (its first
     // eight frames learn after each, up to a second a frame on a loaded lavapipe).

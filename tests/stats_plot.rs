@@ -26,6 +26,7 @@ fn synthetic_run(label: &str, constant: f64, frame_ms: f64, frames: u32) -> Rend
                 zero_fraction: Some(0.25),
                 unguided: false,
                 frame_variance: None,
+                weight: None,
             }
         })
         .collect();

@@ -144,6 +144,9 @@ pub struct CpuRenderer {
     /// The last frame's mean relative variance, where it is weighed
     /// (`FLAG_FRAME_VARIANCE`; `crate::render::FrameTimings::variance`).
     pub last_variance: Option<f64>,
+    /// What the last frame weighs in the image, where a timed race weighs
+    /// frames by their kind (`crate::render::FrameTimings::weight`).
+    pub last_weight: Option<f32>,
     /// The last frame's wall time, its learning included, and where it was
     /// traced in passes, its last pass's: what the next is predicted to take.
     last_frame_ms: Option<f64>,
@@ -172,6 +175,7 @@ impl CpuRenderer {
             last_counters: FrameCounters::default(),
             last_kind: None,
             last_variance: None,
+            last_weight: None,
             last_frame_ms: None,
             pass_ms: None,
         }
@@ -305,10 +309,12 @@ impl CpuRenderer {
         // In a timed race each kind's frames weigh the inverse of their variance;
         // the learning frames weigh 1 (`crate::film::FrameWeight`).
         let image = self.frames_traced >= learning_frames;
-        let weight = match (self.learning.as_ref().and_then(|l| l.race.as_ref()), kind) {
+        let race = self.learning.as_ref().and_then(|l| l.race.as_ref());
+        let weight = match (race, kind) {
             (Some(race), Some(kind)) if image => race.frame_weight(kind),
             _ => 1.0,
         };
+        let reported_weight = race.filter(|r| r.timed() && image).map(|_| weight);
         let weight_before = self.film.weight_frames();
         // A loaded field has learned: learned roulette need not wait for it.
         let table_frames = if self.scene.guide_start.is_some() { guide::GuideField::table_frames() } else { 0 };
@@ -398,6 +404,7 @@ impl CpuRenderer {
         self.last_counters = counters;
         self.last_kind = kind;
         self.last_variance = variance;
+        self.last_weight = reported_weight;
         self.last_frame_ms = Some(start.elapsed().as_secs_f64() * 1e3);
         samples
     }

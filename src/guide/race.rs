@@ -286,6 +286,12 @@ impl FrameRace {
         (unguided / guided).clamp(1.0 / RACE_WEIGHT_RANGE, RACE_WEIGHT_RANGE) as f32
     }
 
+    /// Whether the race has a time budget: then its frames weigh by their kind
+    /// ([`frame_weight`](Self::frame_weight)).
+    pub fn timed(&self) -> bool {
+        self.budget_ms.is_some()
+    }
+
     /// Whether the race may trace guided frames: not where a timed render's
     /// budget fits fewer than [`RACE_MIN_FRAMES`] frames of the unguided kind, as
     /// its first frame timed it (always before that frame, and without a time limit).

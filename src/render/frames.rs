@@ -194,6 +194,7 @@ impl GpuRenderer {
             time_up,
             kind: t.kind,
             variance: t.variance.filter(|_| !cut),
+            weight: t.weight,
             cut_spp: cut.then_some(samples),
         })
     }
@@ -339,7 +340,12 @@ impl GpuRenderer {
         let (zero_paths, segments, subgroup_segments) = self.read_counters();
         let kind = pushes.last().map(|&(_, k, _)| k).filter(|_| self.learning.is_some());
         let variance = self.read_frame_variance(count);
-        let mut t = FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, ..Default::default() };
+        let weight = match (&self.race, pushes.last()) {
+            (Some(race), Some(&(push, _, learning))) if race.timed() && !learning => Some(push.weight),
+            _ => None,
+        };
+        let mut t =
+            FrameTimings { zero_paths, segments, subgroup_segments, kind, variance, weight, ..Default::default() };
         if timestamps {
             let passes = passes.get();
             let s = self.timer.read(3 + 2 * passes)?;

@@ -56,6 +56,10 @@ pub struct FrameTimings {
     /// (`FLAG_FRAME_VARIANCE`: `crate::film::frame_variance_term` summed over the
     /// pixels, over the pixels and frames).
     pub variance: Option<f64>,
+    /// What each image frame of the submission weighs, where a timed race
+    /// weighs frames by their kind (`FrameRace::frame_weight`); None where every
+    /// frame weighs 1.
+    pub weight: Option<f32>,
 }
 
 impl FrameTimings {

@@ -415,7 +415,14 @@ pub fn add_film(a: &mut Film, b: &Film) {
 impl Renderer for MultiGpuRenderer {
     fn render_frame(&mut self) -> Result<FrameReport, GpuError> {
         let r = self.render_round(1, None)?;
-        Ok(FrameReport { gpu_ms: r.gpu_ms, learn_ms: r.learn_ms, zero_paths: r.zero_paths, kind: None, variance: None })
+        Ok(FrameReport {
+            gpu_ms: r.gpu_ms,
+            learn_ms: r.learn_ms,
+            zero_paths: r.zero_paths,
+            kind: None,
+            variance: None,
+            weight: None,
+        })
     }
 
     /// A round: new frames up to the round's end (`round_end`), handed out to
@@ -457,6 +464,7 @@ impl Renderer for MultiGpuRenderer {
             time_up: Some(time_up.unwrap_or(false)),
             kind: None,
             variance: None,
+            weight: None,
             cut_spp: None,
         })
     }
