@@ -73,10 +73,10 @@ struct PipelineKey {
     constants: Vec<u32>,
 }
 
-/// How many compiled pipelines a context keeps beyond those in use: a
+/// How many compiled pipelines a context keeps, the most recently used: a
 /// restart of the viewer or another render in the same process with options
-/// seen before compiles nothing (a large kernel takes the driver seconds on a
-/// CPU device, milliseconds to a second on a GPU).
+/// seen before compiles nothing (creating the path-tracing kernel is slow,
+/// most of all on a CPU device).
 pub const PIPELINE_CACHE_SIZE: usize = 32;
 
 /// A context's compiled pipelines, the most recently used last, and how many
