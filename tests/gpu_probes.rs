@@ -602,9 +602,9 @@ fn a_context_compiles_each_pipeline_once_and_keeps_the_latest() {
     assert_eq!(ctx.pipelines_compiled(), start + 1);
     let again = rng(1);
     assert_eq!(ctx.pipelines_compiled(), start + 1, "the same key compiles nothing");
-    assert_eq!(again.raw, first.raw);
+    assert_eq!(again.raw(), first.raw());
     assert_ne!(again.set, first.set, "each pipeline binds its own buffers");
-    assert_ne!(rng(2).raw, first.raw);
+    assert_ne!(rng(2).raw(), first.raw());
     assert_eq!(ctx.pipelines_compiled(), start + 2, "another specialization compiles its own");
     for c in 0..PIPELINE_CACHE_SIZE as u32 {
         rng(100 + c);

@@ -30,10 +30,7 @@ pub struct PipelineStatistic {
 pub struct Pipeline {
     ctx: Arc<Context>,
     pub name: String,
-    pub layout: vk::PipelineLayout,
-    pub raw: vk::Pipeline,
-    /// Keeps `layout` and `raw` alive.
-    _compiled: Arc<Compiled>,
+    compiled: Arc<Compiled>,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     bindings: Vec<(u32, Binding)>,
@@ -101,12 +98,17 @@ impl PipelineCache {
         Some(compiled)
     }
 
-    fn insert(&self, key: PipelineKey, compiled: Arc<Compiled>) {
+    /// Keeps a pipeline just compiled, counted in `compiled`, pushing out the
+    /// least recently used past [`PIPELINE_CACHE_SIZE`].
+    fn insert(&self, key: PipelineKey, compiled: Compiled) -> Arc<Compiled> {
+        self.compiled.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let compiled = Arc::new(compiled);
         let mut entries = self.entries();
-        entries.push((key, compiled));
+        entries.push((key, compiled.clone()));
         if entries.len() > PIPELINE_CACHE_SIZE {
             entries.remove(0);
         }
+        compiled
     }
 
     /// Lets every pipeline go: the context's drop, before the device's.
@@ -158,12 +160,7 @@ impl Pipeline {
         };
         let compiled = match ctx.pipelines.get(&key) {
             Some(c) => c,
-            None => {
-                let c = Arc::new(compile(ctx, name, spirv, bindings, push_size, constants)?);
-                ctx.pipelines.compiled.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                ctx.pipelines.insert(key, c.clone());
-                c
-            }
+            None => ctx.pipelines.insert(key, compile(ctx, name, spirv, bindings, push_size, constants)?),
         };
         let dev = &ctx.device;
         let mut sizes = Vec::new();
@@ -193,15 +190,18 @@ impl Pipeline {
             Ok(Pipeline {
                 ctx: ctx.clone(),
                 name: name.to_string(),
-                layout: compiled.layout,
-                raw: compiled.raw,
-                _compiled: compiled,
+                compiled,
                 pool,
                 set,
                 bindings: bindings.to_vec(),
                 push_size,
             })
         }
+    }
+
+    /// The compiled pipeline, shared with the other `Pipeline`s of its key.
+    pub fn raw(&self) -> vk::Pipeline {
+        self.compiled.raw
     }
 
     /// Points every binding at its buffer (`buffers[i]` for the i-th binding given at
@@ -241,11 +241,13 @@ impl Pipeline {
         };
         let mut out = Vec::new();
         // SAFETY: the pipeline was created with CAPTURE_STATISTICS on a device with the extension enabled.
-        let executables =
-            unsafe { ext.get_pipeline_executable_properties(&vk::PipelineInfoKHR::default().pipeline(self.raw)) }
-                .map_err(|e| GpuError::vk("vkGetPipelineExecutablePropertiesKHR", e))?;
+        let executables = unsafe {
+            ext.get_pipeline_executable_properties(&vk::PipelineInfoKHR::default().pipeline(self.compiled.raw))
+        }
+        .map_err(|e| GpuError::vk("vkGetPipelineExecutablePropertiesKHR", e))?;
         for (index, exe) in executables.iter().enumerate() {
-            let info = vk::PipelineExecutableInfoKHR::default().pipeline(self.raw).executable_index(index as u32);
+            let info =
+                vk::PipelineExecutableInfoKHR::default().pipeline(self.compiled.raw).executable_index(index as u32);
             // SAFETY: as above; `index` is below the count just returned.
             let stats = unsafe { ext.get_pipeline_executable_statistics(&info) }
                 .map_err(|e| GpuError::vk("vkGetPipelineExecutableStatisticsKHR", e))?;
@@ -278,10 +280,17 @@ impl Pipeline {
         let dev = &self.ctx.device;
         // SAFETY: `cmd` is recording; the pipeline, layout and set are alive and the set is bound to live buffers.
         unsafe {
-            dev.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.raw);
-            dev.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+            dev.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.compiled.raw);
+            dev.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.compiled.layout,
+                0,
+                &[self.set],
+                &[],
+            );
             if !push.is_empty() {
-                dev.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+                dev.cmd_push_constants(cmd, self.compiled.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
             dev.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
