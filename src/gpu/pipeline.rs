@@ -26,7 +26,7 @@ pub struct PipelineStatistic {
 /// order given) and an optional push-constant block. The compiled pipeline and
 /// its layouts are shared with the other `Pipeline`s of the same shader,
 /// bindings, push-constant size and specialization on the context
-/// ([`PipelineCache`]); the descriptor set is its own.
+/// (`PipelineCache`); the descriptor set is its own.
 pub struct Pipeline {
     ctx: Arc<Context>,
     pub name: String,
@@ -143,7 +143,7 @@ impl Pipeline {
 
     /// Bindings with explicit numbers, and `constants[i]` as the value of the
     /// shader's 32-bit specialization constant `constant_id = i`. Compiles the
-    /// pipeline unless the context holds one of the same key ([`PipelineCache`]).
+    /// pipeline unless the context holds one of the same key (`PipelineCache`).
     pub fn new_specialized(
         ctx: &Arc<Context>,
         name: &str,
